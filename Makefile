@@ -1,0 +1,49 @@
+# exodigit: the two commands a user needs.
+#   make run [DURATION=20]   the simulated glove, headless, with a live summary (Ctrl-C to stop)
+#   make test                lint, format check and the whole test suite (what CI runs)
+# Both create .venv and install everything on first use; later calls only re-install when a
+# requirements or package file changed.
+
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+DURATION ?= 0
+NAMESPACE ?= /glove
+PYTEST_ARGS ?=
+
+# Discovery never leaves this machine (see README, "Networking"); one domain per command.
+export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
+export ROS_DOMAIN_ID ?= 37
+export PIP_DISABLE_PIP_VERSION_CHECK := 1
+export MPLBACKEND := Agg
+
+INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt \
+	$(wildcard exodigit_model/pyproject.toml exodigit_model/setup.py \
+	           exodigit_nodes/setup.py exodigit_nodes/setup.cfg)
+
+.PHONY: run test venv bench clean
+
+venv: $(VENV)/.installed
+
+$(VENV)/.installed: $(INSTALL_INPUTS)
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip setuptools wheel
+	$(BIN)/python -m pip install --quiet -r requirements/ros.txt -r requirements/dev.txt
+	$(BIN)/python -m pip install --quiet -e './exodigit_model[tools]'
+	if [ -f exodigit_nodes/setup.py ]; then $(BIN)/python -m pip install --quiet -e ./exodigit_nodes; fi
+	touch $@
+
+run: venv
+	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE)
+
+test: venv
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+bench: venv
+	$(BIN)/python benchmarks/bench_model.py
+
+clean:
+	rm -rf $(VENV) runs ros_ws/build ros_ws/install ros_ws/log

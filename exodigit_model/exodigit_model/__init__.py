@@ -1,0 +1,46 @@
+"""exodigit_model: quasi-static model of a soft pneumatic exo-digit strapped to a finger.
+
+A ROS-free package (numpy, scipy, PyYAML) implementing MODEL.md: the kinematics of the exo-digit
+and the finger, the Yeoh material, pressure and structural torques, the coupled quasi-static solve
+and its inverse, and the contact-force estimators.
+
+>>> from exodigit_model import GloveModel, load_params
+>>> model = GloveModel(load_params())
+>>> solution = model.solve([50e3, 50e3, 50e3])
+"""
+
+from .identification import StiffnessFit, fit_stiffness
+from .model import BatchSolution, GloveModel, Solution
+from .params import (
+    JOINT_NAMES,
+    ExoDigit,
+    Finger,
+    FingerJoint,
+    GloveParams,
+    Material,
+    ParameterError,
+    Segment,
+    dump_params,
+    load_params,
+    params_from_dict,
+)
+
+__all__ = [
+    'JOINT_NAMES',
+    'BatchSolution',
+    'ExoDigit',
+    'Finger',
+    'FingerJoint',
+    'GloveModel',
+    'GloveParams',
+    'Material',
+    'ParameterError',
+    'Segment',
+    'Solution',
+    'StiffnessFit',
+    'dump_params',
+    'fit_stiffness',
+    'load_params',
+    'params_from_dict',
+]
+__version__ = '0.1.0'

@@ -1,0 +1,142 @@
+r"""Coupled quasi-statics of exo-digit and finger (eqs 31, 34-36, MODEL.md §6-7).
+
+With f the contact forces (robot on finger, positive towards flexion),
+
+.. math::
+
+    K_H q = (J_H^*)^T f \quad (34), \qquad
+    F(q, p) = \tau_s(q) + B_R\,p - (J_R^*)^T f = 0 \quad (35)
+
+and eliminating f = (J_H^*)^{-T} K_H q gives eq 36. :class:`Evaluation` holds F and the
+finger-side forces at a state and computes the analytic Jacobian ∂F/∂q on request:
+
+.. math::
+
+    \frac{\partial F_k}{\partial q_m} = \delta_{km}\tau_{s,k}'(q_k)
+      - \sum_i \frac{\partial J^*_{R,ik}}{\partial q_m} f_i - \sum_i J^*_{R,ik}
+      \frac{\partial f_i}{\partial q_m}, \qquad
+    (J_H^*)^T\frac{\partial f}{\partial q_m} = K_H e_m
+      - \Bigl(\frac{\partial J_H^*}{\partial q_m}\Bigr)^T f.
+
+Everything works on per-joint lists of floats or of 1-D arrays (see :mod:`._backend`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from .kinematics import chords, finger_jacobian, robot_jacobian
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The numbers the coupled equations need, as plain floats (SI).
+
+    Attributes
+    ----------
+    arc_lengths : tuple
+        ℓ̂_k of the three soft segments, m.
+    block_half_lengths : tuple
+        d_0..d_3 of the base block and the three blocks, m.
+    finger_half_lengths : tuple
+        ℓ_1, ℓ_2, ℓ_3: half lengths of the finger links, m.
+    stiffness : tuple
+        k_H,k, N·m/rad.
+    pressure_moments : tuple
+        (r_p A_p)_k of eq 12, m³ (the diagonal of B_R).
+    """
+
+    arc_lengths: tuple
+    block_half_lengths: tuple
+    finger_half_lengths: tuple
+    stiffness: tuple
+    pressure_moments: tuple
+
+
+def transpose_solve(lower, rhs):
+    """X with Lᵀ x = rhs for a lower-triangular 3x3 L (back substitution)."""
+    x2 = rhs[2] / lower[2][2]
+    x1 = (rhs[1] - lower[2][1] * x2) / lower[1][1]
+    x0 = (rhs[0] - lower[1][0] * x1 - lower[2][0] * x2) / lower[0][0]
+    return [x0, x1, x2]
+
+
+def solve3(a, b):
+    """X with A x = b for a general 3x3 A, by cofactors (works element-wise on arrays)."""
+    c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1]
+    c01 = a[1][2] * a[2][0] - a[1][0] * a[2][2]
+    c02 = a[1][0] * a[2][1] - a[1][1] * a[2][0]
+    inv_det = 1.0 / (a[0][0] * c00 + a[0][1] * c01 + a[0][2] * c02)
+    c10 = a[0][2] * a[2][1] - a[0][1] * a[2][2]
+    c11 = a[0][0] * a[2][2] - a[0][2] * a[2][0]
+    c12 = a[0][1] * a[2][0] - a[0][0] * a[2][1]
+    c20 = a[0][1] * a[1][2] - a[0][2] * a[1][1]
+    c21 = a[0][2] * a[1][0] - a[0][0] * a[1][2]
+    c22 = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+    return [
+        (c00 * b[0] + c10 * b[1] + c20 * b[2]) * inv_det,
+        (c01 * b[0] + c11 * b[1] + c21 * b[2]) * inv_det,
+        (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv_det,
+    ]
+
+
+class Evaluation:
+    """F(q, p) and the finger-side forces at one state (or a batch); ∂F/∂q on request.
+
+    Attributes
+    ----------
+    residual : list of 3
+        F(q, p) of eq 36, N·m.
+    forces : list of 3
+        f = (J_H*)^{-T} K_H q, N.
+    """
+
+    def __init__(self, q, ops, geometry: Geometry, structural_joint: Callable, p) -> None:
+        self._geometry = geometry
+        chord_set = chords(q, ops)
+        self._robot = robot_jacobian(chord_set, geometry.arc_lengths, geometry.block_half_lengths)
+        self._finger, self._finger_slopes = finger_jacobian(q, ops, geometry.finger_half_lengths)
+        stiffness = geometry.stiffness
+        self.forces = transpose_solve(self._finger, [stiffness[k] * q[k] for k in range(3)])
+        j_robot, forces = self._robot.matrix, self.forces
+        self.residual = []
+        self._torque_slopes = []
+        for k in range(3):
+            tau, slope = structural_joint(k, q[k])
+            coupling = j_robot[k][k] * forces[k]
+            for i in range(k + 1, 3):
+                coupling = coupling + j_robot[i][k] * forces[i]
+            self.residual.append(tau + geometry.pressure_moments[k] * p[k] - coupling)
+            self._torque_slopes.append(slope)
+
+    def jacobian(self) -> list:
+        """∂F/∂q (nested 3x3 list, N·m/rad), analytic (module docstring)."""
+        robot_slopes = self._robot.slopes()
+        j_robot, j_finger, forces = self._robot.matrix, self._finger, self.forces
+        stiffness = self._geometry.stiffness
+        jacobian = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+        for m in range(3):
+            rhs = [stiffness[k] if k == m else 0.0 for k in range(3)]
+            for (mm, i, k), slope in self._finger_slopes.items():
+                if mm == m:
+                    rhs[k] = rhs[k] - slope * forces[i]
+            force_slope = transpose_solve(j_finger, rhs)
+            column = [-j_robot[k][k] * force_slope[k] for k in range(3)]
+            for k in range(3):
+                for i in range(k + 1, 3):
+                    column[k] = column[k] - j_robot[i][k] * force_slope[i]
+            for (mm, i, k), slope in robot_slopes.items():
+                if mm == m:
+                    column[k] = column[k] - slope * forces[i]
+            column[m] = column[m] + self._torque_slopes[m]
+            for k in range(3):
+                jacobian[k][m] = column[k]
+        return jacobian
+
+
+def contact_jacobians(q, ops, geometry: Geometry) -> tuple[list, list]:
+    """(J_R*, J_H*) as nested 3x3 lists of floats or arrays (MODEL.md §3)."""
+    robot = robot_jacobian(chords(q, ops), geometry.arc_lengths, geometry.block_half_lengths)
+    finger, _ = finger_jacobian(q, ops, geometry.finger_half_lengths)
+    return robot.matrix, finger

@@ -1,0 +1,342 @@
+"""Glove parameters: frozen dataclasses, validated on construction, loaded from YAML (§10).
+
+Every length is in metres, every stress coefficient in pascals and every stiffness in N·m/rad.
+A YAML file is merged over the defaults shipped with the package (``default_params.yaml``), so a
+file only needs the keys it changes. Any rule broken raises :class:`ParameterError` (a
+``ValueError``) whose message names the key, the value and the rule.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+JOINT_NAMES = ('mcp', 'pip', 'dip')
+"""The three joints, always in this order (MODEL.md §1)."""
+
+
+class ParameterError(ValueError):
+    """A parameter value or file breaks a rule; the message names key, value and rule."""
+
+
+def _number(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ParameterError(f'{key} = {value!r}: must be a number')
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParameterError(f'{key} = {value!r}: must be finite')
+    return value
+
+
+def _positive(key: str, value: Any, unit: str) -> float:
+    number = _number(key, value)
+    if number <= 0.0:
+        raise ParameterError(f'{key} = {number!r}: must be > 0 ({unit})')
+    return number
+
+
+def _non_negative(key: str, value: Any, unit: str) -> float:
+    number = _number(key, value)
+    if number < 0.0:
+        raise ParameterError(f'{key} = {number!r}: must be >= 0 ({unit})')
+    return number
+
+
+def _name(key: str, value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise ParameterError(f'{key} = {value!r}: must be a non-empty string')
+    return value
+
+
+def _set(obj: object, key: str, value: object) -> None:
+    object.__setattr__(obj, key, value)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Yeoh third-order hyperelastic coefficients (eq 22), Pa.
+
+    W = C1 (I1 - 3) + C2 (I1 - 3)^2 + C3 (I1 - 3)^3. C1 is the small-strain shear modulus
+    divided by two and must be positive; C2 and C3 may have either sign.
+    """
+
+    c1: float
+    c2: float = 0.0
+    c3: float = 0.0
+
+    def __post_init__(self) -> None:
+        _set(self, 'c1', _positive('c1', self.c1, 'Pa'))
+        _set(self, 'c2', _number('c2', self.c2))
+        _set(self, 'c3', _number('c3', self.c3))
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One soft segment of the exo-digit and the semi-rigid block distal to it (Fig. 1-2).
+
+    Attributes
+    ----------
+    name : str
+        Label of the joint the segment drives.
+    arc_length : float
+        ℓ̂_i, constant arc length of the bending segment, m.
+    inner_radius : float
+        r0_i, radius of the half-bellow cavity, m.
+    wall_thickness : float
+        t_i, thickness of the side walls and of the arch, m.
+    wall_height : float
+        h_i, height of the straight side walls, m.
+    base_thickness : float
+        b_i, thickness of the inextensible base layer, m.
+    block_half_length : float
+        d_i, half the length of the block distal to the segment (its centre of mass), m.
+    """
+
+    name: str
+    arc_length: float
+    inner_radius: float
+    wall_thickness: float
+    wall_height: float
+    base_thickness: float
+    block_half_length: float
+
+    def __post_init__(self) -> None:
+        _set(self, 'name', _name('name', self.name))
+        for field in fields(self)[1:]:
+            _set(self, field.name, _positive(field.name, getattr(self, field.name), 'm'))
+
+    @property
+    def outer_radius(self) -> float:
+        """R = r0 + t, the outer radius of the arch, m."""
+        return self.inner_radius + self.wall_thickness
+
+    @property
+    def height(self) -> float:
+        """Height of the cross-section above the bottom face, b + h + r0 + t, m."""
+        return self.base_thickness + self.wall_height + self.outer_radius
+
+
+@dataclass(frozen=True)
+class ExoDigit:
+    """The soft exo-digit: a base block and three segments (MCP, PIP, DIP).
+
+    Attributes
+    ----------
+    base_block_half_length : float
+        d0, half the length of the fixed base block, m.
+    segments : tuple of Segment
+        Exactly three, in joint order.
+    """
+
+    base_block_half_length: float
+    segments: tuple[Segment, ...]
+
+    def __post_init__(self) -> None:
+        _set(
+            self,
+            'base_block_half_length',
+            _positive('base_block_half_length', self.base_block_half_length, 'm'),
+        )
+        _set(self, 'segments', tuple(self.segments))
+        if len(self.segments) != 3 or not all(isinstance(s, Segment) for s in self.segments):
+            raise ParameterError(
+                f'segments has {len(self.segments)} entries: must be exactly 3 (MCP, PIP, DIP)'
+            )
+
+
+@dataclass(frozen=True)
+class FingerJoint:
+    """One finger joint and the link distal to it (eqs 32-34).
+
+    Attributes
+    ----------
+    name : str
+        Joint label.
+    link_half_length : float
+        ℓ_i, half the length of the link (the contact sits at its middle), m.
+    stiffness : float
+        k_H,i, passive torsional stiffness of the joint, N·m/rad (0 = no finger).
+    """
+
+    name: str
+    link_half_length: float
+    stiffness: float
+
+    def __post_init__(self) -> None:
+        _set(self, 'name', _name('name', self.name))
+        _set(self, 'link_half_length', _positive('link_half_length', self.link_half_length, 'm'))
+        _set(self, 'stiffness', _non_negative('stiffness', self.stiffness, 'N·m/rad'))
+
+
+@dataclass(frozen=True)
+class Finger:
+    """The anthropomorphic finger: three hinge joints with torsional springs."""
+
+    joints: tuple[FingerJoint, ...]
+
+    def __post_init__(self) -> None:
+        _set(self, 'joints', tuple(self.joints))
+        if len(self.joints) != 3 or not all(isinstance(j, FingerJoint) for j in self.joints):
+            raise ParameterError(
+                f'joints has {len(self.joints)} entries: must be exactly 3 (MCP, PIP, DIP)'
+            )
+
+
+@dataclass(frozen=True)
+class GloveParams:
+    """Everything the model needs: material, exo-digit geometry and finger."""
+
+    material: Material
+    exo_digit: ExoDigit
+    finger: Finger
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain nested dict in the YAML layout of MODEL.md §10 (lists, not tuples)."""
+        data = asdict(self)
+        data['exo_digit']['segments'] = list(data['exo_digit']['segments'])
+        data['finger']['joints'] = list(data['finger']['joints'])
+        return data
+
+
+class _Yaml12Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1.1e5`` as a float, as YAML 1.2 and MODEL.md §10 do."""
+
+
+_Yaml12Loader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$'),
+    list('-+0123456789.'),
+)
+
+
+def _check_keys(path: str, data: Any, known: Mapping[str, Any]) -> None:
+    if not isinstance(data, Mapping):
+        raise ParameterError(f'{path or "file"} = {data!r}: must be a mapping of keys to values')
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        where = f'{path}.' if path else ''
+        raise ParameterError(
+            f'{where}{unknown[0]}: unknown key (known keys: {", ".join(sorted(known))})'
+        )
+
+
+def _merge(path: str, defaults: Any, override: Any) -> Any:
+    """Merge ``override`` over ``defaults`` key by key; lists of three merge item by item."""
+    if isinstance(defaults, dict):
+        if override is None:
+            return defaults
+        _check_keys(path, override, defaults)
+        return {
+            key: _merge(f'{path}.{key}' if path else key, value, override.get(key))
+            for key, value in defaults.items()
+        }
+    if isinstance(defaults, list):
+        if override is None:
+            return defaults
+        if not isinstance(override, list) or len(override) != len(defaults):
+            count = len(override) if isinstance(override, list) else type(override).__name__
+            raise ParameterError(
+                f'{path} has {count} entries: must be a list of exactly {len(defaults)} '
+                '(MCP, PIP, DIP)'
+            )
+        return [
+            _merge(f'{path}[{i}]', item, over)
+            for i, (item, over) in enumerate(zip(defaults, override, strict=True))
+        ]
+    return defaults if override is None else override
+
+
+def _build(cls: type, path: str, data: Mapping[str, Any], **nested: Any) -> Any:
+    try:
+        return cls(**{**data, **nested})
+    except ParameterError as error:
+        raise ParameterError(f'{path}.{error}' if path else str(error)) from None
+
+
+def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
+    """Build validated parameters from a nested dict merged over the defaults.
+
+    Parameters
+    ----------
+    data : mapping, optional
+        Keys as in MODEL.md §10; missing keys take the defaults.
+
+    Returns
+    -------
+    GloveParams
+
+    Raises
+    ------
+    ParameterError
+        If a key is unknown, a count is wrong or a value breaks its rule.
+    """
+    merged = _merge('', _default_dict(), {} if data is None else data)
+    exo, finger = merged['exo_digit'], merged['finger']
+    segments = tuple(
+        _build(Segment, f'exo_digit.segments[{i}]', s) for i, s in enumerate(exo['segments'])
+    )
+    joints = tuple(
+        _build(FingerJoint, f'finger.joints[{i}]', j) for i, j in enumerate(finger['joints'])
+    )
+    return GloveParams(
+        material=_build(Material, 'material', merged['material']),
+        exo_digit=_build(ExoDigit, 'exo_digit', exo, segments=segments),
+        finger=_build(Finger, 'finger', finger, joints=joints),
+    )
+
+
+def _read_yaml(text: str, source: str) -> Any:
+    try:
+        return yaml.load(text, Loader=_Yaml12Loader)
+    except yaml.YAMLError as error:
+        raise ParameterError(f'{source}: not valid YAML ({error})') from None
+
+
+def _default_dict() -> dict[str, Any]:
+    text = resources.files(__package__).joinpath('default_params.yaml').read_text('utf-8')
+    return _read_yaml(text, 'default_params.yaml')
+
+
+def load_params(path: str | Path | None = None) -> GloveParams:
+    """Load glove parameters: the defaults, or a YAML file merged over them (MODEL.md §10).
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        Parameter file. ``None`` (or an empty string) returns the built-in defaults.
+
+    Returns
+    -------
+    GloveParams
+
+    Raises
+    ------
+    ParameterError
+        With the file name, the key, the value and the rule, if anything is wrong.
+    """
+    if path is None or str(path) == '':
+        return params_from_dict()
+    path = Path(path)
+    try:
+        text = path.read_text('utf-8')
+    except OSError as error:
+        raise ParameterError(f'{path}: cannot read parameter file ({error.strerror})') from None
+    data = _read_yaml(text, str(path))
+    try:
+        return params_from_dict(data)
+    except ParameterError as error:
+        raise ParameterError(f'{path}: {error}') from None
+
+
+def dump_params(params: GloveParams, path: str | Path) -> None:
+    """Write ``params`` as a YAML file that :func:`load_params` reads back unchanged."""
+    header = '# exodigit glove parameters, SI units (m, Pa, N·m/rad); see MODEL.md section 10\n'
+    body = yaml.safe_dump(params.to_dict(), sort_keys=False, allow_unicode=True)
+    Path(path).write_text(header + body, 'utf-8')
