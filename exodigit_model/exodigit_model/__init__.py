@@ -10,7 +10,7 @@ and its inverse, and the contact-force estimators.
 """
 
 from .identification import StiffnessFit, fit_stiffness
-from .model import BatchSolution, GloveModel, Solution
+from .model import BatchSolution, GloveModel, GlovePose, Solution
 from .params import (
     JOINT_NAMES,
     ExoDigit,
@@ -33,6 +33,7 @@ __all__ = [
     'FingerJoint',
     'GloveModel',
     'GloveParams',
+    'GlovePose',
     'Material',
     'ParameterError',
     'Segment',

@@ -226,3 +226,22 @@ def finger_chain(q, ops, half_lengths) -> tuple[tuple, tuple]:
         centres.append(joints[k] + turn * half_lengths[k])
         joints.append(joints[k] + turn * (2.0 * half_lengths[k]))
     return tuple(joints), tuple(centres)
+
+
+def arc_points(q, arc_lengths, half_lengths, samples: int, ops) -> list:
+    """Points along each soft arc (complex, ``samples`` per arc, both ends included).
+
+    A point at fraction s of arc k is z_k + e^{iφ_k}(2 d_k + s ℓ̂_k C(s q_k)): the arc is
+    traced by the same chord formula with a shorter length and angle.
+    """
+    frames = chain(chords(q, ops), arc_lengths, half_lengths)
+    arcs = []
+    for k in range(3):
+        start = frames.origins[k] + frames.turns[k] * (2.0 * half_lengths[k])
+        points = []
+        for n in range(samples):
+            fraction = n / (samples - 1)
+            partial = chords([fraction * q[k]], ops).chord[0]
+            points.append(start + frames.turns[k] * (fraction * arc_lengths[k]) * partial)
+        arcs.append(points)
+    return arcs

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._backend import ArrayOps, ScalarOps
 from .coupling import Evaluation, Geometry, contact_jacobians, transpose_solve
 from .identification import StiffnessFit, fit_stiffness
+from .kinematics import arc_points, chain, chords, finger_chain
 from .params import GloveParams, load_params
 from .section import pressure_moment
 from .solver import newton
@@ -60,6 +61,47 @@ class Solution:
     iterations: int
     residual: float
     in_valid_range: bool
+
+
+@dataclass(frozen=True)
+class GlovePose:
+    """Positions of the exo-digit and the finger at joint angles q, m, as (x, y) rows.
+
+    The exo-digit's base block starts at the origin and points along +x; q > 0 bends towards +y,
+    the side of its inextensible layer, where the finger is. The finger is given in its own
+    frame, MCP joint at the origin, links along +x at q = 0; place it under the exo-digit with
+    ``finger_joints + offset`` when drawing.
+
+    Attributes
+    ----------
+    block_origins : ndarray, shape (4, 2)
+        Proximal ends of the base block and blocks 1-3.
+    block_ends : ndarray, shape (4, 2)
+        Distal ends of the base block and blocks 1-3.
+    contact_points : ndarray, shape (3, 2)
+        Centres of blocks 1-3, where the contact forces act.
+    contact_normals : ndarray, shape (3, 2)
+        Unit normals n_i of blocks 1-3 (direction of a positive contact force on the finger).
+    arcs : ndarray, shape (3, samples, 2)
+        Points along the three soft arcs.
+    finger_joints : ndarray, shape (4, 2)
+        MCP, PIP, DIP joints and the fingertip.
+    finger_contacts : ndarray, shape (3, 2)
+        Centres of the three finger links.
+    """
+
+    block_origins: NDArray[np.float64]
+    block_ends: NDArray[np.float64]
+    contact_points: NDArray[np.float64]
+    contact_normals: NDArray[np.float64]
+    arcs: NDArray[np.float64]
+    finger_joints: NDArray[np.float64]
+    finger_contacts: NDArray[np.float64]
+
+
+def _xy(points) -> NDArray[np.float64]:
+    array = np.asarray(points, dtype=complex)
+    return np.stack([array.real, array.imag], axis=-1)
 
 
 @dataclass(frozen=True)
@@ -324,6 +366,30 @@ class GloveModel:
     def identify_stiffness(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """K_H diagonal identified from samples of angles Q and pressures P, N·m/rad."""
         return self.fit_stiffness(Q, P).stiffness
+
+    # -- geometry -------------------------------------------------------------------------
+
+    def pose(self, q: ArrayLike, arc_samples: int = 12) -> GlovePose:
+        """Positions of blocks, arcs, contacts and finger at angles ``q`` (eqs 1-4, 33)."""
+        angles = as_joint_vector('q', q).tolist()
+        geometry = self.geometry
+        half = geometry.block_half_lengths
+        frames = chain(chords(angles, ScalarOps), geometry.arc_lengths, half)
+        joints, contacts = finger_chain(angles, ScalarOps, geometry.finger_half_lengths)
+        return GlovePose(
+            block_origins=_xy(frames.origins),
+            block_ends=_xy(
+                [
+                    z + t * 2.0 * d
+                    for z, t, d in zip(frames.origins, frames.turns, half, strict=True)
+                ]
+            ),
+            contact_points=_xy(frames.centres),
+            contact_normals=_xy([1j * t for t in frames.turns[1:]]),
+            arcs=_xy(arc_points(angles, geometry.arc_lengths, half, arc_samples, ScalarOps)),
+            finger_joints=_xy(joints),
+            finger_contacts=_xy(contacts),
+        )
 
     # -- validity ------------------------------------------------------------------------
 

@@ -1,0 +1,1 @@
+"""exodigit_nodes: thin rclpy nodes around exodigit_model (INTERFACES.md)."""

@@ -1,0 +1,34 @@
+"""ament_python package of the exodigit ROS 2 nodes (colcon build, or pip install)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'exodigit_nodes'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
+        (f'share/{PACKAGE}', ['package.xml']),
+        (f'share/{PACKAGE}/launch', glob('launch/*.launch.py')),
+        (f'share/{PACKAGE}/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools', 'exodigit_model', 'numpy'],
+    zip_safe=True,
+    maintainer='exodigit developers',
+    maintainer_email='exodigit@example.org',
+    description='ROS 2 nodes of the exodigit simulated soft rehabilitation glove',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            f'plant = {PACKAGE}.plant:main',
+            f'pressure_command = {PACKAGE}.pressure_command:main',
+            f'estimator = {PACKAGE}.estimator:main',
+            f'glove = {PACKAGE}.glove:main',
+            f'recorder = {PACKAGE}.recorder:main',
+        ],
+    },
+)
