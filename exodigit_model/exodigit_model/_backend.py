@@ -16,6 +16,9 @@ import numpy as np
 class ScalarOps:
     """Operations on Python floats (and complex numbers)."""
 
+    single_state = True
+    """One state: whole objects (an evaluation) can follow the iteration."""
+
     sin = staticmethod(math.sin)
     cos = staticmethod(math.cos)
 
@@ -25,9 +28,14 @@ class ScalarOps:
         return if_true if condition else if_false
 
     @staticmethod
-    def all(condition) -> bool:
-        """Whether ``condition`` holds everywhere."""
-        return bool(condition)
+    def select(condition, if_true, if_false):
+        """``if_true`` (a value or a nested list) where ``condition`` holds, else ``if_false``."""
+        return if_true if condition else if_false
+
+    @staticmethod
+    def piecewise(condition, if_true, if_false, x):
+        """``if_true(x)`` where ``condition`` holds, else ``if_false(x)`` (tuples of results)."""
+        return if_true(x) if condition else if_false(x)
 
     @staticmethod
     def any(condition) -> bool:
@@ -48,6 +56,8 @@ class ScalarOps:
 class ArrayOps:
     """Operations on 1-D numpy arrays, element by element."""
 
+    single_state = False
+
     sin = staticmethod(np.sin)
     cos = staticmethod(np.cos)
     where = staticmethod(np.where)
@@ -59,7 +69,21 @@ class ArrayOps:
         """Whether ``condition`` holds anywhere."""
         return bool(np.any(condition))
 
+    @classmethod
+    def select(cls, condition, if_true, if_false):
+        """``if_true`` where ``condition`` holds, else ``if_false``, through nested lists."""
+        if isinstance(if_true, list):
+            return [cls.select(condition, a, b) for a, b in zip(if_true, if_false, strict=True)]
+        return np.where(condition, if_true, if_false)
+
     @staticmethod
-    def all(condition) -> bool:
-        """Whether ``condition`` holds everywhere."""
-        return bool(np.all(condition))
+    def piecewise(condition, if_true, if_false, x):
+        """``if_true(x)`` where ``condition`` holds, else ``if_false(x)``, element by element.
+
+        ``if_false`` sees 1.0 where ``condition`` holds, so that it never divides by zero there.
+        """
+        true_values = if_true(x)
+        false_values = if_false(np.where(condition, 1.0, x))
+        return tuple(
+            np.where(condition, a, b) for a, b in zip(true_values, false_values, strict=True)
+        )

@@ -23,7 +23,7 @@ Everything works on per-joint lists of floats or of 1-D arrays (see :mod:`._back
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import copy
 from dataclasses import dataclass
 
 from .kinematics import chords, finger_jacobian, robot_jacobian
@@ -86,14 +86,18 @@ class Evaluation:
 
     Attributes
     ----------
+    q, pressure : list of 3
+        The state evaluated, rad, and the pressures, Pa.
+    geometry : Geometry
     residual : list of 3
         F(q, p) of eq 36, N·m.
     forces : list of 3
         f = (J_H*)^{-T} K_H q, N.
     """
 
-    def __init__(self, q, ops, geometry: Geometry, structural_joint: Callable, p) -> None:
-        self._geometry = geometry
+    def __init__(self, q, ops, geometry: Geometry, structural_joints: tuple, p) -> None:
+        self.q, self.pressure, self.geometry = q, p, geometry
+        self._jacobian = None
         chord_set = chords(q, ops)
         self._robot = robot_jacobian(chord_set, geometry.arc_lengths, geometry.block_half_lengths)
         self._finger, self._finger_slopes = finger_jacobian(q, ops, geometry.finger_half_lengths)
@@ -103,32 +107,48 @@ class Evaluation:
         self.residual = []
         self._torque_slopes = []
         for k in range(3):
-            tau, slope = structural_joint(k, q[k])
+            tau, slope = structural_joints[k](q[k])
             coupling = j_robot[k][k] * forces[k]
             for i in range(k + 1, 3):
                 coupling = coupling + j_robot[i][k] * forces[i]
             self.residual.append(tau + geometry.pressure_moments[k] * p[k] - coupling)
             self._torque_slopes.append(slope)
 
+    def at_pressure(self, p) -> Evaluation:
+        """The same state under pressures ``p``: F(q, p') = F(q, p) + B_R (p' - p), exactly.
+
+        Shares the kinematics (and Jacobian) of this evaluation, which do not depend on p.
+        """
+        moments = self.geometry.pressure_moments
+        repriced = copy.copy(self)
+        repriced.pressure = p
+        repriced.residual = [
+            self.residual[k] + moments[k] * (p[k] - self.pressure[k]) for k in range(3)
+        ]
+        return repriced
+
     def jacobian(self) -> list:
-        """∂F/∂q (nested 3x3 list, N·m/rad), analytic (module docstring)."""
+        """∂F/∂q (nested 3x3 list, N·m/rad), analytic (module docstring); computed once."""
+        if self._jacobian is None:
+            self._jacobian = self._compute_jacobian()
+        return self._jacobian
+
+    def _compute_jacobian(self) -> list:
         robot_slopes = self._robot.slopes()
         j_robot, j_finger, forces = self._robot.matrix, self._finger, self.forces
-        stiffness = self._geometry.stiffness
+        stiffness = self.geometry.stiffness
         jacobian = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
         for m in range(3):
             rhs = [stiffness[k] if k == m else 0.0 for k in range(3)]
-            for (mm, i, k), slope in self._finger_slopes.items():
-                if mm == m:
-                    rhs[k] = rhs[k] - slope * forces[i]
+            for i, k, slope in self._finger_slopes[m]:
+                rhs[k] = rhs[k] - slope * forces[i]
             force_slope = transpose_solve(j_finger, rhs)
             column = [-j_robot[k][k] * force_slope[k] for k in range(3)]
             for k in range(3):
                 for i in range(k + 1, 3):
                     column[k] = column[k] - j_robot[i][k] * force_slope[i]
-            for (mm, i, k), slope in robot_slopes.items():
-                if mm == m:
-                    column[k] = column[k] - slope * forces[i]
+            for i, k, slope in robot_slopes[m]:
+                column[k] = column[k] - slope * forces[i]
             column[m] = column[m] + self._torque_slopes[m]
             for k in range(3):
                 jacobian[k][m] = column[k]

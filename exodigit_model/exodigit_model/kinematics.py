@@ -41,7 +41,6 @@ Functions take per-joint sequences whose items are floats (one state) or 1-D arr
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 SERIES_LIMIT = 0.25
 """Below this half-angle, sinc and its derivatives come from their Taylor series."""
@@ -50,55 +49,61 @@ SERIES_LIMIT = 0.25
 _SINC_SERIES = (1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0)
 
 
-def sinc_derivatives(x: Any, ops: Any) -> tuple[Any, Any, Any]:
+def _sinc_series(x):
+    """s, s', s'' from the Taylor series in x² (error below 1e-17 for |x| < SERIES_LIMIT)."""
+    a = _SINC_SERIES
+    x2 = x * x
+    s = a[0] + x2 * (a[1] + x2 * (a[2] + x2 * (a[3] + x2 * (a[4] + x2 * a[5]))))
+    s1 = x * (2 * a[1] + x2 * (4 * a[2] + x2 * (6 * a[3] + x2 * (8 * a[4] + x2 * 10 * a[5]))))
+    s2 = 2 * a[1] + x2 * (12 * a[2] + x2 * (30 * a[3] + x2 * (56 * a[4] + x2 * 90 * a[5])))
+    return s, s1, s2
+
+
+def _sinc_closed(x, sin_x, cos_x):
+    """s, s', s'' from sin and cos (cancels catastrophically for small |x|)."""
+    s = sin_x / x
+    s1 = (cos_x - s) / x
+    return s, s1, -s - 2.0 * s1 / x
+
+
+def sinc_derivatives(x, sin_x, cos_x, ops):
     """s(x) = sin(x)/x and its first two derivatives, smooth and accurate at x = 0.
 
-    The closed forms cancel catastrophically for small |x|, where the Taylor series (error below
-    1e-17 for |x| < SERIES_LIMIT) is used instead.
+    The closed forms cancel catastrophically for small |x|, where the Taylor series is used.
     """
-    x2 = x * x
-    small = x2 < SERIES_LIMIT * SERIES_LIMIT
-    # Series in u = x²: s = Σ a_n u^n, s' = x Σ 2n a_n u^(n-1), s'' = Σ 2n(2n-1) a_n u^(n-1).
-    a = _SINC_SERIES
-    s_series = a[0] + x2 * (a[1] + x2 * (a[2] + x2 * (a[3] + x2 * (a[4] + x2 * a[5]))))
-    s1_series = x * (
-        2 * a[1] + x2 * (4 * a[2] + x2 * (6 * a[3] + x2 * (8 * a[4] + x2 * 10 * a[5])))
-    )
-    s2_series = 2 * a[1] + x2 * (12 * a[2] + x2 * (30 * a[3] + x2 * (56 * a[4] + x2 * 90 * a[5])))
-    safe = ops.where(small, 1.0, x)
-    sin, cos = ops.sin(safe), ops.cos(safe)
-    s = sin / safe
-    s1 = (cos - s) / safe
-    s2 = -s - 2.0 * s1 / safe
-    return (
-        ops.where(small, s_series, s),
-        ops.where(small, s1_series, s1),
-        ops.where(small, s2_series, s2),
+    return ops.piecewise(
+        abs(x) < SERIES_LIMIT, _sinc_series, lambda x_: _sinc_closed(x_, sin_x, cos_x), x
     )
 
 
 @dataclass(frozen=True)
 class Chords:
-    """Per joint: e^{iq/2} and the unit chord C(q) with its first two derivatives."""
+    """Per joint: e^{iq/2}, the unit chord C(q) and C'(q); C''(q) on request."""
 
     half_turn: tuple
     chord: tuple
     chord_slope: tuple
-    chord_curvature: tuple
+    sincs: tuple
+
+    def curvature(self, k: int):
+        """C''(q_k) = e^{iq/2} (s'' - s + 2i s')/4 with s = sinc(q/2)."""
+        s, s1, s2 = self.sincs[k]
+        return 0.25 * self.half_turn[k] * (s2 - s + 2j * s1)
 
 
 def chords(q, ops) -> Chords:
-    """C(q_k), C'(q_k), C''(q_k) for the three joints (see the module docstring)."""
-    half_turn, chord, slope, curvature = [], [], [], []
+    """C(q_k) = sinc(q_k/2) e^{iq_k/2} and C'(q_k) for the three joints (module docstring)."""
+    half_turn, chord, slope, sincs = [], [], [], []
     for qk in q:
         x = 0.5 * qk
-        s, s1, s2 = sinc_derivatives(x, ops)
-        h = ops.cos(x) + 1j * ops.sin(x)
+        sin_x, cos_x = ops.sin(x), ops.cos(x)
+        s, s1, s2 = sinc_derivatives(x, sin_x, cos_x, ops)
+        h = cos_x + 1j * sin_x
         half_turn.append(h)
         chord.append(s * h)
         slope.append(0.5 * h * (s1 + 1j * s))
-        curvature.append(0.25 * h * (s2 - s + 2j * s1))
-    return Chords(tuple(half_turn), tuple(chord), tuple(slope), tuple(curvature))
+        sincs.append((s, s1, s2))
+    return Chords(tuple(half_turn), tuple(chord), tuple(slope), tuple(sincs))
 
 
 @dataclass(frozen=True)
@@ -149,21 +154,28 @@ class RobotJacobian:
         J_R*[i][k], zero above the diagonal.
     local : dict
         A_ik keyed by (i, k), k ≤ i: ∂zc_i/∂q_k in the frame of body i+1.
-    curvature : dict
-        e^{-iφ_{i+1}}(e^{iφ_k} ℓ̂_k C''(q_k) - (zc_i - z_{k+1})) keyed by (i, k).
+    to_centre : dict
+        e^{-iφ_{i+1}}(zc_i - z_{k+1}) keyed by (i, k).
+    arc_turn : dict
+        e^{-i(φ_{i+1} - φ_k)} ℓ̂_k keyed by (i, k).
+    chord_set : Chords
     """
 
     matrix: list
     local: dict
-    curvature: dict
+    to_centre: dict
+    arc_turn: dict
+    chord_set: Chords
 
-    def slopes(self) -> dict:
-        """∂J_R*[i][k]/∂q_m keyed by (m, i, k); entries not listed are zero."""
-        local, slopes = self.local, {}
+    def slopes(self) -> list:
+        """∂J_R*[i][k]/∂q_m as ``slopes[m]`` = list of (i, k, value); others are zero."""
+        local, slopes = self.local, [[], [], []]
+        curvatures = [self.chord_set.curvature(k) for k in range(3)]
         for (i, k), a_ik in local.items():
-            slopes[k, i, k] = self.curvature[i, k].imag - a_ik.real
+            curvature = self.arc_turn[i, k] * curvatures[k] - self.to_centre[i, k]
+            slopes[k].append((i, k, curvature.imag - a_ik.real))
             for m in range(k + 1, i + 1):
-                slopes[m, i, k] = (local[i, m] - a_ik).real
+                slopes[m].append((i, k, (local[i, m] - a_ik).real))
         return slopes
 
 
@@ -173,22 +185,21 @@ def robot_jacobian(chord_set: Chords, arc_lengths, half_lengths) -> RobotJacobia
     turns, origins = frames.turns, frames.origins
     zero = 0.0 * chord_set.chord[0].real
     matrix = [[zero, zero, zero], [zero, zero, zero], [zero, zero, zero]]
-    local, curvature = {}, {}
+    local, to_centre, arc_turn = {}, {}, {}
     for i in range(3):
         back = turns[i + 1].conjugate()
         centre = frames.centres[i]
         for k in range(i + 1):
-            to_centre = back * (centre - origins[k + 1])
-            arc_turn = back * turns[k] * arc_lengths[k]
-            a_ik = 1j * to_centre + arc_turn * chord_set.chord_slope[k]
+            relative = back * (centre - origins[k + 1])
+            turn = back * turns[k] * arc_lengths[k]
+            a_ik = 1j * relative + turn * chord_set.chord_slope[k]
             matrix[i][k] = a_ik.imag
-            local[i, k] = a_ik
-            curvature[i, k] = arc_turn * chord_set.chord_curvature[k] - to_centre
-    return RobotJacobian(matrix, local, curvature)
+            local[i, k], to_centre[i, k], arc_turn[i, k] = a_ik, relative, turn
+    return RobotJacobian(matrix, local, to_centre, arc_turn, chord_set)
 
 
-def finger_jacobian(q, ops, half_lengths) -> tuple[list, dict]:
-    """J_H*[i][k] of the finger and its slopes keyed by (m, i, k) (MODEL.md §3, eq 34).
+def finger_jacobian(q, ops, half_lengths) -> tuple[list, list]:
+    """J_H*[i][k] of the finger and its slopes as ``slopes[m]`` = list of (i, k, ∂J[i][k]/∂q_m).
 
     The contact on link i sits at ℓ_i from joint i and pushes along the link's normal, so
     J_H*[i][k] = ℓ_i + Σ_{j=k}^{i-1} 2ℓ_j cos(q_{j+1} + … + q_i): the paper's printed
@@ -206,12 +217,11 @@ def finger_jacobian(q, ops, half_lengths) -> tuple[list, dict]:
         [l1 + 2.0 * l0 * c1, l1 + zero, zero],
         [row2 + 2.0 * l0 * c12, row2, l2 + zero],
     ]
-    slopes = {
-        (1, 1, 0): -2.0 * l0 * s1,
-        (2, 2, 1): -2.0 * l1 * s2,
-        (1, 2, 0): -2.0 * l0 * s12,
-        (2, 2, 0): -2.0 * l1 * s2 - 2.0 * l0 * s12,
-    }
+    slopes = [
+        [],
+        [(1, 0, -2.0 * l0 * s1), (2, 0, -2.0 * l0 * s12)],
+        [(2, 1, -2.0 * l1 * s2), (2, 0, -2.0 * l1 * s2 - 2.0 * l0 * s12)],
+    ]
     return matrix, slopes
 
 

@@ -13,8 +13,9 @@ units, joints in the order MCP, PIP, DIP:
 
 from __future__ import annotations
 
+import math
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -61,6 +62,7 @@ class Solution:
     iterations: int
     residual: float
     in_valid_range: bool
+    _final: Evaluation | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -117,14 +119,24 @@ class BatchSolution:
     in_valid_range: NDArray[np.bool_]
 
 
+def as_joint_list(name: str, value: ArrayLike) -> list[float]:
+    """``value`` as a list of three finite floats (MCP, PIP, DIP), or a ValueError naming it."""
+    try:
+        values = [float(v) for v in value]
+    except (TypeError, ValueError):
+        values = None
+    if values is None or len(values) != 3:
+        raise ValueError(
+            f'{name} must be three numbers (MCP, PIP, DIP), got shape {np.shape(value)}'
+        )
+    if not (math.isfinite(values[0]) and math.isfinite(values[1]) and math.isfinite(values[2])):
+        raise ValueError(f'{name} must be finite, got {values}')
+    return values
+
+
 def as_joint_vector(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """``value`` as a finite float array of shape (3,), or a ValueError naming ``name``."""
-    array = np.asarray(value, dtype=float)
-    if array.shape != (3,):
-        raise ValueError(f'{name} must have shape (3,) (MCP, PIP, DIP), got {array.shape}')
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f'{name} must be finite, got {array.tolist()}')
-    return array
+    return np.array(as_joint_list(name, value))
 
 
 def as_joint_rows(name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -203,24 +215,28 @@ class GloveModel:
 
     def _evaluate(self, q, p, free) -> Evaluation:
         return Evaluation(
-            as_joint_vector('q', q).tolist(),
+            as_joint_list('q', q),
             ScalarOps,
             self._free_geometry if free else self.geometry,
-            self.structural.joint_scalar,
-            as_joint_vector('p', p).tolist(),
+            self.structural.scalar_joints,
+            as_joint_list('p', p),
         )
 
     # -- forward solves ------------------------------------------------------------------
 
-    def solve(self, p: ArrayLike, q0: ArrayLike | None = None, free: bool = False) -> Solution:
+    def solve(
+        self, p: ArrayLike, q0: ArrayLike | Solution | None = None, free: bool = False
+    ) -> Solution:
         """Joint angles and contact forces for chamber pressures ``p`` (eq 36).
 
         Parameters
         ----------
         p : array_like, shape (3,)
             Gauge pressures, Pa.
-        q0 : array_like, shape (3,), optional
-            Start of the Newton iteration (warm start); zero when omitted.
+        q0 : array_like, shape (3,), or Solution, optional
+            Start of the Newton iteration (warm start); zero when omitted. A previous
+            :class:`Solution` of this model starts from its angles and reuses its final
+            evaluation (F is affine in p), which saves one evaluation per step.
         free : bool
             Solve free motion (no finger, τ_s + B_R p = 0) instead.
 
@@ -230,23 +246,32 @@ class GloveModel:
             Never raises for a solve that fails to converge: ``converged`` is False and ``q`` is
             the last finite iterate.
         """
-        pressure = as_joint_vector('p', p)
-        start = [0.0, 0.0, 0.0] if q0 is None else as_joint_vector('q0', q0).tolist()
+        pressure = as_joint_list('p', p)
         geometry = self._free_geometry if free else self.geometry
+        first = None
+        if isinstance(q0, Solution):
+            if q0._final is not None and q0._final.geometry is geometry:
+                first = q0._final.at_pressure(pressure)
+            q0 = q0.q
+        start = first.q if first else [0.0, 0.0, 0.0] if q0 is None else as_joint_list('q0', q0)
 
         def evaluate(q, p_):
-            return Evaluation(q, ScalarOps, geometry, self.structural.joint_scalar, p_)
+            return Evaluation(q, ScalarOps, geometry, self.structural.scalar_joints, p_)
 
-        outcome = newton(start, pressure.tolist(), evaluate, ScalarOps, self._strain_per_angle)
-        q = np.array(outcome.q)
+        outcome = newton(start, pressure, evaluate, ScalarOps, self._strain_per_angle, first)
+        low, high = VALID_STRETCH
         return Solution(
-            q=q,
+            q=np.array(outcome.q),
             forces=np.array(outcome.forces),
-            pressure=pressure,
-            converged=bool(outcome.converged),
-            iterations=int(outcome.iterations),
-            residual=float(outcome.residual),
-            in_valid_range=bool(self.in_valid_range(q)),
+            pressure=np.array(pressure),
+            converged=outcome.converged,
+            iterations=outcome.iterations,
+            residual=outcome.residual,
+            in_valid_range=all(
+                low <= 1.0 + angle * strain <= high
+                for angle, strain in zip(outcome.q, self._strain_per_angle, strict=True)
+            ),
+            _final=outcome.final,
         )
 
     def solve_free(self, p: ArrayLike) -> NDArray[np.float64]:
@@ -285,7 +310,7 @@ class GloveModel:
         geometry = self._free_geometry if free else self.geometry
 
         def evaluate(q, p_):
-            return Evaluation(q, ArrayOps, geometry, self.structural.joint_array, p_)
+            return Evaluation(q, ArrayOps, geometry, self.structural.array_joints, p_)
 
         if rows == 0:
             empty = np.zeros((0, 3))

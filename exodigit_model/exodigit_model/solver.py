@@ -36,13 +36,8 @@ class NewtonOutcome:
     residual: object
     iterations: object
     converged: object
-
-
-def _select(mask, new, old, ops):
-    """``new`` where ``mask``, else ``old``, through nested lists."""
-    if isinstance(new, list):
-        return [_select(mask, a, b, ops) for a, b in zip(new, old, strict=True)]
-    return ops.where(mask, new, old)
+    final: Evaluation | None
+    """The evaluation at ``q`` (one state only; None for a batch)."""
 
 
 def _norm(residual):
@@ -57,6 +52,7 @@ def newton(
     evaluate: Callable[..., Evaluation],
     ops,
     strain_per_angle: tuple,
+    first: Evaluation | None = None,
 ) -> NewtonOutcome:
     """Solve F(q, p) = 0 from the start ``q``.
 
@@ -69,8 +65,11 @@ def newton(
     ops : backend of :mod:`._backend`
     strain_per_angle : tuple of 3
         H_k/ℓ̂_k: the top-fibre strain per radian of each joint, for the domain check.
+    first : Evaluation, optional
+        The evaluation at (q, p) if the caller has it already (a warm start from a previous
+        solution, see :meth:`.Evaluation.at_pressure`).
     """
-    evaluation = evaluate(q, p)
+    evaluation = evaluate(q, p) if first is None else first
     residual, forces = evaluation.residual, evaluation.forces
     norm = _norm(residual)
     converged = norm <= RESIDUAL_TOLERANCE
@@ -87,12 +86,14 @@ def newton(
         active = active & usable
         alpha = 1.0
         for _ in range(MAX_HALVINGS):
-            allowed = active
-            trial = []
-            for k in range(3):
-                trial.append(q[k] + alpha * step[k])
-                allowed = allowed & (trial[k] * strain_per_angle[k] >= MIN_TOP_STRAIN)
-            trial = [ops.where(allowed, trial[k], q[k]) for k in range(3)]
+            trial = [q[0] + alpha * step[0], q[1] + alpha * step[1], q[2] + alpha * step[2]]
+            allowed = (
+                active
+                & (trial[0] * strain_per_angle[0] >= MIN_TOP_STRAIN)
+                & (trial[1] * strain_per_angle[1] >= MIN_TOP_STRAIN)
+                & (trial[2] * strain_per_angle[2] >= MIN_TOP_STRAIN)
+            )
+            trial = ops.select(allowed, trial, q)
             candidate = evaluate(trial, p)
             candidate_norm = _norm(candidate.residual)
             accepted = allowed & (candidate_norm <= (1.0 - ARMIJO * alpha) * norm)
@@ -101,13 +102,17 @@ def newton(
                 break
             alpha = ops.where(pending, 0.5 * alpha, alpha)
         failed = failed | pending
-        q = _select(accepted, trial, q, ops)
-        residual = _select(accepted, candidate.residual, residual, ops)
-        forces = _select(accepted, candidate.forces, forces, ops)
+        if ops.single_state and accepted:
+            evaluation = candidate
+        q = ops.select(accepted, trial, q)
+        residual = ops.select(accepted, candidate.residual, residual)
+        forces = ops.select(accepted, candidate.forces, forces)
         norm = ops.where(accepted, candidate_norm, norm)
         iterations = iterations + ops.where(accepted, 1, 0)
         converged = norm <= RESIDUAL_TOLERANCE
         active = ops.logical_not(converged | failed)
         if ops.any(active):
-            jacobian = _select(accepted, candidate.jacobian(), jacobian, ops)
-    return NewtonOutcome(q, forces, norm, iterations, converged)
+            jacobian = ops.select(accepted, candidate.jacobian(), jacobian)
+    return NewtonOutcome(
+        q, forces, norm, iterations, converged, evaluation if ops.single_state else None
+    )

@@ -49,39 +49,39 @@ class _JointTable:
         self.material, self.segment, self.rule = material, segment, rule
         self.u_per_q = segment.height / segment.arc_length
         self.width = (U_MAX - U_MIN) / PIECES
+        self.slope_scale = 2.0 * self.u_per_q / self.width  # dt/dq
         centres = U_MIN + self.width * (np.arange(PIECES) + 0.5)
         u = centres[:, None] + 0.5 * self.width * _NODES[None, :]
         q = u / self.u_per_q
         moment, _ = resisting_moment(material, segment, q, rule)
         coefficients = np.array([_piece_coefficients(row) for row in moment / q])
-        slopes = coefficients[:, 1:] * np.arange(1, DEGREE + 1)
         # Per-degree rows: value rows[n][piece] multiplies t**n.
         self.value_rows = coefficients.T.copy()
-        self.slope_rows = slopes.T.copy()
         self.value_lists = self.value_rows.tolist()
-        self.slope_lists = self.slope_rows.tolist()
 
-    def moment_scalar(self, q: float) -> tuple[float, float]:
-        """M(q) and dM/dq for one float angle."""
-        u = q * self.u_per_q
-        s = (u - U_MIN) / self.width
+    def torque_scalar(self, q: float) -> tuple[float, float]:
+        """τ_s = -M(q) and dτ_s/dq for one float angle."""
+        s = (q * self.u_per_q - U_MIN) / self.width
         if not 0.0 <= s < PIECES:
             moment, slope = resisting_moment(self.material, self.segment, q, self.rule)
-            return float(moment), float(slope)
+            return -float(moment), -float(slope)
         piece = int(s)
-        t = 2.0 * (s - piece) - 1.0
-        g, dg = _horner(self.value_lists, self.slope_lists, piece, t)
-        return q * g, g + q * dg * (2.0 / self.width) * self.u_per_q
+        g, dg = _horner(self.value_lists, piece, 2.0 * (s - piece) - 1.0)
+        return -q * g, -g - q * dg * self.slope_scale
 
-    def moment_array(self, q: NDArray) -> tuple[NDArray, NDArray]:
-        """M(q) and dM/dq for a 1-D array of angles."""
+    def torque_array(self, q: NDArray) -> tuple[NDArray, NDArray]:
+        """τ_s = -M(q) and dτ_s/dq for a 1-D array of angles."""
+        moment, slope = self._moment_array(q)
+        return -moment, -slope
+
+    def _moment_array(self, q: NDArray) -> tuple[NDArray, NDArray]:
         s = (q * self.u_per_q - U_MIN) / self.width
         inside = (s >= 0.0) & (s < PIECES)
         piece = np.where(inside, s, 0.0).astype(np.intp)
         t = 2.0 * (np.where(inside, s, 0.5) - piece) - 1.0
-        g, dg = _horner(self.value_rows, self.slope_rows, piece, t)
+        g, dg = _horner(self.value_rows, piece, t)
         moment = q * g
-        slope = g + q * dg * (2.0 / self.width) * self.u_per_q
+        slope = g + q * dg * self.slope_scale
         if not inside.all():
             outside = ~inside
             moment[outside], slope[outside] = resisting_moment(
@@ -90,14 +90,13 @@ class _JointTable:
         return moment, slope
 
 
-def _horner(value_rows, slope_rows, piece, t):
+def _horner(rows, piece, t):
     """G(t) and dG/dt of the polynomial piece(s) ``piece`` at ``t`` (float or array)."""
-    g = value_rows[DEGREE][piece]
+    g = rows[DEGREE][piece]
+    dg = 0.0 * g
     for n in range(DEGREE - 1, -1, -1):
-        g = g * t + value_rows[n][piece]
-    dg = slope_rows[DEGREE - 1][piece]
-    for n in range(DEGREE - 2, -1, -1):
-        dg = dg * t + slope_rows[n][piece]
+        dg = dg * t + g
+        g = g * t + rows[n][piece]
     return g, dg
 
 
@@ -113,27 +112,25 @@ class StructuralTorque:
 
     def __init__(self, material: Material, segments: tuple[Segment, ...]) -> None:
         self.rules = tuple(SectionQuadrature.of(segment) for segment in segments)
-        self._tables = tuple(
+        tables = [
             _JointTable(material, segment, rule)
             for segment, rule in zip(segments, self.rules, strict=True)
-        )
-
-    def joint_scalar(self, joint: int, q: float) -> tuple[float, float]:
-        """τ_s and dτ_s/dq of one joint at a float angle (the solver's hot path)."""
-        moment, slope = self._tables[joint].moment_scalar(q)
-        return -moment, -slope
-
-    def joint_array(self, joint: int, q: NDArray) -> tuple[NDArray, NDArray]:
-        """τ_s and dτ_s/dq of one joint over a 1-D array of angles."""
-        moment, slope = self._tables[joint].moment_array(q)
-        return -moment, -slope
+        ]
+        self.scalar_joints = tuple(table.torque_scalar for table in tables)
+        """Per joint: ``q_k -> (τ_s, dτ_s/dq)`` for a float angle (the solver's hot path)."""
+        self.array_joints = tuple(table.torque_array for table in tables)
+        """Per joint: ``q_k -> (τ_s, dτ_s/dq)`` for a 1-D array of angles."""
 
     def torque(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """τ_s (N·m) and dτ_s/dq (N·m/rad) for angles of shape (3,) or (N, 3)."""
         angles = np.asarray(q, dtype=float)
+        if angles.shape == (3,):
+            angle_list = angles.tolist()
+            pairs = [joint(a) for joint, a in zip(self.scalar_joints, angle_list, strict=True)]
+            return np.array([t for t, _ in pairs]), np.array([s for _, s in pairs])
         flat = np.atleast_2d(angles)
         torque = np.empty_like(flat)
         slope = np.empty_like(flat)
         for joint in range(3):
-            torque[:, joint], slope[:, joint] = self.joint_array(joint, flat[:, joint])
+            torque[:, joint], slope[:, joint] = self.array_joints[joint](flat[:, joint])
         return torque.reshape(angles.shape), slope.reshape(angles.shape)
