@@ -15,8 +15,9 @@ centre of mass at d_{k+1} from its proximal end. An arc of length ℓ̂ bent by 
 k+1 is z_{k+1} = z_k + e^{iφ_k}(2 d_k + ℓ̂_k C(q_k)) and its centre zc_k = z_{k+1} + e^{iφ_{k+1}}
 d_{k+1}.
 
-**Finger** (eqs 32-34): the same chain with hinges instead of arcs (ℓ̂ = 0), no base block,
-and link k of length 2·ℓ_k with its centre at ℓ_k from joint k.
+**Finger** (eqs 32-34): hinges instead of arcs, no base block, link k of length 2·ℓ_k with its
+centre at ℓ_k from joint k. Its Jacobian is the robot's formula with ℓ̂ = 0, which reduces to
+the closed form of :func:`finger_jacobian` (the paper's printed (J_H*)ᵀ, transposed).
 
 **Contact Jacobians** (MODEL.md §3). Contact k pushes along the normal n_k = i e^{iφ_{k+1}} at
 the centre of body (link) k, so J*[i, k] = n_i · ∂zc_i/∂q_k. With D_ik = ∂zc_i/∂q_k =
@@ -108,16 +109,16 @@ def chords(q, ops) -> Chords:
 
 @dataclass(frozen=True)
 class Chain:
-    """Frames of a planar chain of three joints.
+    """Frames of the exo-digit's bodies.
 
     Attributes
     ----------
     turns : tuple
-        e^{iφ_j}, j = 0..3 (base, then bodies or links 1-3).
+        e^{iφ_j}, j = 0..3 (base, then bodies 1-3).
     origins : tuple
-        z_j, proximal ends of bodies 0..3 (for the finger: the joints, then the tip).
+        z_j, proximal ends of bodies 0..3.
     centres : tuple
-        zc_k, contact points (centres) of bodies or links 1-3.
+        zc_k, contact points (centres of mass) of bodies 1-3.
     """
 
     turns: tuple
@@ -126,11 +127,7 @@ class Chain:
 
 
 def chain(chord_set: Chords, arc_lengths, half_lengths) -> Chain:
-    """Frames of the exo-digit (``arc_lengths`` ℓ̂_k, ``half_lengths`` d_0..d_3) or the finger.
-
-    For the finger pass ``arc_lengths`` = (0, 0, 0) and ``half_lengths`` = (0, ℓ_1, ℓ_2, ℓ_3):
-    origins are then the three joints and the fingertip.
-    """
+    """Frames of the exo-digit: ``arc_lengths`` ℓ̂_1..ℓ̂_3, ``half_lengths`` d_0..d_3 (eq 4)."""
     turns = [1.0 + 0j]
     origins = [0j]
     centres = []
