@@ -1,0 +1,187 @@
+"""Independent reference computations for the model tests, written from MODEL.md only.
+
+Nothing here calls the quadrature, kinematics or solver of ``exodigit_model``: the integrals use
+adaptive ``scipy.integrate.quad``/``dblquad``, the kinematics use eqs 1-4 with plain sin/cos
+(y-row of eq 4 corrected, MODEL.md §9), and the numbers are copied from MODEL.md §10. Parameter
+objects are only read for their values.
+"""
+
+import math
+
+import numpy as np
+from scipy.integrate import dblquad, quad
+
+QUAD_OPTIONS = {'epsabs': 0.0, 'epsrel': 1e-13, 'limit': 200}
+"""Adaptive quadrature settings of every reference integral (no absolute floor: M is small)."""
+
+MODEL_MD_DEFAULTS = {
+    'material': {'c1': 1.1e5, 'c2': 2.0e4, 'c3': 0.0},
+    'exo_digit': {
+        'base_block_half_length': 0.010,
+        'segments': [
+            {
+                'name': name,
+                'arc_length': arc,
+                'inner_radius': 0.006,
+                'wall_thickness': 0.001,
+                'wall_height': 0.004,
+                'base_thickness': 0.0015,
+                'block_half_length': 0.005,
+            }
+            for name, arc in (('mcp', 0.046), ('pip', 0.031), ('dip', 0.015))
+        ],
+    },
+    'finger': {
+        'joints': [
+            {'name': 'mcp', 'link_half_length': 0.023, 'stiffness': 0.040},
+            {'name': 'pip', 'link_half_length': 0.0135, 'stiffness': 0.030},
+            {'name': 'dip', 'link_half_length': 0.009, 'stiffness': 0.015},
+        ]
+    },
+}
+"""The parameter file of MODEL.md §10, typed in from the document."""
+
+
+# -- material (eqs 21-22) ----------------------------------------------------------------------
+
+
+def yeoh_stress(material, stretch):
+    """σ = 2(λ² − λ⁻²)·∂W/∂I1 with W of eq 22 (∂W/∂I1 = C1 + 2C2·x + 3C3·x², x = I1 − 3)."""
+    lam = np.asarray(stretch, dtype=float)
+    excess = lam**2 + lam**-2 - 2.0
+    dw_di1 = material.c1 + 2.0 * material.c2 * excess + 3.0 * material.c3 * excess**2
+    return 2.0 * (lam**2 - lam**-2) * dw_di1
+
+
+# -- cross-section (eqs 12, 27) ----------------------------------------------------------------
+
+
+def _section(segment):
+    r0, t = segment.inner_radius, segment.wall_thickness
+    return r0, t, segment.wall_height, segment.base_thickness
+
+
+def region_first_moment(segment):
+    """∫ y dA over the rectangle |x| ≤ R, b ≤ y ≤ b+h plus the half disc of radius R on top."""
+    r0, t, h, b = _section(segment)
+    outer = r0 + t
+    value, _ = dblquad(
+        lambda y, x: y,
+        -outer,
+        outer,
+        lambda x: b,
+        lambda x: b + h + math.sqrt(max(outer * outer - x * x, 0.0)),
+        **{k: v for k, v in QUAD_OPTIONS.items() if k != 'limit'},
+    )
+    return value
+
+
+def resisting_moment(material, segment, angle):
+    """M(q) of eq 27 with λ(y) = 1 + y·q/ℓ̂: base, side walls and the two quarter annuli."""
+    r0, t, h, b = _section(segment)
+    arc = segment.arc_length
+
+    def sigma_y(y):
+        return float(yeoh_stress(material, 1.0 + y * angle / arc)) * y
+
+    base, _ = quad(lambda y: sigma_y(y) * 2.0 * (r0 + t), 0.0, b, **QUAD_OPTIONS)
+    walls, _ = quad(lambda y: sigma_y(y) * 2.0 * t, b, b + h, **QUAD_OPTIONS)
+    arch, _ = dblquad(
+        lambda phi, r: sigma_y(b + h + r * math.sin(phi)) * r,
+        r0,
+        r0 + t,
+        0.0,
+        0.5 * math.pi,
+        epsabs=0.0,
+        epsrel=QUAD_OPTIONS['epsrel'],
+    )
+    return base + walls + 2.0 * arch
+
+
+def section_second_moment(segment):
+    """∫ y² dA over the three zones of eq 27 (the small-angle stiffness is 8·C1·this/ℓ̂)."""
+    r0, t, h, b = _section(segment)
+    base, _ = quad(lambda y: y * y * 2.0 * (r0 + t), 0.0, b, **QUAD_OPTIONS)
+    walls, _ = quad(lambda y: y * y * 2.0 * t, b, b + h, **QUAD_OPTIONS)
+    arch, _ = dblquad(
+        lambda phi, r: (b + h + r * math.sin(phi)) ** 2 * r,
+        r0,
+        r0 + t,
+        0.0,
+        0.5 * math.pi,
+        epsabs=0.0,
+        epsrel=QUAD_OPTIONS['epsrel'],
+    )
+    return base + walls + 2.0 * arch
+
+
+def section_height(segment):
+    """b + h + r0 + t: the top fibre's height above the inextensible bottom face."""
+    r0, t, h, b = _section(segment)
+    return b + h + r0 + t
+
+
+def eq12_pressure_moment(segment):
+    """r_p·A_p of eq 12 as printed in the paper (outer radius R = r0 + t)."""
+    r0, t, h, b = _section(segment)
+    outer = r0 + t
+    return 0.5 * math.pi * outer**2 * (4.0 * outer / (3.0 * math.pi) + h + b) + (
+        2.0 * outer * (0.5 * h + b) * h
+    )
+
+
+# -- kinematics (eqs 1-4, 32-33) ----------------------------------------------------------------
+
+
+def exo_digit_points(params, q):
+    """Block origins r_0..r_3, block ends, centres r^C_1..3 and normals n_1..3 by eq 4.
+
+    Uses ℓ̂/q with sin/cos exactly as printed (y-row sign corrected), so q_k must not be 0.
+    """
+    exo = params.exo_digit
+    half = [exo.base_block_half_length] + [s.block_half_length for s in exo.segments]
+    phi = np.concatenate([[0.0], np.cumsum(q)])
+    origins = [np.zeros(2)]
+    for i in range(1, 4):
+        arc = exo.segments[i - 1].arc_length / q[i - 1]
+        c0, s0, c1, s1 = (
+            math.cos(phi[i - 1]),
+            math.sin(phi[i - 1]),
+            math.cos(phi[i]),
+            math.sin(phi[i]),
+        )
+        step = [
+            2 * half[i - 1] * c0 - arc * s0 + arc * s1,
+            2 * half[i - 1] * s0 + arc * c0 - arc * c1,
+        ]
+        origins.append(origins[-1] + np.array(step))
+    axes = np.array([[math.cos(a), math.sin(a)] for a in phi])
+    normals = np.array([[-math.sin(a), math.cos(a)] for a in phi[1:]])
+    origins = np.array(origins)
+    ends = origins + 2.0 * np.array(half)[:, None] * axes
+    centres = origins[1:] + np.array(half[1:])[:, None] * axes[1:]
+    return origins, ends, centres, normals
+
+
+def finger_points(params, q):
+    """Finger joints (MCP, PIP, DIP, tip), link centres and link normals, MCP at the origin."""
+    half = np.array([j.link_half_length for j in params.finger.joints])
+    psi = np.cumsum(q)
+    axes = np.column_stack([np.cos(psi), np.sin(psi)])
+    joints = np.vstack([np.zeros(2), np.cumsum(2.0 * half[:, None] * axes, axis=0)])
+    centres = joints[:3] + half[:, None] * axes
+    normals = np.column_stack([-np.sin(psi), np.cos(psi)])
+    return joints, centres, normals
+
+
+def printed_finger_jacobian_transposed(params, q):
+    """The paper's printed (J_H*)ᵀ (upper triangular; ℓ_i half link lengths)."""
+    l1, l2, l3 = (j.link_half_length for j in params.finger.joints)
+    c2, c3, c23 = math.cos(q[1]), math.cos(q[2]), math.cos(q[1] + q[2])
+    return np.array(
+        [
+            [l1, l2 + 2 * l1 * c2, l3 + 2 * l2 * c3 + 2 * l1 * c23],
+            [0.0, l2, l3 + 2 * l2 * c3],
+            [0.0, 0.0, l3],
+        ]
+    )
