@@ -1,0 +1,252 @@
+"""Run the whole simulated glove from one command, with a live summary and a run record.
+
+Starts ``plant``, ``estimator`` and ``pressure_command`` as separate processes in one namespace
+(and the rosbag2 ``recorder`` with ``--record``), shows their signals on the terminal, writes
+``signals.csv`` and ``signals.png`` into the run directory and stops everything on Ctrl-C or
+after ``--duration`` seconds: the command node first, so the chambers get zero pressure.
+
+This is what ``make run`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
+glove.launch.py`` starts the same nodes without the summary.
+"""
+
+import argparse
+import os
+import re
+import signal
+import sys
+import time
+from pathlib import Path
+
+from exodigit_nodes.ros_env import discovery_settings
+from exodigit_nodes.run_record import RunRecord, new_run_directory
+from exodigit_nodes.summary import GloveSignals, SummaryDisplay
+from exodigit_nodes.supervisor import Supervisor
+
+#: The glove's node executables, in start order (the plant first, commands last).
+NODES = ('plant', 'estimator', 'pressure_command')
+#: Stop order: commands first (the node publishes zero pressure as it stops), recorder last.
+STOP_ORDER = ('pressure_command', 'estimator', 'plant', 'recorder')
+MODES = ('sine', 'staircase', 'hold', 'position', 'force')
+#: Nodes that load the model parameter file.
+MODEL_NODES = ('plant', 'estimator', 'pressure_command')
+#: Seconds between two refreshes of the terminal summary.
+REFRESH_PERIOD = 0.25
+#: Lines of a dead node's log shown when it exits unexpectedly.
+LOG_TAIL_LINES = 8
+NAMESPACE_PATTERN = re.compile(r'^(/[A-Za-z][A-Za-z0-9_]*)+$')
+EXAMPLES = """examples:
+  python -m exodigit_nodes.glove                      # sine session until Ctrl-C
+  python -m exodigit_nodes.glove --duration 20        # 20 s, then stop and exit 0
+  python -m exodigit_nodes.glove --mode staircase --record --out runs/stairs
+  python -m exodigit_nodes.glove --params-file my_glove.yaml --namespace /left/index
+
+ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed to
+every node; see the README, "Networking"."""
+
+
+class UsageError(ValueError):
+    """A command-line value the glove refuses before starting anything."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface of ``python -m exodigit_nodes.glove``."""
+    parser = argparse.ArgumentParser(
+        prog='python -m exodigit_nodes.glove',
+        description='Run the simulated soft glove (plant, estimator, pressure_command) with a '
+        'live summary; write a run record (CSV and PNG) of the published signals.',
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        '--duration',
+        type=float,
+        default=0.0,
+        metavar='S',
+        help='seconds to run, then stop cleanly and exit 0; 0 (default) runs until Ctrl-C',
+    )
+    parser.add_argument(
+        '--namespace', default='/glove', help='ROS namespace of the glove (default /glove)'
+    )
+    parser.add_argument(
+        '--mode',
+        choices=MODES,
+        default='sine',
+        help='pressure_command mode (default sine: continuous passive motion)',
+    )
+    parser.add_argument(
+        '--params-file',
+        metavar='FILE',
+        help='model parameter YAML (MODEL.md section 10) for the nodes; default built-in values',
+    )
+    parser.add_argument(
+        '--ros-params',
+        action='append',
+        default=[],
+        metavar='FILE',
+        help='ROS parameter YAML (ros__parameters) passed to every node with --params-file; '
+        'may be repeated',
+    )
+    parser.add_argument(
+        '--record',
+        action='store_true',
+        help='also record every topic to a rosbag2 MCAP bag in the run directory',
+    )
+    parser.add_argument(
+        '--out',
+        metavar='DIR',
+        help='run directory for the record (default runs/<YYYYmmdd-HHMMSS>)',
+    )
+    return parser
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """Refuse values that would make a node fail later, with one line naming the value.
+
+    Raises
+    ------
+    UsageError
+        For a negative or non-finite duration, a malformed namespace, or a parameter file that
+        cannot be read or breaks a rule of the model.
+    """
+    if not 0.0 <= args.duration < float('inf'):
+        raise UsageError(f'--duration {args.duration}: must be a finite number of seconds >= 0')
+    if not NAMESPACE_PATTERN.match(args.namespace):
+        raise UsageError(
+            f'--namespace {args.namespace!r}: must be absolute, e.g. /glove or /left/index '
+            '(letters, digits, underscores)'
+        )
+    if args.params_file is not None:
+        from exodigit_model import ParameterError, load_params
+
+        try:
+            load_params(args.params_file)
+        except ParameterError as error:
+            raise UsageError(f'--params-file: {" ".join(str(error).split())}') from None
+    for path in args.ros_params:
+        if not Path(path).is_file():
+            raise UsageError(f'--ros-params {path}: no such file')
+
+
+def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list[str]:
+    """The command line of one node process (same Python, ``-m exodigit_nodes.<node>``)."""
+    command = [sys.executable, '-m', f'exodigit_nodes.{node}']
+    if node == 'recorder':
+        command += ['--output', str(record.bag_path)]
+    command += ['--ros-args', '-r', f'__ns:={args.namespace}']
+    for path in args.ros_params:
+        command += ['--params-file', str(Path(path).resolve())]
+    if node in MODEL_NODES and args.params_file is not None:
+        command += ['-p', f'params_file:={Path(args.params_file).resolve()}']
+    if node == 'pressure_command':
+        command += ['-p', f'mode:={args.mode}']
+    return command
+
+
+class StopRequest:
+    """Turns SIGINT and SIGTERM into a flag the main loop checks."""
+
+    def __init__(self):
+        self.requested = False
+        self.signal_name = ''
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._handle)
+
+    def _handle(self, signum, _frame) -> None:
+        self.requested = True
+        self.signal_name = signal.Signals(signum).name
+
+
+def log_tail(path: Path | None) -> list[str]:
+    """The last lines of a node's log file (empty if there is none)."""
+    if path is None or not path.is_file():
+        return []
+    lines = path.read_text(errors='replace').splitlines()
+    return lines[-LOG_TAIL_LINES:]
+
+
+def main(argv=None) -> int:
+    """Run the glove; return the exit code (0 clean stop, 1 a node failed, 2 bad input)."""
+    args = build_parser().parse_args(argv)
+    try:
+        check_arguments(args)
+        settings = discovery_settings(os.environ)
+    except ValueError as error:
+        print(f'glove: {error}', file=sys.stderr)
+        return 2
+    env = settings.apply(os.environ)
+    os.environ.update(env)  # this process's own ROS context reads the same settings
+    run_dir = Path(args.out) if args.out else new_run_directory(Path('runs'))
+    record = RunRecord(run_dir)
+    print(settings.describe())
+    print(f'glove {args.namespace}: mode {args.mode}; run record and node logs in {run_dir}/')
+    return run_glove(args, env, record)
+
+
+def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
+    """Start the processes, show the summary until stop or failure, stop, write the record."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    from exodigit_nodes.monitor import GloveMonitor
+
+    stop = StopRequest()
+    supervisor = Supervisor(env, log_dir=record.log_dir)
+    names = (('recorder',) if args.record else ()) + NODES
+    for name in names:
+        supervisor.start(name, node_command(name, args, record))
+
+    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    signals = GloveSignals(NODES)
+    monitor = GloveMonitor(signals, args.namespace, record.write)
+    executor = SingleThreadedExecutor()
+    executor.add_node(monitor)
+    display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')
+    title = f'exodigit glove {args.namespace} ({args.mode})'
+
+    def spin() -> None:
+        executor.spin_once(timeout_sec=0.02)
+
+    started = time.monotonic()
+    next_refresh = started
+    failures = []
+    try:
+        while not stop.requested:
+            spin()
+            now = time.monotonic()
+            failures = supervisor.exited()
+            if failures or (args.duration and now - started >= args.duration):
+                break
+            if now >= next_refresh:
+                display.show(signals, now, title)
+                record.flush()
+                next_refresh = now + REFRESH_PERIOD
+        display.show(signals, time.monotonic(), title)
+        reason = stop.signal_name or (
+            'a node exited' if failures else f'{args.duration:g} s elapsed'
+        )
+        display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
+        stops = supervisor.stop(STOP_ORDER, idle=spin)
+    finally:
+        executor.shutdown()
+        monitor.destroy_node()
+        rclpy.try_shutdown()
+        record.close()
+
+    failed_names = {exit_.name for exit_ in failures}
+    bad = failures + [s for s in stops if not s.clean and s.name not in failed_names]
+    for exit_ in bad:
+        print(f'glove: {exit_.describe()}', file=sys.stderr)
+        for line in log_tail(supervisor.log_path(exit_.name)):
+            print(f'  {exit_.name}| {line}', file=sys.stderr)
+    plot = record.plot()
+    print(f'run record: {record.csv_path} ({record.rows} samples)')
+    print(f'plot: {plot}' if plot else 'plot: none (no sample was received)')
+    if args.record:
+        print(f'rosbag2 (MCAP): {record.bag_path}')
+    print(f'node logs: {record.log_dir}/')
+    return 1 if bad else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""ROS wiring of the glove's live summary: subscribes to every glove topic, feeds `GloveSignals`.
+
+The node only converts messages to arrays; what is joined, shown and recorded is decided by
+`exodigit_nodes.summary` and `exodigit_nodes.run_record`.
+"""
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from exodigit_nodes.qos import QOS
+from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
+
+
+def status_node(status_name: str, namespace: str, nodes) -> str | None:
+    """The node of ``nodes`` in ``namespace`` a diagnostic status name belongs to, if any.
+
+    Status names start with the node's fully qualified name (``/glove/plant: solver``); the
+    namespace check keeps other gloves on the same domain out of this summary.
+    """
+    for node in nodes:
+        qualified = f'{namespace.rstrip("/")}/{node}'
+        if status_name == qualified or status_name.startswith((qualified + ':', qualified + ' ')):
+            return node
+    return None
+
+
+class GloveMonitor(Node):
+    """Subscribes to the glove's topics in one namespace and hands their values on.
+
+    Parameters
+    ----------
+    signals : GloveSignals
+        Receives every value; its health table names the nodes watched on ``/diagnostics``.
+    namespace : str
+        The glove's namespace (absolute).
+    on_sample : callable
+        Called with each completed `Sample` (one per plant step).
+    """
+
+    def __init__(self, signals: GloveSignals, namespace: str, on_sample: Callable[[Sample], None]):
+        super().__init__('glove_monitor', namespace=namespace)
+        self._signals = signals
+        self._on_sample = on_sample
+        self.rejected = 0
+        for topic in SIGNALS:
+            if topic == 'joint_states':
+                self.create_subscription(JointState, topic, self._on_joint_state, QOS)
+            else:
+                callback = self._array_callback(topic)
+                self.create_subscription(Float64MultiArray, topic, callback, QOS)
+        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, QOS)
+
+    def _array_callback(self, topic: str) -> Callable[[Float64MultiArray], None]:
+        def callback(message: Float64MultiArray) -> None:
+            self._update(topic, message.data)
+
+        return callback
+
+    def _on_joint_state(self, message: JointState) -> None:
+        stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+        self._update('joint_states', message.position, stamp)
+
+    def _update(self, topic: str, values, stamp: float | None = None) -> None:
+        values = np.asarray(values, dtype=float)
+        if values.shape != (len(JOINT_LABELS),):
+            # Not ours to judge (the nodes report bad input); count it and show nothing wrong.
+            self.rejected += 1
+            return
+        sample = self._signals.update(topic, values, stamp)
+        if sample is not None:
+            self._on_sample(sample)
+
+    def _on_diagnostics(self, message: DiagnosticArray) -> None:
+        worst: dict[str, tuple[int, str]] = {}
+        for status in message.status:
+            node = status_node(status.name, self.get_namespace(), self._signals.health)
+            if node is None:
+                continue
+            level = ord(status.level)  # a byte in rclpy
+            if node not in worst or level > worst[node][0]:
+                worst[node] = (level, status.message)
+        now = time.monotonic()
+        for node, (level, text) in worst.items():
+            self._signals.update_health(node, level, text, now)

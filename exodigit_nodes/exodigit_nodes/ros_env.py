@@ -1,0 +1,81 @@
+"""The ROS discovery environment every glove process gets (README, "Networking").
+
+Fast DDS by default announces itself by multicast on the machine's network interfaces. The glove
+keeps discovery on this machine unless the user opens it on purpose: when
+``ROS_AUTOMATIC_DISCOVERY_RANGE`` is unset it becomes ``LOCALHOST``; a value the user set is kept
+(``SUBNET`` opens the glove to the LAN) and an unknown value is refused.
+"""
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+#: Values ROS 2 Jazzy accepts for ROS_AUTOMATIC_DISCOVERY_RANGE.
+DISCOVERY_RANGES = ('LOCALHOST', 'SUBNET', 'OFF', 'SYSTEM_DEFAULT')
+#: Range used when the variable is unset.
+DEFAULT_DISCOVERY_RANGE = 'LOCALHOST'
+#: Highest domain id ROS 2 maps to valid UDP ports on Linux.
+MAX_DOMAIN_ID = 232
+
+
+@dataclass(frozen=True)
+class DiscoverySettings:
+    """Discovery range and domain id the glove's processes use.
+
+    Attributes
+    ----------
+    discovery_range : str
+        One of `DISCOVERY_RANGES`.
+    domain_id : int
+        ROS domain id, 0 to `MAX_DOMAIN_ID`.
+    range_defaulted, domain_defaulted : bool
+        True where the value was not set by the caller.
+    """
+
+    discovery_range: str
+    domain_id: int
+    range_defaulted: bool
+    domain_defaulted: bool
+
+    def describe(self) -> str:
+        """One line saying what is used and where it came from."""
+        range_source = 'default' if self.range_defaulted else 'from the environment'
+        domain_source = 'default' if self.domain_defaulted else 'from the environment'
+        return (
+            f'ROS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE={self.discovery_range} '
+            f'({range_source}), ROS_DOMAIN_ID={self.domain_id} ({domain_source})'
+        )
+
+    def apply(self, environ: Mapping[str, str]) -> dict[str, str]:
+        """A copy of ``environ`` carrying these settings."""
+        env = dict(environ)
+        env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = self.discovery_range
+        env['ROS_DOMAIN_ID'] = str(self.domain_id)
+        return env
+
+
+def discovery_settings(environ: Mapping[str, str]) -> DiscoverySettings:
+    """Read the discovery settings from ``environ``, filling in the safe defaults.
+
+    Raises
+    ------
+    ValueError
+        For an unknown discovery range or a domain id that is not an integer in 0 to 232,
+        naming the variable and the accepted values.
+    """
+    raw_range = environ.get('ROS_AUTOMATIC_DISCOVERY_RANGE', '').strip()
+    discovery_range = raw_range.upper() or DEFAULT_DISCOVERY_RANGE
+    if discovery_range not in DISCOVERY_RANGES:
+        raise ValueError(
+            f'ROS_AUTOMATIC_DISCOVERY_RANGE={raw_range!r} is not one of '
+            f'{", ".join(DISCOVERY_RANGES)}'
+        )
+    raw_domain = environ.get('ROS_DOMAIN_ID', '').strip()
+    try:
+        domain_id = int(raw_domain) if raw_domain else 0
+    except ValueError:
+        domain_id = -1
+    if not 0 <= domain_id <= MAX_DOMAIN_ID:
+        raise ValueError(
+            f'ROS_DOMAIN_ID={raw_domain!r} must be an integer from 0 to {MAX_DOMAIN_ID}'
+        )
+    return DiscoverySettings(discovery_range, domain_id, not raw_range, not raw_domain)

@@ -1,0 +1,230 @@
+"""The glove's signals as one picture: latest values, run-record samples and the terminal summary.
+
+Plain Python (numpy), no ROS: `exodigit_nodes.monitor` feeds it from the topics. Values are SI
+inside; kPa, degrees and the unit labels appear only in the text this module writes.
+"""
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import TextIO
+
+import numpy as np
+
+#: Joint labels in topic order (INTERFACES.md: always MCP, PIP, DIP).
+JOINT_LABELS = ('MCP', 'PIP', 'DIP')
+#: Signals the plant publishes in one step; a sample is complete when each has arrived.
+PLANT_SIGNALS = frozenset({'chamber_pressure', 'joint_states', 'contact_forces'})
+
+
+@dataclass(frozen=True)
+class Signal:
+    """How one SI signal is shown and recorded.
+
+    Attributes
+    ----------
+    label : str
+        Row label in the terminal summary.
+    column : str
+        Run-record column stem; the columns are ``<column>_<joint>_<unit_tag>``.
+    scale : float
+        Factor from SI to the display unit.
+    unit : str
+        Display unit.
+    unit_tag : str
+        The unit as it appears in column names and one-line summaries.
+    """
+
+    label: str
+    column: str
+    scale: float
+    unit: str
+    unit_tag: str
+
+    def columns(self) -> list[str]:
+        """The three run-record column names of this signal, MCP, PIP, DIP."""
+        return [f'{self.column}_{joint.lower()}_{self.unit_tag}' for joint in JOINT_LABELS]
+
+
+#: Every signal the summary shows and the run record keeps, by topic name.
+SIGNALS = {
+    'pressure_command': Signal('command', 'p_cmd', 1e-3, 'kPa', 'kpa'),
+    'chamber_pressure': Signal('chamber', 'p', 1e-3, 'kPa', 'kpa'),
+    'joint_states': Signal('angle', 'q', 180.0 / math.pi, 'deg', 'deg'),
+    'contact_forces': Signal('force sim', 'f', 1.0, 'N', 'n'),
+    'estimated_contact_forces': Signal('force est', 'f_est', 1.0, 'N', 'n'),
+    'estimated_finger_stiffness': Signal('K_H', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad'),
+}
+#: Seconds without a diagnostic after which a node is shown as silent.
+HEALTH_TIMEOUT = 3.0
+
+
+class Level(IntEnum):
+    """diagnostic_msgs/DiagnosticStatus levels."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One plant step as the glove saw it (SI units).
+
+    Attributes
+    ----------
+    time : float
+        Seconds since the first joint state, from the plant's stamps.
+    values : dict[str, numpy.ndarray or None]
+        Latest value of each signal of `SIGNALS` (shape (3,)), None before its first message.
+    """
+
+    time: float
+    values: dict
+
+
+@dataclass(frozen=True)
+class Health:
+    """Latest diagnostic of one node: worst level over its statuses, their messages, when."""
+
+    level: Level
+    message: str
+    received: float
+
+
+class GloveSignals:
+    """Latest value of each glove signal, and the samples the plant's steps make of them.
+
+    The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in the
+    same step but on three topics without a common stamp; a `Sample` is made once all three
+    have been updated since the previous one, so each sample joins the values of one step.
+    Signals of the other nodes (command, estimates) join with their latest value.
+
+    Parameters
+    ----------
+    nodes : sequence of str
+        Node names whose health is shown.
+    """
+
+    def __init__(self, nodes):
+        self.latest: dict[str, np.ndarray | None] = dict.fromkeys(SIGNALS)
+        self.health: dict[str, Health | None] = dict.fromkeys(nodes)
+        self.time: float | None = None
+        self._first_stamp: float | None = None
+        self._fresh: set[str] = set()
+
+    def update(self, signal: str, values, stamp: float | None = None) -> Sample | None:
+        """Record a new value of ``signal``.
+
+        Parameters
+        ----------
+        signal : str
+            A key of `SIGNALS`.
+        values : array_like, shape (3,)
+            The message's values, SI.
+        stamp : float, optional
+            Header stamp in seconds (``joint_states`` only).
+
+        Returns
+        -------
+        Sample or None
+            The completed sample when this value completes a plant step.
+        """
+        if signal not in SIGNALS:
+            raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
+        self.latest[signal] = np.array(values, dtype=float)
+        if stamp is not None:
+            if self._first_stamp is None:
+                self._first_stamp = stamp
+            self.time = stamp - self._first_stamp
+        if signal in PLANT_SIGNALS:
+            self._fresh.add(signal)
+        if self._fresh == PLANT_SIGNALS and self.time is not None:
+            self._fresh.clear()
+            return Sample(self.time, dict(self.latest))
+        return None
+
+    def update_health(self, node: str, level: int, message: str, now: float) -> None:
+        """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""
+        if node in self.health:
+            self.health[node] = Health(Level(min(int(level), Level.STALE)), message, now)
+
+    def health_text(self, now: float) -> list[str]:
+        """``name LEVEL (message)`` per node; silent nodes say how long they have been."""
+        texts = []
+        for node, health in self.health.items():
+            if health is None:
+                texts.append(f'{node} (no diagnostics yet)')
+            elif now - health.received > HEALTH_TIMEOUT:
+                texts.append(f'{node} SILENT for {now - health.received:.0f} s')
+            elif health.level == Level.OK:
+                texts.append(f'{node} OK')
+            else:
+                texts.append(f'{node} {health.level.name} ({health.message})')
+        return texts
+
+    def table(self, now: float, title: str) -> str:
+        """The multi-line summary for a terminal: one row per signal, one column per joint."""
+        clock = '-' if self.time is None else f'{self.time:7.2f} s'
+        lines = [f'{title}   t = {clock}', f'{"":10}' + ''.join(f'{j:>9}' for j in JOINT_LABELS)]
+        for topic, signal in SIGNALS.items():
+            cells = _cells(self.latest[topic], signal.scale, width=9)
+            lines.append(f'{signal.label:<10}{cells}  {signal.unit}')
+        lines.append('nodes: ' + ', '.join(self.health_text(now)))
+        return '\n'.join(lines)
+
+    def line(self, now: float) -> str:
+        """The one-line summary for logs: ``t=… command_kPa=[…] angle_deg=[…] … nodes: …``."""
+        clock = 'nan' if self.time is None else f'{self.time:.2f}'
+        parts = [f't={clock}s']
+        for topic, signal in SIGNALS.items():
+            cells = _cells(self.latest[topic], signal.scale, width=0)
+            parts.append(f'{signal.column}_{signal.unit_tag}=[{cells}]')
+        return ' '.join(parts) + ' nodes: ' + '; '.join(self.health_text(now))
+
+
+def _cells(values, scale: float, width: int) -> str:
+    if values is None:
+        return ' '.join(f'{"-":>{width}}' for _ in JOINT_LABELS)
+    return ' '.join(f'{scale * v:{width}.2f}' for v in values)
+
+
+class SummaryDisplay:
+    """Writes the summary: redrawn in place on a terminal, one line per period otherwise.
+
+    Parameters
+    ----------
+    stream : TextIO
+        Where to write (stdout).
+    interactive : bool
+        True to redraw a block in place (a TTY); False to append plain lines (CI logs, pipes).
+    line_period : float
+        Seconds between two lines in the non-interactive form.
+    """
+
+    def __init__(self, stream: TextIO, interactive: bool, line_period: float = 1.0):
+        self._stream = stream
+        self._interactive = interactive
+        self._line_period = line_period
+        self._drawn_lines = 0
+        self._next_line = -math.inf
+
+    def show(self, signals: GloveSignals, now: float, title: str) -> None:
+        """Show the current state (call a few times per second)."""
+        if self._interactive:
+            text = signals.table(now, title)
+            # Move the cursor up over the previous block and clear to the end of the screen.
+            erase = f'\x1b[{self._drawn_lines}F\x1b[J' if self._drawn_lines else ''
+            self._stream.write(erase + text + '\n')
+            self._drawn_lines = text.count('\n') + 1
+        elif now >= self._next_line:
+            self._stream.write(signals.line(now) + '\n')
+            self._next_line = now + self._line_period
+        self._stream.flush()
+
+    def message(self, text: str) -> None:
+        """Print a line below the summary (it is not redrawn over)."""
+        self._stream.write(text + '\n')
+        self._stream.flush()
+        self._drawn_lines = 0
