@@ -1,8 +1,8 @@
 """Launch the simulated glove: plant, pressure_command and estimator in one namespace.
 
     ros2 launch exodigit_nodes glove.launch.py
-    ros2 launch exodigit_nodes glove.launch.py namespace:=/left/index mode:=staircase \\
-        params_file:=/path/to/my_glove.yaml joint_prefix:=left_index_
+    ros2 launch exodigit_nodes glove.launch.py namespace:=/left/index mode:=staircase
+    ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
 
 Each node reads its defaults from ``config/<node>.yaml`` in the package share directory; the
 launch arguments below override them. Without a ROS install, ``python -m exodigit_nodes.glove``
