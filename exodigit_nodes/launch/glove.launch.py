@@ -4,7 +4,7 @@
     ros2 launch exodigit_nodes glove.launch.py namespace:=/left/index mode:=staircase
     ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
 
-Each node reads its defaults from ``config/<node>.yaml`` in the package share directory; the
+Each node reads its defaults from its ``config/*.yaml`` in the package share directory; the
 launch arguments below override them. Without a ROS install, ``python -m exodigit_nodes.glove``
 starts the same three nodes (README, "Running the glove").
 """
@@ -64,7 +64,7 @@ def generate_launch_description():
         ),
     ]
 
-    def glove_node(executable, overrides):
+    def glove_node(executable, config_file, overrides):
         return Node(
             package=PACKAGE,
             executable=executable,
@@ -73,14 +73,18 @@ def generate_launch_description():
             output='screen',
             emulate_tty=True,
             parameters=[
-                os.path.join(config_dir, f'{executable}.yaml'),
+                os.path.join(config_dir, config_file),
                 {'use_sim_time': use_sim_time, **overrides},
             ],
         )
 
     nodes = [
-        glove_node('plant', {'params_file': params_file, 'joint_prefix': joint_prefix}),
-        glove_node('estimator', {'params_file': params_file}),
-        glove_node('pressure_command', {'params_file': params_file, 'mode': mode}),
+        glove_node(
+            'plant', 'plant.yaml', {'params_file': params_file, 'joint_prefix': joint_prefix}
+        ),
+        glove_node('estimator', 'estimator.yaml', {'params_file': params_file}),
+        glove_node(
+            'pressure_command', 'pressure_command.yaml', {'params_file': params_file, 'mode': mode}
+        ),
     ]
     return LaunchDescription(arguments + nodes)
