@@ -1,0 +1,236 @@
+"""The ``exodigit`` command: research tools around the glove model.
+
+Subcommands ``curves``, ``draw``, ``calibrate`` and ``plot`` (see ``exodigit --help``). Units at
+this interface are kPa, mm and degrees (labelled in every file and figure); everything inside is
+SI. Bad input ends with one line on stderr and a non-zero exit status, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .. import GloveModel, ParameterError, load_params
+from ._deps import ToolError, progress
+
+EXIT_USAGE = 2
+"""Exit status for bad input (as argparse uses for a bad command line)."""
+
+EXAMPLES = {
+    'curves': 'exodigit curves --out curves --pressures 0:50:10',
+    'draw': 'exodigit draw --pressure 50 --out glove.png',
+    'calibrate': 'exodigit calibrate bench.csv --fit both --out my_glove.yaml',
+    'plot': 'exodigit plot runs/session_bag --out plots',
+}
+
+DESCRIPTIONS = {
+    'curves': "Simulate the paper's bench experiments (free bending of each module, bending on "
+    'the finger, contact forces, tip markers) and write CSV files and PNG plots.',
+    'draw': 'Draw the finger and the exo-digit at one pressure, to scale, with contact forces '
+    'and joint angles.',
+    'calibrate': 'Fit the Yeoh coefficients and/or the finger stiffness to measured samples and '
+    'write a parameter file.',
+    'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
+    'exodigit_nodes.recorder.',
+}
+
+
+def _params_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        '--params',
+        metavar='FILE',
+        help='model parameter YAML (MODEL.md §10); built-in defaults when omitted',
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``exodigit`` and its subcommands."""
+    examples = '\n'.join(f'  {line}' for line in EXAMPLES.values())
+    parser = argparse.ArgumentParser(
+        prog='exodigit',
+        description='Research tools for the exodigit glove model (units: kPa, mm, degrees).',
+        epilog=f'examples:\n{examples}\n\nexodigit SUBCOMMAND --help for details.',
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    commands = parser.add_subparsers(dest='command', metavar='SUBCOMMAND', required=True)
+
+    def command(name: str) -> argparse.ArgumentParser:
+        return commands.add_parser(
+            name,
+            help=DESCRIPTIONS[name].split('.')[0].split(' and write')[0],
+            description=DESCRIPTIONS[name],
+            epilog=f'example:\n  {EXAMPLES[name]}',
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
+
+    curves = command('curves')
+    _params_argument(curves)
+    curves.add_argument('--out', metavar='DIR', default='curves', help='output folder (curves)')
+    curves.add_argument(
+        '--pressures',
+        metavar='START:STOP:STEP',
+        default='0:50:10',
+        help="pressure sweep in kPa, STOP included (0:50:10, the paper's 10 kPa steps)",
+    )
+
+    draw = command('draw')
+    _params_argument(draw)
+    draw.add_argument(
+        '--pressure',
+        metavar='KPA[,KPA,KPA]',
+        required=True,
+        help='chamber pressure in kPa: one value for all three chambers, or MCP,PIP,DIP',
+    )
+    draw.add_argument('--out', metavar='FILE', default='glove.png', help='PNG file (glove.png)')
+
+    calibrate = command('calibrate')
+    calibrate.add_argument(
+        'data',
+        metavar='DATA.csv',
+        help='samples: p_mcp_kpa,p_pip_kpa,p_dip_kpa,q_mcp_deg,q_pip_deg,q_dip_deg '
+        '[,f_mcp_n,f_pip_n,f_dip_n] [,condition (free|finger)]',
+    )
+    _params_argument(calibrate)
+    calibrate.add_argument(
+        '--fit',
+        choices=('material', 'stiffness', 'both'),
+        default='both',
+        help='what to fit: Yeoh c1,c2,c3 (material), finger k_H (stiffness) or both (default)',
+    )
+    calibrate.add_argument(
+        '--out',
+        metavar='FILE.yaml',
+        default='calibrated.yaml',
+        help='fitted parameter file (calibrated.yaml); the plot goes next to it (*_fit.png)',
+    )
+
+    plot = command('plot')
+    plot.add_argument('bag', metavar='BAG', help='rosbag2 folder (MCAP) from the recorder')
+    plot.add_argument('--out', metavar='DIR', default='.', help='output folder (.)')
+    return parser
+
+
+def _model(path: str | None) -> GloveModel:
+    return GloveModel(load_params(path))
+
+
+def _out_dir(path: str) -> Path:
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise ToolError(f'--out {path}: exists and is not a folder')
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def parse_pressure(text: str) -> np.ndarray:
+    """Chamber pressures, Pa, from ``KPA`` (all chambers) or ``KPA,KPA,KPA``."""
+    try:
+        values = [float(v) for v in text.split(',')]
+    except ValueError:
+        raise ToolError(f'--pressure {text!r}: expected KPA or KPA,KPA,KPA (numbers)') from None
+    if len(values) == 1:
+        values *= 3
+    if len(values) != 3:
+        raise ToolError(f'--pressure {text!r}: give one value or three (MCP,PIP,DIP), kPa')
+    if not all(np.isfinite(values)) or min(values) < 0:
+        raise ToolError(f'--pressure {text!r}: pressures must be finite and >= 0 kPa')
+    return np.array(values) * 1e3
+
+
+def run_curves(args: argparse.Namespace) -> None:
+    """``exodigit curves``."""
+    from . import curves, figures
+
+    pressure = curves.parse_pressures(args.pressures)
+    model = _model(args.params)
+    folder = _out_dir(args.out)
+    steps = progress(total=5, desc='curves', unit='step')
+    sweeps = curves.simulate(model, pressure)
+    steps.update()
+    markers = {
+        (sweep.experiment, sweep.condition): curves.sweep_markers(model, sweep)
+        for sweep in sweeps
+        if sweep.experiment != 'all'
+    }
+    curves.write_angles_csv(sweeps, folder / 'angles.csv')
+    curves.write_markers_csv(markers, pressure, folder / 'markers.csv')
+    steps.update()
+    figures.angle_figure(sweeps, folder / 'angles.png')
+    steps.update()
+    figures.force_figure(sweeps, folder / 'forces.png')
+    steps.update()
+    figures.marker_figure(markers, pressure, folder / 'markers.png')
+    steps.update()
+    steps.close()
+    for line in curves.summary(sweeps):
+        print(line, file=sys.stderr)
+    print(
+        f'wrote {folder}/angles.csv, markers.csv, angles.png, forces.png, markers.png '
+        f'({pressure.size} pressures, {pressure[0] / 1e3:g}-{pressure[-1] / 1e3:g} kPa)'
+    )
+
+
+def run_draw(args: argparse.Namespace) -> None:
+    """``exodigit draw``."""
+    from .drawing import draw
+
+    pressure = parse_pressure(args.pressure)
+    out = Path(args.out)
+    if out.suffix.lower() != '.png':
+        raise ToolError(f'--out {args.out}: the picture is a PNG, name it *.png')
+    if not out.parent.is_dir():
+        raise ToolError(f'--out {args.out}: folder {out.parent} does not exist')
+    drawing = draw(_model(args.params), pressure, out)
+    if not drawing.solution.converged:
+        print(
+            f'warning: the solve did not converge (residual {drawing.solution.residual:.3g} N·m)',
+            file=sys.stderr,
+        )
+    print(f'wrote {out}: {drawing.caption}')
+
+
+def run_calibrate(args: argparse.Namespace) -> None:
+    """``exodigit calibrate``."""
+    from .calibration import calibrate_command
+
+    calibrate_command(args.data, args.params, args.fit, Path(args.out))
+
+
+def run_plot(args: argparse.Namespace) -> None:
+    """``exodigit plot``."""
+    from .bag import plot_command
+
+    plot_command(Path(args.bag), _out_dir(args.out))
+
+
+COMMANDS = {
+    'curves': run_curves,
+    'draw': run_draw,
+    'calibrate': run_calibrate,
+    'plot': run_plot,
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``exodigit`` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        COMMANDS[args.command](args)
+    except (ToolError, ParameterError) as error:
+        print(f'exodigit {args.command}: error: {error}', file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as error:
+        reason = error.strerror or str(error)
+        print(f'exodigit {args.command}: error: {reason}: {error.filename}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f'exodigit {args.command}: interrupted', file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,136 @@
+"""Figures of the tools, styled like the paper's Figs 8-11 (matplotlib, headless).
+
+Axes are labelled in the interface units: kPa, degrees, mm, N.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .. import JOINT_NAMES
+from ._deps import pyplot
+from .curves import Sweep
+
+DPI = 100
+"""Resolution of every figure written by the tools."""
+
+JOINT_LABELS = tuple(name.upper() for name in JOINT_NAMES)
+CONDITION_STYLE = {
+    'free': {'marker': 'o', 'color': 'tab:blue', 'label': 'free (module alone)'},
+    'finger': {'marker': 's', 'color': 'tab:red', 'label': 'on finger (module alone)'},
+}
+ALL_STYLE = {'marker': '^', 'color': 'tab:gray', 'linestyle': '--', 'label': 'on finger (all)'}
+
+
+def _panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
+    plt = pyplot()
+    figure, axes = plt.subplots(nrows, ncols, figsize=size, squeeze=False)
+    figure.suptitle(title)
+    for ax in axes.ravel():
+        ax.grid(True, alpha=0.3)
+    return figure, axes
+
+
+def _save(figure, path: Path) -> None:
+    figure.tight_layout()
+    figure.savefig(path, dpi=DPI)
+    pyplot().close(figure)
+
+
+def _find(sweeps: list[Sweep], experiment: str, condition: str) -> Sweep:
+    return next(s for s in sweeps if s.experiment == experiment and s.condition == condition)
+
+
+def angle_figure(sweeps: list[Sweep], path: Path) -> None:
+    """Joint angle against pressure, one panel per joint (Figs 10A-C and 11A-C)."""
+    figure, axes = _panels('Bending angle against pressure: free and on the finger')
+    for joint, ax in enumerate(axes[0]):
+        name = JOINT_NAMES[joint]
+        for condition, style in CONDITION_STYLE.items():
+            sweep = _find(sweeps, name, condition)
+            ax.plot(sweep.pressure / 1e3, np.degrees(sweep.solution.q[:, joint]), **style)
+        together = _find(sweeps, 'all', 'finger')
+        ax.plot(together.pressure / 1e3, np.degrees(together.solution.q[:, joint]), **ALL_STYLE)
+        ax.set_title(f'{JOINT_LABELS[joint]} module')
+        ax.set_xlabel('pressure (kPa)')
+        ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
+    axes[0, 0].legend(fontsize='small')
+    _save(figure, path)
+
+
+def force_figure(sweeps: list[Sweep], path: Path) -> None:
+    """Contact force against pressure, one panel per joint (Figs 9 and 11D-F)."""
+    figure, axes = _panels('Contact force on the finger against pressure')
+    for joint, ax in enumerate(axes[0]):
+        alone = _find(sweeps, JOINT_NAMES[joint], 'finger')
+        together = _find(sweeps, 'all', 'finger')
+        ax.plot(alone.pressure / 1e3, alone.solution.forces[:, joint], **CONDITION_STYLE['finger'])
+        ax.plot(together.pressure / 1e3, together.solution.forces[:, joint], **ALL_STYLE)
+        ax.set_title(f'{JOINT_LABELS[joint]} contact')
+        ax.set_xlabel('pressure (kPa)')
+        ax.set_ylabel(f'f {JOINT_LABELS[joint]} (N)')
+    axes[0, 0].legend(fontsize='small')
+    _save(figure, path)
+
+
+def marker_figure(markers: dict, pressure, path: Path) -> None:
+    """Paths of markers 3 and 4 as the pressure rises, per module (Fig. 8)."""
+    figure, axes = _panels('Tip markers 3 (circles) and 4 (squares), module frame', size=(12, 4.2))
+    for joint, ax in enumerate(axes[0]):
+        for condition, style in CONDITION_STYLE.items():
+            points = markers[(JOINT_NAMES[joint], condition)] * 1e3
+            ax.plot(points[:, 2, 0], points[:, 2, 1], '-o', color=style['color'], label=condition)
+            ax.plot(points[:, 3, 0], points[:, 3, 1], '-s', color=style['color'])
+            ax.plot(points[0, :2, 0], points[0, :2, 1], 'k-', linewidth=3)
+        ax.set_aspect('equal', adjustable='datalim')
+        ax.set_title(f'{JOINT_LABELS[joint]} module, {pressure[-1] / 1e3:g} kPa max')
+        ax.set_xlabel('x (mm)')
+        ax.set_ylabel('y (mm)')
+    axes[0, 0].legend(fontsize='small')
+    _save(figure, path)
+
+
+def fit_figure(measured, before, after, labels, unit: str, path: Path) -> None:
+    """Measured against model values, before and after a fit, one panel per quantity."""
+    count = measured.shape[1]
+    figure, axes = _panels('Calibration: measured against model', ncols=count, size=(4 * count, 4))
+    for column, ax in enumerate(axes[0]):
+        low = min(measured[:, column].min(), after[:, column].min(), before[:, column].min())
+        high = max(measured[:, column].max(), after[:, column].max(), before[:, column].max())
+        ax.plot([low, high], [low, high], 'k-', linewidth=0.8)
+        ax.plot(measured[:, column], before[:, column], 'x', color='tab:gray', label='before')
+        ax.plot(measured[:, column], after[:, column], 'o', color='tab:red', label='fitted')
+        ax.set_title(labels[column])
+        ax.set_xlabel(f'measured ({unit})')
+        ax.set_ylabel(f'model ({unit})')
+    axes[0, 0].legend(fontsize='small')
+    _save(figure, path)
+
+
+def timeseries_figure(series: dict, title: str, path: Path) -> None:
+    """Angles, pressures and forces against time from a recorded bag.
+
+    ``series`` maps a quantity (``angles``, ``pressures``, ``forces``) to a list of
+    ``(label, t_s, values (N, 3), linestyle)`` to draw, values already in deg, kPa or N.
+    """
+    rows = [
+        ('angles', 'joint angle (deg)'),
+        ('pressures', 'pressure (kPa)'),
+        ('forces', 'contact force (N)'),
+    ]
+    figure, axes = _panels(title, ncols=3, nrows=len(rows), size=(13, 9))
+    colors = ('tab:blue', 'tab:orange', 'tab:green')
+    for (quantity, ylabel), row in zip(rows, axes, strict=True):
+        for joint, ax in enumerate(row):
+            for label, time, values, linestyle in series.get(quantity, []):
+                ax.plot(time, values[:, joint], linestyle, color=colors[joint], label=label)
+            ax.set_title(f'{JOINT_LABELS[joint]}: {quantity}')
+            ax.set_xlabel('time (s)')
+            ax.set_ylabel(ylabel)
+            if series.get(quantity):
+                ax.legend(fontsize='small')
+            else:
+                ax.text(0.5, 0.5, 'not recorded', ha='center', transform=ax.transAxes)
+    _save(figure, path)
