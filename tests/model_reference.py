@@ -10,9 +10,12 @@ import math
 
 import numpy as np
 from scipy.integrate import dblquad, quad
+from scipy.optimize import brentq
 
 QUAD_OPTIONS = {'epsabs': 0.0, 'epsrel': 1e-13, 'limit': 200}
 """Adaptive quadrature settings of every reference integral (no absolute floor: M is small)."""
+JACOBIAN_STEP = 1e-6
+"""Central-difference step of the reference contact Jacobian, rad."""
 
 MODEL_MD_DEFAULTS = {
     'material': {'c1': 1.1e5, 'c2': 2.0e4, 'c3': 0.0},
@@ -184,4 +187,43 @@ def printed_finger_jacobian_transposed(params, q):
             [0.0, l2, l3 + 2 * l2 * c3],
             [0.0, 0.0, l3],
         ]
+    )
+
+
+def robot_contact_jacobian(params, q):
+    """J_R*[i, k] = n_i · ∂r^C_i/∂q_k by central differences of eq 4 (all |q_k| ≫ the step)."""
+    _, _, _, normals = exo_digit_points(params, q)
+    jacobian = np.zeros((3, 3))
+    for k in range(3):
+        step = np.zeros(3)
+        step[k] = JACOBIAN_STEP
+        ahead = exo_digit_points(params, q + step)[2]
+        behind = exo_digit_points(params, q - step)[2]
+        jacobian[:, k] = np.sum(normals * (ahead - behind), axis=1) / (2.0 * JACOBIAN_STEP)
+    return jacobian
+
+
+def coupled_residual(params, q, p):
+    """F(q, p) of eq 36: τ_s by quadrature, B_R from the region moment, J* from eq 4 and print."""
+    segments = params.exo_digit.segments
+    torque = np.array(
+        [-resisting_moment(params.material, s, a) for s, a in zip(segments, q, strict=True)]
+    )
+    pressure = np.array([region_first_moment(s) for s in segments]) * p
+    stiffness = np.array([j.stiffness for j in params.finger.joints])
+    forces = np.linalg.solve(printed_finger_jacobian_transposed(params, q), stiffness * q)
+    return torque + pressure - robot_contact_jacobian(params, q).T @ forces
+
+
+def free_bending(params, joint, pressure):
+    """Free-motion angle of one joint: the root of −M(q) + (r_pA_p)·p = 0 (paper §3.3)."""
+    segment = params.exo_digit.segments[joint]
+    drive = region_first_moment(segment) * pressure
+    limit = 2.0 * segment.arc_length / section_height(segment)
+    return brentq(
+        lambda q: drive - resisting_moment(params.material, segment, q),
+        0.0,
+        limit,
+        xtol=1e-15,
+        rtol=1e-15,
     )

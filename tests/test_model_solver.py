@@ -1,0 +1,356 @@
+"""Coupled and free quasi-static solves, inverse, estimators and identification (MODEL.md §6-8)."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from model_reference import (
+    coupled_residual,
+    free_bending,
+    printed_finger_jacobian_transposed,
+    section_height,
+)
+
+from exodigit_model import GloveModel, load_params, params_from_dict
+
+ANGLE_ATOL = 1e-9
+"""Angles of two solves (or a solve and a reference root) that must agree, rad."""
+PRESSURE_RTOL = 1e-6
+"""Pressures of a round trip, relative."""
+FORCE_ATOL = 1e-9
+"""Contact forces computed two ways, N."""
+EQ36_ATOL = 1e-9
+"""Residual of eq 36 against its independent construction, N·m."""
+RESIDUAL_BOUND = 1e-10
+"""Largest residual norm a converged solve may report, N·m."""
+STIFFNESS_RTOL = 1e-7
+"""Identified finger stiffness against the one that generated the data, relative."""
+STIFF_LIMIT_RTOL = 1e-3
+"""K q against its K → ∞ limit at K = 1e3 N·m/rad (error O(stiffness ratio))."""
+PUBLISHED_DEG = 1.0
+"""MODEL.md §10's quoted bending angles, ± degrees."""
+
+PARAMS = load_params()
+MODEL = GloveModel(PARAMS)
+RNG_SEED = 20231
+
+
+def _with_stiffness(stiffness):
+    return params_from_dict({'finger': {'joints': [{'stiffness': float(k)} for k in stiffness]}})
+
+
+def _pressures(rows, low=5e3, high=60e3, seed=RNG_SEED):
+    return np.random.default_rng(seed).uniform(low, high, size=(rows, 3))
+
+
+@pytest.mark.parametrize('free', [False, True])
+def test_zero_pressure_gives_exactly_zero(free):
+    solution = MODEL.solve(np.zeros(3), free=free)
+    assert np.array_equal(solution.q, np.zeros(3))
+    assert np.array_equal(solution.forces, np.zeros(3))
+    assert solution.converged and solution.residual == 0.0
+
+
+@pytest.mark.parametrize(
+    'q, p',
+    [
+        ([0.5, 0.4, 0.3], [30e3, 40e3, 50e3]),
+        ([1.2, -0.3, 0.8], [55e3, 0.0, 12e3]),
+        ([-0.2, 0.9, 0.05], [0.0, 60e3, 1e3]),
+    ],
+)
+def test_residual_is_eq_36_built_independently(q, p):
+    q, p = np.array(q), np.array(p)
+    np.testing.assert_allclose(
+        MODEL.residual(q, p), coupled_residual(PARAMS, q, p), rtol=0, atol=EQ36_ATOL
+    )
+
+
+@pytest.mark.parametrize('joint', range(3))
+@pytest.mark.parametrize('free', [False, True])
+def test_bending_grows_monotonically_with_own_pressure(joint, free):
+    pressures = np.full((31, 3), 20e3)
+    pressures[:, joint] = np.linspace(0.0, 60e3, 31)
+    batch = MODEL.solve_batch(pressures, free=free)
+    assert np.all(batch.converged)
+    assert np.all(np.diff(batch.q[:, joint]) > 0.0)
+
+
+def test_free_motion_solves_each_joint_alone_against_quadrature():
+    q = MODEL.solve_free([50e3, 20e3, 35e3])
+    expected = [free_bending(PARAMS, 0, 50e3), free_bending(PARAMS, 1, 20e3)]
+    expected.append(free_bending(PARAMS, 2, 35e3))
+    np.testing.assert_allclose(q, expected, rtol=0, atol=ANGLE_ATOL)
+
+
+def test_free_joints_are_decoupled():
+    alone = MODEL.solve_free([0.0, 45e3, 0.0])
+    together = MODEL.solve_free([60e3, 45e3, 10e3])
+    assert alone[0] == 0.0 and alone[2] == 0.0
+    assert abs(alone[1] - together[1]) <= ANGLE_ATOL
+
+
+def test_no_finger_stiffness_is_free_motion():
+    no_finger = GloveModel(_with_stiffness([0.0, 0.0, 0.0]))
+    for p in _pressures(6):
+        solution = no_finger.solve(p)
+        assert solution.converged
+        np.testing.assert_allclose(solution.q, MODEL.solve_free(p), rtol=0, atol=ANGLE_ATOL)
+        assert np.all(solution.forces == 0.0)
+
+
+def test_vanishing_finger_stiffness_approaches_free_motion():
+    p = np.array([50e3, 50e3, 50e3])
+    free = MODEL.solve_free(p)
+    gaps = [
+        np.max(np.abs(GloveModel(_with_stiffness([k] * 3)).solve(p).q - free))
+        for k in (1e-2, 1e-4, 1e-6)
+    ]
+    assert gaps[0] > gaps[1] > gaps[2] and gaps[2] < 1e-4
+
+
+def test_very_stiff_finger_holds_the_glove_straight():
+    # As K → ∞, q → 0 and K q → (J_H*)ᵀ (J_R*)^{-T} B_R p at q = 0 (eq 36 with τ_s(0) = 0).
+    stiffness = 1e3
+    model = GloveModel(_with_stiffness([stiffness] * 3))
+    p = np.array([50e3, 30e3, 60e3])
+    solution = model.solve(p)
+    assert solution.converged
+    assert np.max(np.abs(solution.q)) < 1e-4
+    j_robot, _ = MODEL.contact_jacobians(np.zeros(3))
+    drive = np.asarray(MODEL.geometry.pressure_moments) * p
+    limit = printed_finger_jacobian_transposed(PARAMS, np.zeros(3)) @ np.linalg.solve(
+        j_robot.T, drive
+    )
+    np.testing.assert_allclose(stiffness * solution.q, limit, rtol=STIFF_LIMIT_RTOL)
+
+
+def test_stiffer_finger_bends_less():
+    p = np.array([40e3, 40e3, 40e3])
+    angles = [
+        GloveModel(_with_stiffness([k] * 3)).solve(p).q for k in (0.01, 0.05, 0.2, 1.0, 10.0)
+    ]
+    assert all(np.all(a > b) for a, b in itertools.pairwise(angles))
+
+
+def test_inverse_of_forward_gives_the_pressure_back():
+    for p in _pressures(12):
+        solution = MODEL.solve(p)
+        assert solution.converged
+        np.testing.assert_allclose(MODEL.pressure_for(solution.q), p, rtol=PRESSURE_RTOL)
+
+
+@pytest.mark.parametrize(
+    'q', [[0.3, 0.25, 0.15], [0.6, 0.4, 0.2], [0.1, 0.5, 0.3], [0.9, 0.1, 0.6], [0.0, 0.2, 0.0]]
+)
+def test_forward_of_inverse_gives_the_angles_back(q):
+    p = MODEL.pressure_for(q)
+    solution = MODEL.solve(p)
+    assert solution.converged
+    np.testing.assert_allclose(solution.q, q, rtol=0, atol=ANGLE_ATOL)
+
+
+def test_inverse_is_exact_against_independent_eq_36():
+    q = np.array([0.45, 0.35, 0.25])
+    p = MODEL.pressure_for(q)
+    np.testing.assert_allclose(coupled_residual(PARAMS, q, p), 0.0, atol=EQ36_ATOL)
+
+
+def test_forces_are_the_finger_spring_torques_through_the_printed_jacobian():
+    stiffness = np.array([j.stiffness for j in PARAMS.finger.joints])
+    for p in _pressures(5):
+        solution = MODEL.solve(p)
+        printed = printed_finger_jacobian_transposed(PARAMS, solution.q)
+        expected = np.linalg.solve(printed, stiffness * solution.q)
+        np.testing.assert_allclose(solution.forces, expected, rtol=0, atol=FORCE_ATOL)
+        np.testing.assert_allclose(
+            MODEL.finger_forces(solution.q), expected, rtol=0, atol=FORCE_ATOL
+        )
+
+
+def test_robot_side_estimate_equals_the_plant_forces():
+    pressures = _pressures(20)
+    batch = MODEL.solve_batch(pressures)
+    assert np.all(batch.converged)
+    for q, p, forces in zip(batch.q, pressures, batch.forces, strict=True):
+        np.testing.assert_allclose(MODEL.estimate_forces(q, p), forces, rtol=0, atol=FORCE_ATOL)
+    np.testing.assert_allclose(
+        MODEL.estimate_forces_batch(batch.q, pressures), batch.forces, rtol=0, atol=FORCE_ATOL
+    )
+
+
+def test_batch_equals_row_by_row():
+    pressures = np.vstack([_pressures(25, low=0.0), np.zeros(3), [0.0, 0.0, 60e3]])
+    batch = MODEL.solve_batch(pressures)
+    assert batch.q.shape == batch.forces.shape == pressures.shape
+    for row, p in enumerate(pressures):
+        single = MODEL.solve(p)
+        np.testing.assert_allclose(batch.q[row], single.q, rtol=0, atol=ANGLE_ATOL)
+        np.testing.assert_allclose(batch.forces[row], single.forces, rtol=0, atol=FORCE_ATOL)
+        assert batch.converged[row] == single.converged
+        assert batch.in_valid_range[row] == single.in_valid_range
+        assert batch.residual[row] <= RESIDUAL_BOUND
+    np.testing.assert_array_equal(batch.pressure, pressures)
+
+
+def test_batch_free_and_warm_start_match_single_solves():
+    pressures = _pressures(8, seed=7)
+    starts = MODEL.solve_batch(pressures - 500.0).q
+    batch = MODEL.solve_batch(pressures, Q0=starts)
+    free = MODEL.solve_batch(pressures, free=True)
+    for row, p in enumerate(pressures):
+        np.testing.assert_allclose(batch.q[row], MODEL.solve(p).q, rtol=0, atol=ANGLE_ATOL)
+        np.testing.assert_allclose(free.q[row], MODEL.solve_free(p), rtol=0, atol=ANGLE_ATOL)
+
+
+def test_empty_batch():
+    batch = MODEL.solve_batch(np.zeros((0, 3)))
+    assert batch.q.shape == (0, 3) and batch.converged.shape == (0,)
+
+
+def test_warm_start_converges_to_the_same_angles_in_fewer_steps():
+    before = np.array([40e3, 30e3, 20e3])
+    after = before + 500.0
+    cold = MODEL.solve(after)
+    warm = MODEL.solve(after, q0=MODEL.solve(before).q)
+    assert cold.converged and warm.converged
+    assert warm.iterations < cold.iterations
+    np.testing.assert_allclose(warm.q, cold.q, rtol=0, atol=ANGLE_ATOL)
+
+
+def _top_stretch(q):
+    return np.array(
+        [
+            1.0 + a * section_height(s) / s.arc_length
+            for a, s in zip(q, PARAMS.exo_digit.segments, strict=True)
+        ]
+    )
+
+
+@pytest.mark.parametrize('free', [False, True])
+def test_solution_flags(free):
+    flags = []
+    for level in np.linspace(10e3, 200e3, 20):
+        solution = MODEL.solve(np.full(3, level), free=free)
+        assert solution.converged and solution.residual <= RESIDUAL_BOUND
+        assert solution.iterations > 0
+        stretch = _top_stretch(solution.q)
+        assert solution.in_valid_range == bool(np.all((stretch >= 1.0) & (stretch <= 1.5)))
+        flags.append(solution.in_valid_range)
+    assert flags[0] and not flags[-1]
+    assert MODEL.solve(np.full(3, 30e3), free=free).in_valid_range
+
+
+def test_negative_bending_is_outside_the_valid_range():
+    solution = MODEL.solve([-20e3, 0.0, 0.0], free=True)
+    assert solution.converged and solution.q[0] < 0.0 and not solution.in_valid_range
+
+
+def test_in_valid_range_per_row():
+    limit = (
+        0.5
+        * PARAMS.exo_digit.segments[2].arc_length
+        / section_height(PARAMS.exo_digit.segments[2])
+    )
+    rows = np.array([[0.1, 0.1, 0.99 * limit], [0.1, 0.1, 1.01 * limit], [0.1, -0.01, 0.1]])
+    np.testing.assert_array_equal(MODEL.in_valid_range(rows), [True, False, False])
+
+
+def test_non_convergence_is_reported_with_finite_values():
+    # At 1 GPa the torques are so large that the absolute residual tolerance is out of reach.
+    solution = MODEL.solve(np.full(3, 1e9))
+    assert not solution.converged
+    assert np.all(np.isfinite(solution.q)) and np.all(np.isfinite(solution.forces))
+    assert math.isfinite(solution.residual)
+    with pytest.warns(RuntimeWarning, match='did not converge'):
+        MODEL.solve_free(np.full(3, 1e9))
+
+
+BAD_TRIPLES = [
+    [np.nan, 0.0, 0.0],
+    [0.0, np.inf, 0.0],
+    [1.0, 2.0],
+    [1.0, 2.0, 3.0, 4.0],
+    [[1.0], [2.0], [3.0]],
+    np.ones((3, 1)),
+    'abc',
+    5.0,
+    None,
+]
+
+
+@pytest.mark.parametrize('value', BAD_TRIPLES, ids=repr)
+def test_bad_single_inputs_raise_value_error_naming_the_argument(value):
+    for call, name in (
+        (lambda v: MODEL.solve(v), 'p'),
+        (lambda v: MODEL.solve([0.0, 0.0, 0.0], q0=v), 'q0'),
+        (lambda v: MODEL.pressure_for(v), 'q'),
+        (lambda v: MODEL.estimate_forces(v, [0.0, 0.0, 0.0]), 'q'),
+        (lambda v: MODEL.estimate_forces([0.0, 0.0, 0.0], v), 'p'),
+        (lambda v: MODEL.contact_jacobians(v), 'q'),
+        (lambda v: MODEL.finger_forces(v), 'q'),
+    ):
+        if name == 'q0' and value is None:
+            continue  # q0=None means a cold start
+        with pytest.raises(ValueError, match=rf'^{name}\b'):
+            call(value)
+
+
+@pytest.mark.parametrize(
+    'value', [np.zeros(3), np.zeros((4, 2)), np.full((2, 3), np.nan), [[0.0, np.inf, 0.0]]]
+)
+def test_bad_batch_inputs_raise_value_error(value):
+    with pytest.raises(ValueError, match=r'^P\b'):
+        MODEL.solve_batch(value)
+    with pytest.raises(ValueError, match=r'^Q\b'):
+        MODEL.estimate_forces_batch(value, np.zeros((1, 3)))
+
+
+def test_batch_start_of_the_wrong_shape_is_rejected():
+    with pytest.raises(ValueError, match='Q0'):
+        MODEL.solve_batch(np.zeros((4, 3)), Q0=np.zeros((3, 3)))
+
+
+def test_identification_recovers_the_finger_stiffness():
+    truth = np.array([0.085, 0.052, 0.021])
+    model = GloveModel(_with_stiffness(truth))
+    pressures = _pressures(40, low=0.0)
+    states = model.solve_batch(pressures)
+    assert np.all(states.converged)
+    np.testing.assert_allclose(
+        model.identify_stiffness(states.q, pressures), truth, rtol=STIFFNESS_RTOL
+    )
+    # Identification uses the robot-side estimate only: a model that assumes another finger
+    # identifies the same (true) stiffness from the same measurements.
+    np.testing.assert_allclose(
+        MODEL.identify_stiffness(states.q, pressures), truth, rtol=STIFFNESS_RTOL
+    )
+    fit = MODEL.fit_stiffness(states.q, pressures)
+    assert fit.samples == 40 and np.all(fit.standard_error < 1e-9)
+
+
+def test_identification_from_a_single_state():
+    truth = np.array([0.2, 0.1, 0.05])
+    model = GloveModel(_with_stiffness(truth))
+    p = np.array([[45e3, 35e3, 25e3]])
+    q = model.solve(p[0]).q[None, :]
+    np.testing.assert_allclose(MODEL.identify_stiffness(q, p), truth, rtol=STIFFNESS_RTOL)
+
+
+def test_identification_refuses_a_joint_that_never_moved():
+    q = np.array([[0.3, 0.2, 0.0], [0.5, 0.4, 0.0], [0.2, 0.6, 0.0]])
+    p = np.array([MODEL.pressure_for(row) for row in q])
+    with pytest.raises(ValueError, match=r'dip.*(moved|excitation)'):
+        MODEL.identify_stiffness(q, p)
+    with pytest.raises(ValueError, match='sample'):
+        MODEL.identify_stiffness(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+def test_published_bending_angles_at_50_kpa():
+    # MODEL.md §10: free ≈ 61°/41°/20°, coupled ≈ 29°/26°/17° with the default parameters.
+    p = np.full(3, 50e3)
+    free = np.degrees(MODEL.solve_free(p))
+    coupled = np.degrees(MODEL.solve(p).q)
+    np.testing.assert_allclose(free, [61.0, 41.0, 20.0], atol=PUBLISHED_DEG)
+    np.testing.assert_allclose(coupled, [29.0, 26.0, 17.0], atol=PUBLISHED_DEG)
