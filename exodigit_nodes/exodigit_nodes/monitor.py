@@ -13,7 +13,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from exodigit_nodes.qos import QOS
+from exodigit_nodes.messages import DIAGNOSTICS
+from exodigit_nodes.qos import GLOVE_QOS
 from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
 
 
@@ -50,11 +51,11 @@ class GloveMonitor(Node):
         self.rejected = 0
         for topic in SIGNALS:
             if topic == 'joint_states':
-                self.create_subscription(JointState, topic, self._on_joint_state, QOS)
+                self.create_subscription(JointState, topic, self._on_joint_state, GLOVE_QOS)
             else:
                 callback = self._array_callback(topic)
-                self.create_subscription(Float64MultiArray, topic, callback, QOS)
-        self.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, QOS)
+                self.create_subscription(Float64MultiArray, topic, callback, GLOVE_QOS)
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, GLOVE_QOS)
 
     def _array_callback(self, topic: str) -> Callable[[Float64MultiArray], None]:
         def callback(message: Float64MultiArray) -> None:

@@ -1,0 +1,176 @@
+"""The glove's ROS-free parts: joining plant steps, the run record, the summary, discovery env."""
+
+import io
+import math
+import struct
+from datetime import datetime
+
+import numpy as np
+import pytest
+from exodigit_nodes.ros_env import discovery_settings
+from exodigit_nodes.run_record import RunRecord, csv_columns, new_run_directory, read_csv
+from exodigit_nodes.summary import SIGNALS, GloveSignals, SummaryDisplay
+
+NODES = ('plant', 'estimator', 'pressure_command')
+PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
+
+
+def png_size(path):
+    """(width, height) from the IHDR chunk that must follow the PNG signature."""
+    data = path.read_bytes()
+    assert data[:8] == PNG_SIGNATURE
+    assert data[12:16] == b'IHDR'
+    return struct.unpack('>II', data[16:24])
+
+
+def plant_step(signals, stamp, p, order=('chamber_pressure', 'joint_states', 'contact_forces')):
+    """Feed one plant step (chamber p, angles p/1e5 rad, forces p/1e4 N) in ``order``."""
+    values = {
+        'chamber_pressure': np.full(3, p),
+        'joint_states': np.full(3, p / 1e5),
+        'contact_forces': np.full(3, p / 1e4),
+    }
+    samples = [
+        signals.update(topic, values[topic], stamp if topic == 'joint_states' else None)
+        for topic in order
+    ]
+    return samples
+
+
+@pytest.mark.parametrize(
+    'order',
+    [
+        ('chamber_pressure', 'joint_states', 'contact_forces'),
+        ('joint_states', 'contact_forces', 'chamber_pressure'),
+        ('contact_forces', 'chamber_pressure', 'joint_states'),
+    ],
+)
+def test_a_sample_joins_the_three_topics_of_one_plant_step_in_any_order(order):
+    signals = GloveSignals(NODES)
+    signals.update('pressure_command', [1.0, 2.0, 3.0])
+    for step in range(3):
+        samples = plant_step(signals, 100.0 + 0.01 * step, 1000.0 * (step + 1), order)
+        assert samples[:2] == [None, None]
+        sample = samples[2]
+        assert sample.time == pytest.approx(0.01 * step)
+        p = sample.values['chamber_pressure']
+        np.testing.assert_array_equal(sample.values['joint_states'], p / 1e5)
+        np.testing.assert_array_equal(sample.values['contact_forces'], p / 1e4)
+        np.testing.assert_array_equal(p, np.full(3, 1000.0 * (step + 1)))
+        np.testing.assert_array_equal(sample.values['pressure_command'], [1.0, 2.0, 3.0])
+        assert sample.values['estimated_contact_forces'] is None
+
+
+def test_repeated_messages_of_one_topic_do_not_make_a_sample():
+    signals = GloveSignals(NODES)
+    for _ in range(5):
+        assert signals.update('joint_states', [0.1, 0.2, 0.3], 1.0) is None
+    with pytest.raises(ValueError, match='unknown signal'):
+        signals.update('cmd_vel', [0.0, 0.0, 0.0])
+
+
+def test_run_record_csv_holds_display_units_and_empty_cells_for_missing_values(tmp_path):
+    record = RunRecord(tmp_path / 'run')
+    signals = GloveSignals(NODES)
+    pressures = [12_345.0, 50_000.0]
+    for i, p in enumerate(pressures):
+        if i == 1:
+            signals.update('estimated_contact_forces', [0.5, 0.25, 0.125])
+        record.write(plant_step(signals, 5.0 + i, p)[-1])
+    record.close()
+    table = read_csv(record.csv_path)
+    assert list(table) == csv_columns()
+    np.testing.assert_allclose(table['time_s'], [0.0, 1.0])
+    np.testing.assert_allclose(table['p_mcp_kpa'], np.array(pressures) / 1000.0, rtol=1e-12)
+    np.testing.assert_allclose(
+        table['q_dip_deg'], np.degrees(np.array(pressures) / 1e5), rtol=1e-11
+    )
+    np.testing.assert_allclose(table['f_pip_n'], np.array(pressures) / 1e4, rtol=1e-12)
+    assert math.isnan(table['f_est_mcp_n'][0]) and table['f_est_dip_n'][1] == 0.125
+    assert np.isnan(table['p_cmd_mcp_kpa']).all()
+    assert record.rows == 2
+
+
+def test_run_record_plot_is_a_png_of_sensible_size(tmp_path):
+    record = RunRecord(tmp_path)
+    signals = GloveSignals(NODES)
+    for i in range(50):
+        signals.update('pressure_command', np.full(3, 1e3 * i))
+        record.write(plant_step(signals, 0.01 * i, 1e3 * i)[-1])
+    record.close()
+    assert record.plot() == record.plot_path
+    width, height = png_size(record.plot_path)
+    assert 600 <= width <= 2000 and 600 <= height <= 2000
+    assert record.plot_path.stat().st_size > 20_000  # four panels of curves, not a blank image
+
+
+def test_an_empty_run_has_no_plot(tmp_path):
+    record = RunRecord(tmp_path)
+    record.close()
+    assert record.plot() is None
+    assert not record.plot_path.exists()
+
+
+def test_run_directories_are_never_reused(tmp_path):
+    now = datetime(2026, 1, 2, 3, 4, 5)
+    first, second = new_run_directory(tmp_path, now), new_run_directory(tmp_path, now)
+    assert first.name == '20260102-030405' and second.name == '20260102-030405-1'
+    assert first.is_dir() and second.is_dir()
+
+
+def test_summary_table_and_line_show_values_in_display_units():
+    signals = GloveSignals(NODES)
+    plant_step(signals, 3.0, 25_000.0)
+    signals.update_health('plant', 0, 'ok', now=10.0)
+    signals.update_health('estimator', 1, 'stale sample', now=10.0)
+    table = signals.table(now=11.0, title='glove')
+    angle = f'{math.degrees(0.25):.2f}'
+    assert angle in table and '25.00' in table and 'kPa' in table and 'deg' in table
+    line = signals.line(now=11.0)
+    assert f'q_deg=[{angle} {angle} {angle}]' in line
+    assert 'plant OK' in line and 'estimator WARN (stale sample)' in line
+    assert 'pressure_command (no diagnostics yet)' in line
+    assert 'plant SILENT' in signals.line(now=20.0)
+    for signal in SIGNALS.values():
+        assert signal.label in table
+
+
+def test_display_prints_one_line_per_period_without_a_terminal_and_redraws_on_one():
+    signals = GloveSignals(NODES)
+    plain = io.StringIO()
+    display = SummaryDisplay(plain, interactive=False, line_period=1.0)
+    for now in np.arange(0.0, 3.0, 0.25):
+        display.show(signals, now, 'glove')
+    assert len(plain.getvalue().splitlines()) == 3
+    assert '\x1b' not in plain.getvalue()
+    tty = io.StringIO()
+    display = SummaryDisplay(tty, interactive=True)
+    display.show(signals, 0.0, 'glove')
+    lines = len(tty.getvalue().splitlines())
+    display.show(signals, 0.25, 'glove')
+    assert f'\x1b[{lines}F\x1b[J' in tty.getvalue()
+
+
+def test_discovery_defaults_to_localhost_and_keeps_what_the_user_set():
+    default = discovery_settings({})
+    assert (default.discovery_range, default.domain_id) == ('LOCALHOST', 0)
+    assert default.range_defaulted and default.domain_defaulted
+    env = default.apply({'PATH': '/bin'})
+    assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST' and env['PATH'] == '/bin'
+    lan = discovery_settings({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_DOMAIN_ID': '42'})
+    assert (lan.discovery_range, lan.domain_id, lan.range_defaulted) == ('SUBNET', 42, False)
+    assert 'SUBNET (from the environment)' in lan.describe()
+
+
+@pytest.mark.parametrize(
+    ('environ', 'message'),
+    [
+        ({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LAN'}, 'ROS_AUTOMATIC_DISCOVERY_RANGE'),
+        ({'ROS_DOMAIN_ID': 'abc'}, 'ROS_DOMAIN_ID'),
+        ({'ROS_DOMAIN_ID': '233'}, 'ROS_DOMAIN_ID'),
+        ({'ROS_DOMAIN_ID': '-1'}, 'ROS_DOMAIN_ID'),
+    ],
+)
+def test_discovery_refuses_unknown_values(environ, message):
+    with pytest.raises(ValueError, match=message):
+        discovery_settings(environ)

@@ -1,0 +1,99 @@
+"""The supervisor with real child processes (plain Python children, no ROS)."""
+
+import os
+import signal
+import sys
+import time
+
+from exodigit_nodes.supervisor import Supervisor
+
+WAIT = 10.0
+
+# A child that logs "<name> stopped <time>" to a shared file when SIGINT arrives, then exits 0.
+POLITE = """
+import signal, sys, time
+name, log = sys.argv[1], sys.argv[2]
+def stop(*_):
+    with open(log, 'a') as f:
+        f.write(f'{name} {time.monotonic()}\\n')
+    sys.exit(0)
+signal.signal(signal.SIGINT, stop)
+print('ready', flush=True)
+while True:
+    time.sleep(0.01)
+"""
+STUBBORN = """
+import signal, time
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+print('ready', flush=True)
+while True:
+    time.sleep(0.01)
+"""
+
+
+def wait_for(condition, timeout=WAIT):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f'/proc/{pid}/stat') as stat:
+        return stat.read().split()[2] != 'Z'
+
+
+def ready(supervisor, name):
+    return 'ready' in supervisor.log_path(name).read_text()
+
+
+def test_processes_stop_in_the_given_order_with_sigint(tmp_path):
+    order_log = tmp_path / 'order.log'
+    supervisor = Supervisor(os.environ, log_dir=tmp_path / 'logs')
+    for name in ('plant', 'estimator', 'pressure_command'):
+        supervisor.start(name, [sys.executable, '-c', POLITE, name, str(order_log)])
+    assert wait_for(lambda: all(ready(supervisor, n) for n in supervisor.names))
+    pids = [supervisor.pid(name) for name in supervisor.names]
+    # each child leads its own session, apart from the test's
+    assert all(os.getsid(pid) == pid != os.getsid(0) for pid in pids)
+    idle_calls = []
+    exits = supervisor.stop(['pressure_command', 'plant'], idle=lambda: idle_calls.append(1))
+    assert [e.name for e in exits] == ['pressure_command', 'plant', 'estimator']
+    assert all(e.clean for e in exits)
+    logged = [line.split()[0] for line in order_log.read_text().splitlines()]
+    assert logged == ['pressure_command', 'plant', 'estimator']
+    assert idle_calls
+    assert not any(alive(pid) for pid in pids)
+    assert supervisor.running() == []
+
+
+def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):
+    supervisor = Supervisor(os.environ, log_dir=tmp_path)
+    supervisor.start('stubborn', [sys.executable, '-c', STUBBORN])
+    assert wait_for(lambda: ready(supervisor, 'stubborn'))
+    started = time.monotonic()
+    (exit_,) = supervisor.stop(['stubborn'], grace=0.5)
+    assert time.monotonic() - started < 3.0
+    assert exit_.forced and not exit_.clean
+    assert exit_.returncode == -signal.SIGTERM
+    assert 'killed by SIGTERM (did not stop on SIGINT)' in exit_.describe()
+
+
+def test_an_unexpected_exit_is_seen_with_its_code_and_log(tmp_path):
+    supervisor = Supervisor(os.environ, log_dir=tmp_path)
+    supervisor.start('plant', [sys.executable, '-c', 'print("bad params_file"); exit(3)'])
+    supervisor.start('estimator', [sys.executable, '-c', STUBBORN])
+    assert wait_for(lambda: supervisor.exited())
+    (exit_,) = supervisor.exited()
+    assert (exit_.name, exit_.returncode) == ('plant', 3)
+    assert exit_.describe() == 'plant exited with code 3'
+    assert 'bad params_file' in supervisor.log_path('plant').read_text()
+    assert supervisor.running() == ['estimator']
+    supervisor.stop(['estimator'], grace=0.5)
+    assert supervisor.running() == []
