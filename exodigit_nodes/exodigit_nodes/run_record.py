@@ -133,6 +133,8 @@ def save_plot(table: dict[str, np.ndarray], path: Path) -> None:
                 ax.plot(
                     time, table[column][keep], style, color=colour, label=f'{joint} {signal.label}'
                 )
+            if np.isnan(table[signal.columns()[0]]).all():
+                ax.text(0.5, 0.5, f'no {topic} received', transform=ax.transAxes, ha='center')
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize='small', ncols=len(curves))

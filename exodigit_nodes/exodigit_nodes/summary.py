@@ -176,8 +176,8 @@ class GloveSignals:
 
     def line(self, now: float) -> str:
         """The one-line summary for logs: ``t=… command_kPa=[…] angle_deg=[…] … nodes: …``."""
-        clock = 'nan' if self.time is None else f'{self.time:.2f}'
-        parts = [f't={clock}s']
+        clock = '-' if self.time is None else f'{self.time:.2f}s'
+        parts = [f't={clock}']
         for topic, signal in SIGNALS.items():
             cells = _cells(self.latest[topic], signal.scale, width=0)
             parts.append(f'{signal.column}_{signal.unit_tag}=[{cells}]')
