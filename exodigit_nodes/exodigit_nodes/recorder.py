@@ -1,0 +1,200 @@
+"""Record every topic of one glove to a rosbag2 bag in MCAP storage (no ROS install needed).
+
+Usage::
+
+    python -m exodigit_nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
+
+Subscribes, in its namespace, to every glove topic of INTERFACES.md (``joint_states``,
+``chamber_pressure``, ``pressure_command``, ``contact_forces``, ``estimated_contact_forces``,
+``estimated_finger_stiffness``, ``joint_targets``, ``markers``) and to ``/diagnostics``, and writes
+the serialized (CDR) messages as they arrive, stamped with the node clock, to the bag folder
+``DIR`` with the ``rosbags`` library. The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and
+``exodigit plot DIR`` draws it. Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes
+the bag cleanly (metadata.yaml written); a topic nobody publishes is listed with 0 messages.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from pathlib import Path
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from visualization_msgs.msg import MarkerArray
+
+from . import messages
+from .qos import GLOVE_QOS
+
+TOPICS = {
+    messages.JOINT_STATES: JointState,
+    messages.CHAMBER_PRESSURE: Float64MultiArray,
+    messages.PRESSURE_COMMAND: Float64MultiArray,
+    messages.CONTACT_FORCES: Float64MultiArray,
+    messages.ESTIMATED_CONTACT_FORCES: Float64MultiArray,
+    messages.ESTIMATED_FINGER_STIFFNESS: Float64MultiArray,
+    messages.JOINT_TARGETS: Float64MultiArray,
+    messages.MARKERS: MarkerArray,
+    messages.DIAGNOSTICS: DiagnosticArray,
+}
+"""Recorded topics (relative names resolve in the node's namespace) and their message types."""
+
+BAG_VERSION = 9
+"""rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
+
+
+class RecorderError(Exception):
+    """The recorder cannot start; the text is the one line the user sees."""
+
+
+def type_name(message_class: type) -> str:
+    """ROS 2 type name of an rclpy message class, e.g. ``std_msgs/msg/Float64MultiArray``."""
+    package = message_class.__module__.split('.')[0]
+    return f'{package}/msg/{message_class.__name__}'
+
+
+class BagWriter:
+    """A rosbag2 MCAP bag being written: one connection per topic, raw CDR messages in.
+
+    Parameters
+    ----------
+    path : Path
+        Bag folder to create (must not exist).
+    topics : dict
+        Fully resolved topic name -> ROS 2 type name.
+    """
+
+    def __init__(self, path: Path, topics: dict[str, str]) -> None:
+        try:
+            from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+            from rosbags.typesys import Stores, get_typestore
+        except ImportError:
+            raise RecorderError(
+                'rosbags is not installed; install it with: pip install "./exodigit_model[tools]"'
+            ) from None
+        if path.exists():
+            raise RecorderError(f'--output {path}: exists already; the bag needs a new folder')
+        typestore = get_typestore(Stores.ROS2_JAZZY)
+        self.path = path
+        self._writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        try:
+            self._writer.open()
+        except (WriterError, OSError) as error:
+            raise RecorderError(f'--output {path}: cannot create the bag ({error})') from None
+        self._connections = {
+            topic: self._writer.add_connection(topic, msgtype, typestore=typestore)
+            for topic, msgtype in topics.items()
+        }
+        self.counts = dict.fromkeys(topics, 0)
+
+    def write(self, topic: str, stamp_ns: int, data: bytes) -> None:
+        """Append one serialized message received at ``stamp_ns`` (node clock, ns)."""
+        self._writer.write(self._connections[topic], stamp_ns, data)
+        self.counts[topic] += 1
+
+    def close(self) -> None:
+        """Finish the MCAP file and write metadata.yaml."""
+        self._writer.close()
+
+
+class Recorder(Node):
+    """Subscribes to the glove topics (raw CDR) and hands each message to a :class:`BagWriter`."""
+
+    def __init__(self, output: Path) -> None:
+        super().__init__('recorder')
+        resolved = {}
+        for topic, message_class in TOPICS.items():
+            subscription = self.create_subscription(
+                message_class,
+                topic,
+                self._callback_for(topic),
+                GLOVE_QOS,
+                raw=True,
+            )
+            resolved[topic] = subscription.topic_name
+        self._names = resolved
+        self.bag = BagWriter(output, {resolved[t]: type_name(c) for t, c in TOPICS.items()})
+        self.get_logger().info(
+            f'recording {len(TOPICS)} topics to {output} (rosbag2, MCAP): '
+            + ', '.join(resolved.values())
+        )
+
+    def _callback_for(self, topic: str):
+        def record(data: bytes) -> None:
+            self.bag.write(self._names[topic], self.get_clock().now().nanoseconds, data)
+
+        return record
+
+    def close(self) -> None:
+        """Close the bag and log what it holds."""
+        self.bag.close()
+        counts = ', '.join(f'{topic} {count}' for topic, count in self.bag.counts.items())
+        self.get_logger().info(f'closed {self.bag.path}: {counts} messages')
+
+
+def parse_arguments(argv: list[str]) -> argparse.Namespace:
+    """The recorder's own options (``--ros-args`` removed first)."""
+    parser = argparse.ArgumentParser(
+        prog='python -m exodigit_nodes.recorder',
+        description='Record every glove topic of the namespace to a rosbag2 MCAP bag.',
+        epilog='example:\n  python -m exodigit_nodes.recorder --output runs/bag --duration 20 '
+        '--ros-args -r __ns:=/glove',
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument('--output', required=True, metavar='DIR', help='bag folder to create')
+    parser.add_argument(
+        '--duration',
+        type=float,
+        default=0.0,
+        metavar='S',
+        help='stop after S seconds (0 = until Ctrl-C)',
+    )
+    options = parser.parse_args(argv)
+    if not options.duration >= 0.0 or options.duration == float('inf'):
+        parser.error(f'--duration {options.duration}: must be a finite number >= 0 (s)')
+    return options
+
+
+def _stop(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``)."""
+    argv = sys.argv if args is None else ['recorder', *args]
+    options = parse_arguments(remove_ros_args(argv)[1:])
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
+    node = None
+    code = 0
+    try:
+        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+        node = Recorder(Path(options.output))
+        deadline = time.monotonic() + options.duration if options.duration > 0 else None
+        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
+            rclpy.spin_once(node, timeout_sec=0.1)
+    except RecorderError as error:
+        print(f'recorder: error: {error}', file=sys.stderr)
+        code = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
