@@ -1,0 +1,125 @@
+"""Property-based checks over random valid glove parameters and pressures (issue 2, hypothesis)."""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from model_reference import MODEL_MD_DEFAULTS, exo_digit_points, robot_contact_jacobian
+
+from exodigit_model import GloveModel, params_from_dict
+
+EXAMPLES = 50
+"""Examples per property (each builds a model, ~50 ms)."""
+RESIDUAL_BOUND = 1e-10
+"""Largest residual norm a converged solve may report, N·m."""
+PRESSURE_RTOL = 1e-6
+"""Round trip p -> q -> p, relative to the largest pressure of the triple."""
+JACOBIAN_ATOL = 1e-8
+"""Contact Jacobian against differences of eq 4, m."""
+
+SEGMENT_LENGTHS = (
+    'arc_length',
+    'inner_radius',
+    'wall_thickness',
+    'wall_height',
+    'base_thickness',
+    'block_half_length',
+)
+
+
+def _scaled(value):
+    return st.floats(0.7 * value, 1.3 * value)
+
+
+@st.composite
+def glove_parameters(draw):
+    """Material in the ranges of issue 2, every length within ±30 % of MODEL.md §10."""
+    defaults = MODEL_MD_DEFAULTS
+    segments = [
+        {key: draw(_scaled(segment[key])) for key in SEGMENT_LENGTHS}
+        for segment in defaults['exo_digit']['segments']
+    ]
+    joints = [
+        {
+            'link_half_length': draw(_scaled(joint['link_half_length'])),
+            'stiffness': draw(st.floats(0.0, 0.5)),
+        }
+        for joint in defaults['finger']['joints']
+    ]
+    return params_from_dict(
+        {
+            'material': {
+                'c1': draw(st.floats(3e4, 1e6)),
+                'c2': draw(st.floats(0.0, 1e5)),
+                'c3': draw(st.floats(0.0, 1e4)),
+            },
+            'exo_digit': {
+                'base_block_half_length': draw(
+                    _scaled(defaults['exo_digit']['base_block_half_length'])
+                ),
+                'segments': segments,
+            },
+            'finger': {'joints': joints},
+        }
+    )
+
+
+pressure_triples = st.lists(st.floats(0.0, 60e3), min_size=3, max_size=3).map(np.array)
+
+
+def _finite(*arrays):
+    return all(np.all(np.isfinite(a)) for a in arrays)
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(params=glove_parameters(), p=pressure_triples, free=st.booleans())
+def test_solve_converges_or_says_so_and_stays_finite(params, p, free):
+    model = GloveModel(params)
+    solution = model.solve(p, free=free)
+    assert _finite(solution.q, solution.forces) and math.isfinite(solution.residual)
+    assert isinstance(solution.converged, bool)
+    if solution.converged:
+        assert solution.residual <= RESIDUAL_BOUND
+        if free:
+            # Decoupled joints, each pushed towards flexion (a finger may pull a joint back).
+            assert np.all(solution.q >= 0.0)
+        else:
+            scale = max(np.max(p), 1.0)
+            np.testing.assert_allclose(
+                model.pressure_for(solution.q), p, rtol=0, atol=PRESSURE_RTOL * scale
+            )
+            np.testing.assert_allclose(
+                model.estimate_forces(solution.q, p), solution.forces, rtol=0, atol=1e-8
+            )
+
+
+@settings(max_examples=EXAMPLES // 2, deadline=None)
+@given(
+    params=glove_parameters(),
+    pressures=st.lists(pressure_triples, min_size=1, max_size=8).map(np.array),
+)
+def test_batch_converges_or_says_so_and_matches_single_solves(params, pressures):
+    model = GloveModel(params)
+    batch = model.solve_batch(pressures)
+    assert _finite(batch.q, batch.forces, batch.residual)
+    for row, p in enumerate(pressures):
+        single = model.solve(p)
+        assert batch.converged[row] == single.converged
+        if single.converged:
+            np.testing.assert_allclose(batch.q[row], single.q, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=EXAMPLES, deadline=None)
+@given(
+    params=glove_parameters(),
+    q=st.lists(
+        st.floats(0.05, 2.5).flatmap(lambda a: st.sampled_from([a, -a])), min_size=3, max_size=3
+    ).map(np.array),
+)
+def test_contact_jacobian_and_pose_follow_eq_4(params, q):
+    model = GloveModel(params)
+    _, _, centres, _ = exo_digit_points(params, q)
+    np.testing.assert_allclose(model.pose(q).contact_points, centres, rtol=0, atol=1e-13)
+    j_robot, _ = model.contact_jacobians(q)
+    np.testing.assert_allclose(j_robot, robot_contact_jacobian(params, q), atol=JACOBIAN_ATOL)
