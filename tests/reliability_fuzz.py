@@ -1,0 +1,185 @@
+"""Hostile input messages for the glove's subscriptions, and what a node may publish in reply.
+
+`hostile_vectors` and `hostile_joint_states` cycle through the cases of issue 4 (wrong lengths
+0, 1, 2, 4, 1000; NaN, ±Inf, ±1e308, subnormals, negative and huge values; empty, duplicated and
+reordered joint names; position/velocity/effort of different lengths; stamps of zero, in the
+future and far in the past), mixed with a few well-formed messages so that the valid path is
+exercised between the bad ones. Each message comes with ``malformed``: True when INTERFACES.md
+says the receiving node must drop it (wrong length or non-finite; for joint states also wrong
+names or mismatched arrays). Stamp checks depend on the node, so stamps do not enter that flag.
+
+`OutputCheck` collects every value a node publishes and every bound it breaks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+#: Hostile numbers: non-finite, extreme, subnormal, negative and huge.
+HOSTILE_NUMBERS = (
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e308,
+    -1e308,
+    5e-324,
+    -5e-324,
+    2.2250738585072014e-308,
+    -1e5,
+    1e9,
+    0.0,
+    -0.0,
+)
+#: Wrong lengths for a three-joint vector.
+WRONG_LENGTHS = (0, 1, 2, 4, 1000)
+#: Joint name lists: empty, short, duplicated, reordered, unknown, too many.
+HOSTILE_NAMES = (
+    [],
+    ['mcp'],
+    ['mcp', 'mcp', 'mcp'],
+    ['dip', 'pip', 'mcp'],
+    ['pip', 'mcp', 'dip'],
+    ['a', 'b', 'c'],
+    ['mcp', 'pip', 'dip', 'tip'],
+    ['', '', ''],
+)
+
+
+def _is_valid_vector(data: list[float]) -> bool:
+    return len(data) == 3 and all(math.isfinite(v) for v in data)
+
+
+def _vector(rng: np.random.Generator, case: int, scale: float) -> list[float]:
+    """Data of one Float64MultiArray for case number ``case``."""
+    kind = case % 4
+    if kind == 0:  # wrong length
+        length = WRONG_LENGTHS[(case // 4) % len(WRONG_LENGTHS)]
+        return (rng.standard_normal(length) * scale).tolist()
+    if kind == 1:  # three values, each from the hostile list
+        return [HOSTILE_NUMBERS[i] for i in rng.integers(len(HOSTILE_NUMBERS), size=3)]
+    if kind == 2:  # one hostile value among sensible ones
+        data = (rng.uniform(0.0, 1.0, 3) * scale).tolist()
+        data[int(rng.integers(3))] = HOSTILE_NUMBERS[int(rng.integers(len(HOSTILE_NUMBERS)))]
+        return data
+    return (rng.uniform(-0.5, 1.5, 3) * scale).tolist()  # well formed, possibly out of range
+
+
+def hostile_vectors(
+    count: int, scale: float, seed: int = 0
+) -> Iterator[tuple[Float64MultiArray, bool]]:
+    """``count`` Float64MultiArray messages and whether each is malformed.
+
+    Parameters
+    ----------
+    count : int
+        How many.
+    scale : float
+        Size of a sensible value on the topic (Pa, rad or N).
+    seed : int
+        Seed of the random choices.
+    """
+    rng = np.random.default_rng(seed)
+    for case in range(count):
+        data = _vector(rng, case, scale)
+        yield Float64MultiArray(data=data), not _is_valid_vector(data)
+
+
+def _stamp(rng: np.random.Generator, case: int, now_ns: int) -> Time:
+    kind = case % 5
+    if kind == 0:
+        nanoseconds = 0
+    elif kind == 1:
+        nanoseconds = now_ns + int(rng.integers(1, 10**6)) * 10**9  # future
+    elif kind == 2:
+        nanoseconds = int(rng.integers(1, 10**6)) * 10**9  # 1970
+    else:
+        nanoseconds = now_ns
+    return Time(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
+
+
+def hostile_joint_states(
+    count: int, prefix: str, now_ns: int, seed: int = 0
+) -> Iterator[tuple[JointState, bool]]:
+    """``count`` JointState messages for joints ``<prefix>mcp`` etc., and whether malformed.
+
+    ``now_ns`` is the receiving clock's time, ns, for the current, future and ancient stamps.
+    """
+    rng = np.random.default_rng(seed)
+    good_names = [f'{prefix}{joint}' for joint in ('mcp', 'pip', 'dip')]
+    for case in range(count):
+        kind = case % 4
+        names = list(good_names)
+        position = rng.uniform(0.0, 1.0, 3).tolist()
+        velocity: list[float] = []
+        effort: list[float] = []
+        if kind == 0:
+            names = [prefix + n if n else n for n in HOSTILE_NAMES[(case // 4) % 8]]
+            position = position[: len(names)] if names else []
+        elif kind == 1:
+            position = _vector(rng, case // 4, 1.0)
+            velocity = _vector(rng, case // 4 + 1, 1.0)
+            effort = _vector(rng, case // 4 + 2, 1.0)
+        elif kind == 2:
+            velocity = (rng.standard_normal(int(rng.integers(0, 5)))).tolist()
+            effort = (rng.standard_normal(int(rng.integers(0, 5)))).tolist()
+        order = sorted(range(len(names)), key=lambda i: rng.random())
+        message = JointState(
+            name=[names[i] for i in order],
+            position=[position[i] for i in order] if len(position) == len(names) else position,
+            velocity=velocity,
+            effort=effort,
+        )
+        message.header.stamp = _stamp(rng, case, now_ns)
+        message.header.frame_id = ''
+        suffixes = sorted(n[len(prefix) :] if n.startswith(prefix) else n for n in names)
+        malformed = (
+            suffixes != ['dip', 'mcp', 'pip']
+            or not _is_valid_vector(position)
+            or len(velocity) not in (0, 3)
+            or len(effort) not in (0, 3)
+        )
+        yield message, malformed
+
+
+@dataclass
+class OutputCheck:
+    """Every value a node published, checked against bounds.
+
+    Attributes
+    ----------
+    bounds : dict
+        Topic -> (low, high) inclusive bounds of every published value.
+    messages : dict
+        Topic -> messages seen.
+    violations : list of str
+        One line per value that was non-finite or out of bounds (first 20 kept).
+    non_finite : int
+        Count of non-finite published values.
+    """
+
+    bounds: dict[str, tuple[float, float]]
+    messages: dict[str, int] = field(default_factory=dict)
+    violations: list[str] = field(default_factory=list)
+    non_finite: int = 0
+    out_of_bounds: int = 0
+
+    def add(self, topic: str, values) -> None:
+        """Check the values of one published message on ``topic``."""
+        self.messages[topic] = self.messages.get(topic, 0) + 1
+        low, high = self.bounds.get(topic, (-math.inf, math.inf))
+        for value in values:
+            if not math.isfinite(value):
+                self.non_finite += 1
+            elif low <= value <= high:
+                continue
+            else:
+                self.out_of_bounds += 1
+            if len(self.violations) < 20:
+                self.violations.append(f'{topic}: {value!r} outside [{low}, {high}]')

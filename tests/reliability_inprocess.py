@@ -1,0 +1,108 @@
+"""A glove node class run in this process, its callbacks driven directly: no DDS traffic.
+
+`InProcessNode` constructs a node class under its own rclpy context (``--ros-args`` parameter
+overrides, a private domain id, loopback discovery), replaces each publisher's ``publish`` with
+a recorder, and hands out the node's subscription and timer callbacks. A test feeds the
+subscription callbacks messages that went through an ``rclpy.serialization`` round trip (what
+the wire would deliver) and fires the timers by hand; the recorded outputs are then checked.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Iterator, Sequence
+
+import rclpy
+from rclpy.serialization import deserialize_message, serialize_message
+
+
+def wire_copy(message):
+    """``message`` after serialization and deserialization, as a subscriber receives it."""
+    return deserialize_message(serialize_message(message), type(message))
+
+
+def numbers(message) -> Iterator[float]:
+    """Every float a published message carries (data, positions, poses, scales, points...)."""
+    if isinstance(message, float):
+        yield message
+        return
+    if isinstance(message, (str, bytes, int, bool)) or message is None:
+        return
+    if isinstance(message, Sequence) or hasattr(message, 'tolist'):
+        for item in message:
+            yield from numbers(item)
+        return
+    for field in message.get_fields_and_field_types():
+        yield from numbers(getattr(message, field))
+
+
+class InProcessNode:
+    """Node class ``node_class`` built in-process with parameter ``overrides``.
+
+    Parameters
+    ----------
+    node_class : type
+        A glove node class (constructed with no arguments).
+    overrides : dict
+        Parameter name -> value as a ``-p name:=value`` string.
+    domain_id : int
+        Private ROS domain of the context.
+    """
+
+    def __init__(self, node_class: type, overrides: dict[str, str], domain_id: int) -> None:
+        args = ['--ros-args'] + [f for k, v in overrides.items() for f in ('-p', f'{k}:={v}')]
+        rclpy.init(args=args, domain_id=domain_id)
+        try:
+            self.node = node_class()
+        except BaseException:
+            rclpy.try_shutdown()
+            raise
+        self.published: dict[str, list] = defaultdict(list)
+        for publisher in self.node.publishers:
+            publisher.publish = self._recorder(publisher.topic_name)
+
+    def _recorder(self, topic: str):
+        def record(message) -> None:
+            self.published[topic].append(wire_copy(message))
+
+        return record
+
+    def subscriptions(self) -> dict[str, tuple[type, object]]:
+        """Relative topic name -> (message type, callback) of every subscription."""
+        return {
+            sub.topic_name.rsplit('/', 1)[-1]: (sub.msg_type, sub.callback)
+            for sub in self.node.subscriptions
+        }
+
+    def deliver(self, topic: str, message) -> None:
+        """Hand ``message`` (after a wire round trip) to the subscription of ``topic``."""
+        _, callback = self.subscriptions()[topic]
+        callback(wire_copy(message))
+
+    def fire_timers(self) -> None:
+        """Run every timer callback of the node once (a cycle of the node's loops)."""
+        for timer in list(self.node.timers):
+            timer.callback()
+
+    def take(self) -> dict[str, list]:
+        """Messages published since the last call, by topic (the record is cleared)."""
+        taken = dict(self.published)
+        self.published.clear()
+        return taken
+
+    def close(self) -> None:
+        """Destroy the node and shut its context down."""
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def non_finite(published: dict[str, list]) -> list[str]:
+    """Lines naming every non-finite number in the published messages."""
+    return [
+        f'{topic}: {value!r}'
+        for topic, messages in published.items()
+        for message in messages
+        for value in numbers(message)
+        if not math.isfinite(value)
+    ]
