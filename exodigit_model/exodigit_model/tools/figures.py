@@ -134,3 +134,14 @@ def timeseries_figure(series: dict, title: str, path: Path) -> None:
             else:
                 ax.text(0.5, 0.5, 'not recorded', ha='center', transform=ax.transAxes)
     _save(figure, path)
+
+
+def curve_figure(pressure_kpa, angle_deg, title: str, path: Path) -> None:
+    """Joint angle against chamber pressure per joint, from recorded samples (like Fig. 11A-C)."""
+    figure, axes = _panels(title)
+    for joint, ax in enumerate(axes[0]):
+        ax.plot(pressure_kpa[:, joint], angle_deg[:, joint], '.', markersize=3, color='tab:red')
+        ax.set_title(f'{JOINT_LABELS[joint]}')
+        ax.set_xlabel('chamber pressure (kPa)')
+        ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
+    _save(figure, path)

@@ -1,0 +1,151 @@
+"""``exodigit plot``: plots from a rosbag2 (MCAP or SQLite) bag of a glove session.
+
+Reads the bag written by ``python -m exodigit_nodes.recorder`` (or ``ros2 bag record``) with the
+``rosbags`` library, whatever the namespace: topics are matched by their last name component
+(``joint_states``, ``chamber_pressure``, ``pressure_command``, ``contact_forces``,
+``estimated_contact_forces``). Writes two figures: angles, pressures and forces against time,
+and joint angle against chamber pressure (the ``exodigit curves`` view of a session).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._deps import ToolError, progress, require
+
+SIGNALS = (
+    'joint_states',
+    'chamber_pressure',
+    'pressure_command',
+    'contact_forces',
+    'estimated_contact_forces',
+)
+"""Topics (last name component) read from a bag; each carries one value per joint."""
+
+
+@dataclass(frozen=True)
+class Series:
+    """One topic's samples.
+
+    Attributes
+    ----------
+    topic : str
+        Full topic name in the bag.
+    time : ndarray, shape (N,)
+        Receive time since the start of the bag, s.
+    values : ndarray, shape (N, 3)
+        Joint values in SI (rad for joint_states positions, Pa, N).
+    skipped : int
+        Messages without three finite values, left out.
+    """
+
+    topic: str
+    time: NDArray[np.float64]
+    values: NDArray[np.float64]
+    skipped: int
+
+
+def _values(message, signal: str) -> list[float]:
+    return list(message.position if signal == 'joint_states' else message.data)
+
+
+def read_bag(path: Path) -> dict[str, Series]:
+    """The :data:`SIGNALS` found in the bag at ``path``, keyed by signal name.
+
+    Raises
+    ------
+    ToolError
+        If ``path`` is not a readable rosbag2 folder or holds none of the signals.
+    """
+    rosbag2 = require('rosbags.rosbag2')
+    typesys = require('rosbags.typesys')
+    if not (path / 'metadata.yaml').is_file():
+        raise ToolError(f'{path}: not a rosbag2 bag folder (no metadata.yaml in it)')
+    typestore = typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
+    samples: dict[str, tuple[str, list, list, list]] = {}
+    try:
+        with rosbag2.Reader(path) as reader:
+            chosen = [c for c in reader.connections if c.topic.rsplit('/', 1)[-1] in SIGNALS]
+            if not chosen:
+                topics = ', '.join(sorted({c.topic for c in reader.connections})) or 'none'
+                raise ToolError(
+                    f'{path}: none of the glove topics {", ".join(SIGNALS)} (bag has {topics})'
+                )
+            start = reader.start_time
+            total = sum(c.msgcount for c in chosen)
+            for connection, stamp, raw in progress(
+                reader.messages(connections=chosen), total=total, desc='reading', unit='msg'
+            ):
+                signal = connection.topic.rsplit('/', 1)[-1]
+                _, times, rows, bad = samples.setdefault(signal, (connection.topic, [], [], []))
+                values = _values(typestore.deserialize_cdr(raw, connection.msgtype), signal)
+                if len(values) == 3 and np.all(np.isfinite(values)):
+                    times.append((stamp - start) * 1e-9)
+                    rows.append(values)
+                else:
+                    bad.append(stamp)
+    except rosbag2.ReaderError as error:
+        raise ToolError(f'{path}: cannot read the bag ({error})') from None
+    return {
+        signal: Series(topic, np.array(times), np.array(rows).reshape(-1, 3), len(bad))
+        for signal, (topic, times, rows, bad) in samples.items()
+    }
+
+
+def pressure_at(series: dict[str, Series], time: NDArray) -> NDArray:
+    """Chamber pressure in force at each of ``time`` (last sample before it; NaN before any)."""
+    pressure = series['chamber_pressure']
+    index = np.searchsorted(pressure.time, time, side='right') - 1
+    result = np.full((time.size, 3), np.nan)
+    valid = index >= 0
+    result[valid] = pressure.values[index[valid]]
+    return result
+
+
+def plot_command(path: Path, out: Path) -> None:
+    """``exodigit plot``: read the bag, write the figures, print what was found."""
+    from .figures import curve_figure, timeseries_figure
+
+    series = read_bag(path)
+    lines = {
+        'angles': [('joint_states', 'joint_states', '-', np.degrees(1.0))],
+        'pressures': [
+            ('chamber_pressure', 'chamber_pressure', '-', 1e-3),
+            ('pressure_command', 'pressure_command', '--', 1e-3),
+        ],
+        'forces': [
+            ('contact_forces', 'contact_forces', '-', 1.0),
+            ('estimated_contact_forces', 'estimated', '--', 1.0),
+        ],
+    }
+    drawn = {
+        quantity: [
+            (label, series[signal].time, series[signal].values * factor, style)
+            for signal, label, style, factor in entries
+            if signal in series
+        ]
+        for quantity, entries in lines.items()
+    }
+    name = path.resolve().name
+    timeseries = out / f'{name}_timeseries.png'
+    timeseries_figure(drawn, f'{name}: glove session', timeseries)
+    written = [timeseries]
+    if 'joint_states' in series and 'chamber_pressure' in series:
+        angles = series['joint_states']
+        pressure = pressure_at(series, angles.time)
+        curves = out / f'{name}_angle_pressure.png'
+        title = f'{name}: joint angle against chamber pressure'
+        curve_figure(pressure / 1e3, np.degrees(angles.values), title, curves)
+        written.append(curves)
+    for signal in SIGNALS:
+        if signal in series:
+            found = series[signal]
+            note = f', {found.skipped} malformed skipped' if found.skipped else ''
+            print(f'{found.topic}: {found.time.size} messages{note}')
+        else:
+            print(f'{signal}: no messages in the bag')
+    print('wrote ' + ', '.join(str(p) for p in written))
