@@ -43,6 +43,15 @@ MODEL_MD_DEFAULTS = {
     },
 }
 """The parameter file of MODEL.md §10, typed in from the document."""
+SEGMENT_LENGTH_KEYS = (
+    'arc_length',
+    'inner_radius',
+    'wall_thickness',
+    'wall_height',
+    'base_thickness',
+    'block_half_length',
+)
+"""The lengths of one segment in MODEL.md §10 (all must be > 0)."""
 
 
 # -- material (eqs 21-22) ----------------------------------------------------------------------
@@ -79,18 +88,13 @@ def region_first_moment(segment):
     return value
 
 
-def resisting_moment(material, segment, angle):
-    """M(q) of eq 27 with λ(y) = 1 + y·q/ℓ̂: base, side walls and the two quarter annuli."""
+def section_integral(segment, integrand):
+    """∫ g(y) dA over eq 27's zones: base (width 2R), side walls (2t), two quarter annuli."""
     r0, t, h, b = _section(segment)
-    arc = segment.arc_length
-
-    def sigma_y(y):
-        return float(yeoh_stress(material, 1.0 + y * angle / arc)) * y
-
-    base, _ = quad(lambda y: sigma_y(y) * 2.0 * (r0 + t), 0.0, b, **QUAD_OPTIONS)
-    walls, _ = quad(lambda y: sigma_y(y) * 2.0 * t, b, b + h, **QUAD_OPTIONS)
+    base, _ = quad(lambda y: integrand(y) * 2.0 * (r0 + t), 0.0, b, **QUAD_OPTIONS)
+    walls, _ = quad(lambda y: integrand(y) * 2.0 * t, b, b + h, **QUAD_OPTIONS)
     arch, _ = dblquad(
-        lambda phi, r: sigma_y(b + h + r * math.sin(phi)) * r,
+        lambda phi, r: integrand(b + h + r * math.sin(phi)) * r,
         r0,
         r0 + t,
         0.0,
@@ -99,23 +103,19 @@ def resisting_moment(material, segment, angle):
         epsrel=QUAD_OPTIONS['epsrel'],
     )
     return base + walls + 2.0 * arch
+
+
+def resisting_moment(material, segment, angle):
+    """M(q) of eq 27: ∫ σ(λ(y))·y dA with λ(y) = 1 + y·q/ℓ̂."""
+    arc = segment.arc_length
+    return section_integral(
+        segment, lambda y: float(yeoh_stress(material, 1.0 + y * angle / arc)) * y
+    )
 
 
 def section_second_moment(segment):
-    """∫ y² dA over the three zones of eq 27 (the small-angle stiffness is 8·C1·this/ℓ̂)."""
-    r0, t, h, b = _section(segment)
-    base, _ = quad(lambda y: y * y * 2.0 * (r0 + t), 0.0, b, **QUAD_OPTIONS)
-    walls, _ = quad(lambda y: y * y * 2.0 * t, b, b + h, **QUAD_OPTIONS)
-    arch, _ = dblquad(
-        lambda phi, r: (b + h + r * math.sin(phi)) ** 2 * r,
-        r0,
-        r0 + t,
-        0.0,
-        0.5 * math.pi,
-        epsabs=0.0,
-        epsrel=QUAD_OPTIONS['epsrel'],
-    )
-    return base + walls + 2.0 * arch
+    """∫ y² dA over the section (the small-angle stiffness is 8·C1·this/ℓ̂)."""
+    return section_integral(segment, lambda y: y * y)
 
 
 def section_height(segment):
@@ -190,17 +190,21 @@ def printed_finger_jacobian_transposed(params, q):
     )
 
 
-def robot_contact_jacobian(params, q):
-    """J_R*[i, k] = n_i · ∂r^C_i/∂q_k by central differences of eq 4 (all |q_k| ≫ the step)."""
-    _, _, _, normals = exo_digit_points(params, q)
+def jacobian_by_differences(centres_of, normals, q, step=JACOBIAN_STEP):
+    """J[i, k] = n_i · ∂c_i/∂q_k by central differences of ``centres_of(q)`` (rows c_i)."""
     jacobian = np.zeros((3, 3))
     for k in range(3):
-        step = np.zeros(3)
-        step[k] = JACOBIAN_STEP
-        ahead = exo_digit_points(params, q + step)[2]
-        behind = exo_digit_points(params, q - step)[2]
-        jacobian[:, k] = np.sum(normals * (ahead - behind), axis=1) / (2.0 * JACOBIAN_STEP)
+        offset = np.zeros(3)
+        offset[k] = step
+        slope = (centres_of(q + offset) - centres_of(q - offset)) / (2.0 * step)
+        jacobian[:, k] = np.sum(normals * slope, axis=1)
     return jacobian
+
+
+def robot_contact_jacobian(params, q):
+    """J_R* by central differences of eq 4 (every |q_k| well above the step)."""
+    normals = exo_digit_points(params, q)[3]
+    return jacobian_by_differences(lambda a: exo_digit_points(params, a)[2], normals, q)
 
 
 def coupled_residual(params, q, p):

@@ -5,7 +5,7 @@ import math
 import re
 
 import pytest
-from model_reference import MODEL_MD_DEFAULTS
+from model_reference import MODEL_MD_DEFAULTS, SEGMENT_LENGTH_KEYS
 
 from exodigit_model import ParameterError, dump_params, load_params, params_from_dict
 
@@ -66,17 +66,7 @@ def test_wrong_counts_are_rejected(where, count):
 
 
 @pytest.mark.parametrize('value', [0.0, -0.001])
-@pytest.mark.parametrize(
-    'key',
-    [
-        'arc_length',
-        'inner_radius',
-        'wall_thickness',
-        'wall_height',
-        'base_thickness',
-        'block_half_length',
-    ],
-)
+@pytest.mark.parametrize('key', SEGMENT_LENGTH_KEYS)
 def test_non_positive_segment_lengths_are_rejected(key, value):
     message = _message(_with(('exo_digit', 'segments', 1), {'name': 'pip', key: value}))
     assert f'segments[1].{key}' in message

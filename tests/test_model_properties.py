@@ -5,7 +5,12 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from model_reference import MODEL_MD_DEFAULTS, exo_digit_points, robot_contact_jacobian
+from model_reference import (
+    MODEL_MD_DEFAULTS,
+    SEGMENT_LENGTH_KEYS,
+    exo_digit_points,
+    robot_contact_jacobian,
+)
 
 from exodigit_model import GloveModel, params_from_dict
 
@@ -18,15 +23,6 @@ PRESSURE_RTOL = 1e-6
 JACOBIAN_ATOL = 1e-8
 """Contact Jacobian against differences of eq 4, m."""
 
-SEGMENT_LENGTHS = (
-    'arc_length',
-    'inner_radius',
-    'wall_thickness',
-    'wall_height',
-    'base_thickness',
-    'block_half_length',
-)
-
 
 def _scaled(value):
     return st.floats(0.7 * value, 1.3 * value)
@@ -37,7 +33,7 @@ def glove_parameters(draw):
     """Material in the ranges of issue 2, every length within ±30 % of MODEL.md §10."""
     defaults = MODEL_MD_DEFAULTS
     segments = [
-        {key: draw(_scaled(segment[key])) for key in SEGMENT_LENGTHS}
+        {key: draw(_scaled(segment[key])) for key in SEGMENT_LENGTH_KEYS}
         for segment in defaults['exo_digit']['segments']
     ]
     joints = [
