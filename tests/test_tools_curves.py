@@ -1,0 +1,155 @@
+"""``exodigit curves`` and the CLI's help and error paths, checked against independent solves."""
+
+import csv
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from exodigit_model.tools.cli import EXAMPLES, main
+
+from exodigit_model import JOINT_NAMES, GloveModel, load_params
+
+#: CSV angles (deg, 9 significant digits) against single solves.
+ANGLE_TOLERANCE_DEG = 1e-6
+#: CSV forces (N, 9 significant digits) against single solves.
+FORCE_TOLERANCE_N = 1e-8
+#: Marker positions (mm) against the closed-form arc chord of MODEL.md eq 4.
+MARKER_TOLERANCE_MM = 1e-5
+
+CLI = [sys.executable, '-m', 'exodigit_model.tools.cli']
+
+
+@pytest.fixture(scope='module')
+def model():
+    return GloveModel(load_params())
+
+
+@pytest.fixture(scope='module')
+def curves(tmp_path_factory):
+    folder = tmp_path_factory.mktemp('curves')
+    assert main(['curves', '--out', str(folder), '--pressures', '0:45:15']) == 0
+    with open(folder / 'angles.csv', newline='') as handle:
+        angles = list(csv.DictReader(handle))
+    with open(folder / 'markers.csv', newline='') as handle:
+        markers = list(csv.DictReader(handle))
+    return folder, angles, markers
+
+
+def chamber_pressures(experiment, kpa):
+    pressure = np.zeros(3)
+    if experiment == 'all':
+        pressure[:] = kpa * 1e3
+    else:
+        pressure[JOINT_NAMES.index(experiment)] = kpa * 1e3
+    return pressure
+
+
+def test_angles_csv_equals_single_solves(curves, model):
+    _, rows, _ = curves
+    seen = set()
+    for row in rows:
+        pressure = chamber_pressures(row['experiment'], float(row['pressure_kpa']))
+        solution = model.solve(pressure, free=row['condition'] == 'free')
+        angles = [float(row[f'q_{name}_deg']) for name in JOINT_NAMES]
+        forces = [float(row[f'f_{name}_n']) for name in JOINT_NAMES]
+        np.testing.assert_allclose(angles, np.degrees(solution.q), atol=ANGLE_TOLERANCE_DEG)
+        np.testing.assert_allclose(forces, solution.forces, atol=FORCE_TOLERANCE_N)
+        assert row['converged'] == str(int(solution.converged))
+        seen.add((row['experiment'], row['condition'], float(row['pressure_kpa'])))
+    expected = {
+        (experiment, condition, kpa)
+        for experiment in (*JOINT_NAMES, 'all')
+        for condition in ('free', 'finger')
+        for kpa in (0.0, 15.0, 30.0, 45.0)
+    }
+    assert seen == expected
+
+
+def test_free_bending_moves_only_the_pressurised_module(curves):
+    _, rows, _ = curves
+    for row in rows:
+        if row['condition'] == 'free' and row['experiment'] != 'all':
+            others = [n for n in JOINT_NAMES if n != row['experiment']]
+            assert all(float(row[f'q_{n}_deg']) == 0.0 for n in others)
+            assert all(float(row[f'f_{n}_n']) == 0.0 for n in JOINT_NAMES)
+
+
+def test_free_markers_follow_the_arc_chord(curves, model):
+    """Markers 3, 4 of a module bent alone: chord of a circular arc (eq 4), then its block."""
+    _, _, rows = curves
+    segments = model.params.exo_digit.segments
+    free_rows = [r for r in rows if r['condition'] == 'free']
+    assert len(free_rows) == 12
+    for row in free_rows:
+        module = JOINT_NAMES.index(row['module'])
+        q = model.solve(chamber_pressures(row['module'], float(row['pressure_kpa'])), free=True)
+        angle = q.q[module]
+        length = segments[module].arc_length * 1e3
+        block = 2 * segments[module].block_half_length * 1e3
+        if angle == 0.0:
+            chord = np.array([length, 0.0])
+        else:
+            chord = length / angle * np.array([np.sin(angle), 1 - np.cos(angle)])
+        tip = chord + block * np.array([np.cos(angle), np.sin(angle)])
+        marker3 = [float(row['marker3_x_mm']), float(row['marker3_y_mm'])]
+        marker4 = [float(row['marker4_x_mm']), float(row['marker4_y_mm'])]
+        np.testing.assert_allclose(marker3, chord, atol=MARKER_TOLERANCE_MM)
+        np.testing.assert_allclose(marker4, tip, atol=MARKER_TOLERANCE_MM)
+        assert float(row['marker2_x_mm']) == 0.0 and float(row['marker2_y_mm']) == 0.0
+
+
+def png_size(path):
+    data = path.read_bytes()
+    assert data[:8] == b'\x89PNG\r\n\x1a\n'
+    return int.from_bytes(data[16:20], 'big'), int.from_bytes(data[20:24], 'big')
+
+
+def test_curves_figures_are_written(curves):
+    folder, _, _ = curves
+    for name in ('angles.png', 'forces.png', 'markers.png'):
+        width, height = png_size(folder / name)
+        assert width >= 800 and height >= 300
+
+
+@pytest.mark.parametrize(
+    'spec', ['0:50', 'a:b:c', '10:0:5', '0:50:0', '-10:50:10', '0:inf:1', '0:1e9:0.001']
+)
+def test_bad_pressure_sweep_is_one_line_and_exit_2(spec, tmp_path, capsys):
+    assert main(['curves', '--out', str(tmp_path), f'--pressures={spec}']) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith('exodigit curves: error: --pressures') and '\n' not in err
+
+
+def test_bad_params_file_is_one_line(tmp_path, capsys):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('material: {c1: -5}\n')
+    assert main(['curves', '--params', str(bad), '--out', str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert 'c1' in err and '\n' not in err
+
+
+def test_help_shows_an_example_for_every_subcommand():
+    result = subprocess.run([*CLI, '--help'], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0
+    for example in EXAMPLES.values():
+        assert example in result.stdout
+    for command, example in EXAMPLES.items():
+        sub = subprocess.run([*CLI, command, '--help'], capture_output=True, text=True, timeout=60)
+        assert sub.returncode == 0 and example in sub.stdout
+
+
+def test_missing_matplotlib_says_what_to_install(tmp_path):
+    script = (
+        'import sys; sys.modules["matplotlib"] = None; '
+        'from exodigit_model.tools.cli import main; '
+        f'sys.exit(main(["draw", "--pressure", "10", "--out", r"{tmp_path / "g.png"}"]))'
+    )
+    result = subprocess.run(
+        [sys.executable, '-c', script], capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        'exodigit draw: error: matplotlib is not installed; install the tools with: '
+        'pip install "./exodigit_model[tools]"'
+    ]
