@@ -67,6 +67,18 @@ def test_residual_is_eq_36_built_independently(q, p):
     )
 
 
+@pytest.mark.parametrize('angle', [1e-12, -1e-12, 1e-9])
+def test_residual_is_finite_and_linear_next_to_zero(angle):
+    # F(q) = F(0) + ∂F/∂q(0)·q + O(q²): no 0/0 anywhere in τ_s, the Jacobians or f.
+    p = np.array([20e3, 10e3, 5e3])
+    q = np.array([angle, -angle, 2.0 * angle])
+    at_zero = MODEL.residual(np.zeros(3), p)
+    jacobian = MODEL.residual_jacobian(np.zeros(3), p)
+    assert np.all(np.isfinite(jacobian))
+    np.testing.assert_allclose(MODEL.residual(q, p) - at_zero, jacobian @ q, rtol=1e-6, atol=1e-17)
+    np.testing.assert_allclose(MODEL.residual_jacobian(q, p), jacobian, rtol=1e-6, atol=1e-18)
+
+
 @pytest.mark.parametrize('joint', range(3))
 @pytest.mark.parametrize('free', [False, True])
 def test_bending_grows_monotonically_with_own_pressure(joint, free):
