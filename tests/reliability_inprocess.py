@@ -16,6 +16,9 @@ from collections.abc import Iterator, Sequence
 import rclpy
 from rclpy.serialization import deserialize_message, serialize_message
 
+#: Namespace of in-process nodes, so no other test's publisher ever matches their subscriptions.
+NAMESPACE = '/in_process_test'
+
 
 def wire_copy(message):
     """``message`` after serialization and deserialization, as a subscriber receives it."""
@@ -47,11 +50,12 @@ class InProcessNode:
     overrides : dict
         Parameter name -> value as a ``-p name:=value`` string.
     domain_id : int
-        Private ROS domain of the context.
+        Private ROS domain of the context (the node lives in namespace `NAMESPACE`).
     """
 
     def __init__(self, node_class: type, overrides: dict[str, str], domain_id: int) -> None:
-        args = ['--ros-args'] + [f for k, v in overrides.items() for f in ('-p', f'{k}:={v}')]
+        args = ['--ros-args', '-r', f'__ns:={NAMESPACE}']
+        args += [f for k, v in overrides.items() for f in ('-p', f'{k}:={v}')]
         rclpy.init(args=args, domain_id=domain_id)
         try:
             self.node = node_class()
@@ -60,7 +64,8 @@ class InProcessNode:
             raise
         self.published: dict[str, list] = defaultdict(list)
         for publisher in self.node.publishers:
-            publisher.publish = self._recorder(publisher.topic_name)
+            topic = publisher.topic_name.removeprefix(NAMESPACE + '/')
+            publisher.publish = self._recorder(topic)
 
     def _recorder(self, topic: str):
         def record(message) -> None:
@@ -86,7 +91,11 @@ class InProcessNode:
             timer.callback()
 
     def take(self) -> dict[str, list]:
-        """Messages published since the last call, by topic (the record is cleared)."""
+        """Messages published since the last call, by topic (the record is cleared).
+
+        Topics of the node's namespace are keyed by their relative name (``joint_states``),
+        others by their absolute name (``/diagnostics``).
+        """
         taken = dict(self.published)
         self.published.clear()
         return taken
