@@ -1,0 +1,177 @@
+"""rosbag2 recording and ``exodigit plot``: a real session recorded, read back and plotted.
+
+The plant runs as a process, the recorder runs with the exact command line the glove runner
+uses, and the test publishes ``pressure_command`` itself; the bag is then read back with
+``rosbags`` (independently of the tools) and compared with what was published and with the
+model's own solve of the commanded pressures.
+"""
+
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from exodigit_model.tools.cli import main
+from ros_harness import ros_environment, wait_until
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from exodigit_model import GloveModel, load_params
+
+NAMESPACE = '/tools_bag'
+COMMANDS = ([20e3, 10e3, 5e3], [35e3, 25e3, 15e3])
+"""Pressure steps published (Pa); the plant settles on each before the next."""
+#: Joint angles in the bag against GloveModel.solve of the commanded pressure, rad.
+ANGLE_TOLERANCE = 1e-6
+#: Plant cycles (joint_states messages) to wait after the last command before stopping.
+AFTER_LAST_COMMAND = 20
+#: Seconds for the plant to settle, or for the recorder to start or stop.
+TIMEOUT = 20.0
+
+
+def recorder_command(output):
+    return [
+        sys.executable,
+        '-m',
+        'exodigit_nodes.recorder',
+        '--output',
+        str(output),
+        '--ros-args',
+        '-r',
+        f'__ns:={NAMESPACE}',
+    ]
+
+
+def start_recorder(output, domain, workdir):
+    return subprocess.Popen(
+        recorder_command(output),
+        cwd=workdir,
+        env=ros_environment(domain),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def read_back(path):
+    """Every message of the bag as {topic: [(stamp_ns, message)]}, with rosbags."""
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    found = {}
+    with Reader(path) as reader:
+        assert reader.connections
+        for connection, stamp, raw in reader.messages():
+            message = typestore.deserialize_cdr(raw, connection.msgtype)
+            found.setdefault(connection.topic, []).append((stamp, message))
+        types = {c.topic: c.msgtype for c in reader.connections}
+    return found, types
+
+
+@pytest.fixture(scope='module')
+def session(launcher, probe, ros_domain, tmp_path_factory):
+    """Record a plant driven through two pressure steps; returns (bag, published, recorder)."""
+    workdir = tmp_path_factory.mktemp('bag')
+    bag = workdir / 'session'
+    launcher.start('plant', {'pressure_time_constant': 0.0}, namespace=NAMESPACE)
+    recorder = start_recorder(bag, ros_domain, workdir)
+    states = probe.subscribe(f'{NAMESPACE}/joint_states', JointState)
+    command = probe.publisher(f'{NAMESPACE}/pressure_command', Float64MultiArray, wait_for=2)
+    model = GloveModel(load_params())
+    published = []
+    try:
+        for pressure in COMMANDS:
+            target = model.solve(pressure).q
+
+            def settled(target=target):
+                latest = states.latest()
+                return latest is not None and np.allclose(
+                    latest.position, target, atol=ANGLE_TOLERANCE
+                )
+
+            def publish_until_settled(pressure=pressure, settled=settled):
+                command.publish(Float64MultiArray(data=pressure))
+                published.append(list(pressure))
+                return settled()
+
+            assert wait_until(publish_until_settled, TIMEOUT, interval=0.05)
+        # Messages in flight when the recorder stops are lost, as with any recorder: let
+        # AFTER_LAST_COMMAND plant cycles pass (a condition, not a fixed sleep) before SIGINT.
+        seen = states.count()
+        assert wait_until(lambda: states.count() >= seen + AFTER_LAST_COMMAND, TIMEOUT)
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        try:
+            _, err = recorder.communicate(timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            recorder.kill()
+            _, err = recorder.communicate()
+    return bag, published, recorder.returncode, err
+
+
+def test_recorder_stops_cleanly_on_sigint(session):
+    _, _, code, err = session
+    assert code == 0
+    assert 'Traceback' not in err
+    assert 'closed' in err
+
+
+def test_bag_holds_exactly_the_published_commands(session):
+    bag, published, _, _ = session
+    found, types = read_back(bag)
+    commands = [list(m.data) for _, m in found[f'{NAMESPACE}/pressure_command']]
+    assert commands == published
+    assert types[f'{NAMESPACE}/pressure_command'] == 'std_msgs/msg/Float64MultiArray'
+    assert types[f'{NAMESPACE}/joint_states'] == 'sensor_msgs/msg/JointState'
+    assert types['/diagnostics'] == 'diagnostic_msgs/msg/DiagnosticArray'
+    assert bag.joinpath('metadata.yaml').is_file()
+    assert list(bag.glob('*.mcap'))
+
+
+def test_bag_states_are_the_models_solution_of_the_commands(session):
+    bag, _, _, _ = session
+    found, _ = read_back(bag)
+    model = GloveModel(load_params())
+    positions = np.array([m.position for _, m in found[f'{NAMESPACE}/joint_states']])
+    for pressure in COMMANDS:
+        target = model.solve(pressure).q
+        close = np.all(np.abs(positions - target) <= ANGLE_TOLERANCE, axis=1)
+        assert np.any(close), f'no recorded joint state at the solution for {pressure}'
+    chamber = np.array([m.data for _, m in found[f'{NAMESPACE}/chamber_pressure']])
+    assert np.allclose(chamber[-1], COMMANDS[-1])
+    forces = np.array([m.data for _, m in found[f'{NAMESPACE}/contact_forces']])
+    np.testing.assert_allclose(forces[-1], model.solve(COMMANDS[-1]).forces, atol=1e-6)
+    stamps = [stamp for stamp, _ in found[f'{NAMESPACE}/joint_states']]
+    assert stamps == sorted(stamps)
+
+
+def test_plot_reports_the_bag_contents(session, tmp_path, capsys):
+    bag, _, _, _ = session
+    found, _ = read_back(bag)
+    assert main(['plot', str(bag), '--out', str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for topic in ('joint_states', 'chamber_pressure', 'pressure_command', 'contact_forces'):
+        count = len(found[f'{NAMESPACE}/{topic}'])
+        assert f'{NAMESPACE}/{topic}: {count} messages' in out
+    for name in ('session_timeseries.png', 'session_angle_pressure.png'):
+        assert (tmp_path / name).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+def test_recorder_refuses_an_existing_output(ros_domain, tmp_path):
+    existing = tmp_path / 'taken'
+    existing.mkdir()
+    recorder = start_recorder(existing, ros_domain, tmp_path)
+    _, err = recorder.communicate(timeout=TIMEOUT)
+    assert recorder.returncode == 2
+    assert err.strip().splitlines() == [
+        f'recorder: error: --output {existing}: exists already; the bag needs a new folder'
+    ]
+
+
+def test_plot_refuses_a_folder_without_a_bag(tmp_path, capsys):
+    assert main(['plot', str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert 'not a rosbag2 bag folder' in err and '\n' not in err
