@@ -13,7 +13,9 @@ names or mismatched arrays). Stamp checks depend on the node, so stamps do not e
 
 from __future__ import annotations
 
+import itertools
 import math
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -183,3 +185,211 @@ class OutputCheck:
                 self.out_of_bounds += 1
             if len(self.violations) < 20:
                 self.violations.append(f'{topic}: {value!r} outside [{low}, {high}]')
+
+
+# -- a glove under fuzz, over DDS ------------------------------------------------------------
+
+#: Messages per fuzzed topic in the default test run; the full run (bench_fuzz.py, or this
+#: variable set to 10000) uses 10,000.
+DEFAULT_COUNT = 2000
+#: Plant supply limit, controller pressure and rate limits of the fuzz session (Pa, Pa/s).
+MAX_SUPPLY = 100e3
+MAX_PRESSURE = 60e3
+MAX_PRESSURE_RATE = 100e3
+COMMAND_RATE = 100.0
+#: Slack on the per-cycle rate limit for float rounding, Pa.
+RATE_SLACK = 1e-6
+#: Seconds to wait for a node's diagnostics after a flood (they come every second).
+REPORT_TIMEOUT = 10.0
+NODE_NAMES = ('plant', 'pressure_command', 'estimator')
+#: Output topics and the documented bounds of their values.
+OUTPUT_BOUNDS = {
+    'joint_states': (-math.inf, math.inf),
+    'chamber_pressure': (0.0, MAX_SUPPLY),
+    'contact_forces': (-math.inf, math.inf),
+    'estimated_contact_forces': (-math.inf, math.inf),
+    'estimated_finger_stiffness': (-math.inf, math.inf),
+    'pressure_command': (0.0, MAX_PRESSURE),
+}
+
+
+@dataclass(frozen=True)
+class FuzzTarget:
+    """One subscribed topic: who consumes it, what to send, the controller mode that reads it."""
+
+    topic: str
+    consumers: tuple[str, ...]
+    scale: float
+    mode: str = 'sine'
+
+    @property
+    def joint_states(self) -> bool:
+        return self.topic == 'joint_states'
+
+
+TARGETS = (
+    FuzzTarget('pressure_command', ('plant',), 5e4),
+    FuzzTarget('joint_states', ('pressure_command', 'estimator'), 1.0, 'position'),
+    FuzzTarget('chamber_pressure', ('estimator',), 5e4),
+    FuzzTarget('estimated_contact_forces', ('pressure_command',), 1.0, 'force'),
+    FuzzTarget('joint_targets', ('pressure_command',), 1.0, 'position'),
+)
+
+
+@dataclass
+class FloodFigures:
+    """What one flood of one topic did."""
+
+    topic: str
+    sent: int = 0
+    malformed: int = 0
+    seconds: float = 0.0
+    rejections: dict[str, int] = field(default_factory=dict)
+    log_lines: dict[str, int] = field(default_factory=dict)
+    alive: dict[str, bool] = field(default_factory=dict)
+    outputs: OutputCheck | None = None
+    rate_violations: int = 0
+
+
+def drop_log_lines(text: str) -> int:
+    """Log lines about dropped input messages."""
+    return sum('dropped' in line for line in text.splitlines())
+
+
+class GloveUnderFuzz:
+    """The three nodes in namespace ``/fuzz`` and a probe recording every output.
+
+    Parameters
+    ----------
+    launcher : ros_harness.NodeLauncher
+    probe : ros_harness.RosProbe
+    """
+
+    namespace = '/fuzz'
+
+    def __init__(self, launcher, probe) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self.probe = probe
+        self.nodes = {
+            'plant': launcher.start(
+                'plant', {'max_supply_pressure': MAX_SUPPLY}, namespace=self.namespace
+            ),
+            'pressure_command': launcher.start(
+                'pressure_command',
+                {
+                    'max_pressure': MAX_PRESSURE,
+                    'max_pressure_rate': MAX_PRESSURE_RATE,
+                    'rate_hz': COMMAND_RATE,
+                },
+                namespace=self.namespace,
+            ),
+            'estimator': launcher.start('estimator', namespace=self.namespace),
+        }
+        self.inboxes = {
+            topic: probe.subscribe(f'{self.namespace}/{topic}', self.message_type(topic))
+            for topic in OUTPUT_BOUNDS
+        }
+        self.diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+        self.publishers = {}
+
+    @staticmethod
+    def message_type(topic: str) -> type:
+        return JointState if topic == 'joint_states' else Float64MultiArray
+
+    def wait_running(self, timeout: float) -> bool:
+        """Every output flows and every node has reported."""
+        from ros_harness import wait_until
+
+        def ready() -> bool:
+            flowing = all(
+                self.inboxes[t].count() > 0
+                for t in ('joint_states', 'pressure_command', 'estimated_contact_forces')
+            )
+            return flowing and all(self.report(n) is not None for n in NODE_NAMES)
+
+        return bool(wait_until(ready, timeout))
+
+    def report(self, node: str, since: float = -1.0):
+        """The newest DiagnosticStatus of ``node`` that arrived after ``since``, or None."""
+        name = f'{self.namespace}/{node}'
+        for arrival, array in reversed(self.diagnostics.items()):
+            if arrival <= since:
+                return None
+            for status in array.status:
+                if status.name == name:
+                    return status
+        return None
+
+    def rejections(self, node: str, topic: str, since: float) -> int | None:
+        """``node``'s count of dropped ``topic`` messages in a report newer than ``since``."""
+        status = self.report(node, since)
+        if status is None:
+            return None
+        prefix = f'rejected {topic}:'
+        return sum(int(kv.value) for kv in status.values if kv.key.startswith(prefix))
+
+    def set_mode(self, mode: str) -> None:
+        """Switch the controller's mode (the one that reads the fuzzed topic)."""
+        results = self.probe.set_parameters(f'{self.namespace}/pressure_command', {'mode': mode})
+        assert results[0].successful, results[0].reason
+
+    def rss(self) -> dict[str, int]:
+        """Resident memory of each node, bytes."""
+        return {name: node.rss_bytes() for name, node in self.nodes.items()}
+
+    def flood(self, target: FuzzTarget, count: int, seed: int) -> FloodFigures:
+        """Send ``count`` hostile messages on ``target.topic`` at full speed; measure."""
+        from ros_harness import wait_until
+
+        figures = FloodFigures(target.topic)
+        self.set_mode(target.mode)
+        topic = f'{self.namespace}/{target.topic}'
+        if topic not in self.publishers:  # kept: destroying one races the probe's executor
+            self.publishers[topic] = self.probe.publisher(topic, self.message_type(target.topic))
+        publisher = self.publishers[topic]
+        logs = {name: drop_log_lines(self.nodes[name].stderr()) for name in target.consumers}
+        before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODE_NAMES}
+        if target.joint_states:
+            messages = hostile_joint_states(count, '', time.time_ns(), seed)
+        else:
+            messages = hostile_vectors(count, target.scale, seed)
+        started = time.monotonic()
+        for message, malformed in messages:
+            publisher.publish(message)
+            figures.sent += 1
+            figures.malformed += malformed
+        finished = time.monotonic()
+        figures.seconds = finished - started
+        for name in target.consumers:
+            counted = wait_until(
+                lambda n=name: self.rejections(n, target.topic, finished + 1.0), REPORT_TIMEOUT
+            )
+            figures.rejections[name] = (counted or 0) - before[name]
+        for name in target.consumers:
+            figures.log_lines[name] = drop_log_lines(self.nodes[name].stderr()) - logs[name]
+        figures.alive = {name: node.alive() for name, node in self.nodes.items()}
+        figures.outputs, figures.rate_violations = self.check_outputs(target.topic, started)
+        return figures
+
+    def check_outputs(self, fuzzed: str, since: float) -> tuple[OutputCheck, int]:
+        """Bounds of every output since ``since`` (not the fuzzed topic: the probe sent those)."""
+        check = OutputCheck(OUTPUT_BOUNDS)
+        for topic, inbox in self.inboxes.items():
+            if topic == fuzzed:
+                continue
+            for message in inbox.messages(since):
+                if topic == 'joint_states':
+                    values = [*message.position, *message.velocity, *message.effort]
+                else:
+                    values = message.data
+                check.add(topic, values)
+        rate_violations = 0
+        if fuzzed != 'pressure_command':
+            step = MAX_PRESSURE_RATE / COMMAND_RATE + RATE_SLACK
+            sent = self.inboxes['pressure_command'].messages(since)
+            commands = [np.asarray(m.data) for m in sent]
+            rate_violations = sum(
+                int(np.any(np.abs(b - a) > step)) for a, b in itertools.pairwise(commands)
+            )
+        return check, rate_violations

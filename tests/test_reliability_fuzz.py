@@ -1,0 +1,58 @@
+"""Flood every input topic of the running glove with hostile messages at full speed, over DDS.
+
+The three nodes run as processes (namespace ``/fuzz``); the probe publishes `DEFAULT_COUNT`
+messages per topic (``EXODIGIT_FUZZ_COUNT`` overrides it: 10000 is the full run of issue 4, also
+printed by ``benchmarks/bench_fuzz.py``), with the controller in the mode that reads the topic.
+Afterwards: every node is alive; every output (but the fuzzed topic itself) was finite and inside
+its documented limits, the controller's commands changed no faster than ``max_pressure_rate``;
+each consumer counted rejections in /diagnostics (no more than were sent) and logged at most a
+few throttled lines, not one per message; and no node's resident memory grew by more than 10%.
+"""
+
+import os
+
+import pytest
+from reliability_fuzz import DEFAULT_COUNT, TARGETS, GloveUnderFuzz
+from ros_harness import DISCOVERY_TIMEOUT
+
+COUNT = int(os.environ.get('EXODIGIT_FUZZ_COUNT', DEFAULT_COUNT))
+#: Largest resident-memory growth over the whole fuzz session (issue 4).
+MAX_RSS_GROWTH = 0.10
+#: Throttled drop warnings allowed per flood: one per LOG_THROTTLE (2 s) of flood, plus slack.
+LOG_LINES_PER_SECOND = 0.5
+LOG_SLACK = 3
+#: Time for the glove to come up, s.
+START_TIMEOUT = 30.0
+
+
+@pytest.fixture(scope='module')
+def glove(launcher, probe):
+    under_fuzz = GloveUnderFuzz(launcher, probe)
+    assert under_fuzz.wait_running(START_TIMEOUT + DISCOVERY_TIMEOUT), 'glove did not start'
+    under_fuzz.rss_before = under_fuzz.rss()
+    return under_fuzz
+
+
+@pytest.mark.parametrize('target', TARGETS, ids=[t.topic for t in TARGETS])
+def test_flood_leaves_every_node_alive_with_bounded_finite_outputs(glove, target):
+    figures = glove.flood(target, COUNT, seed=len(target.topic))
+    assert figures.sent == COUNT
+    assert all(figures.alive.values()), figures.alive
+    outputs = figures.outputs
+    assert outputs.non_finite == 0, outputs.violations
+    assert outputs.out_of_bounds == 0, outputs.violations
+    assert figures.rate_violations == 0
+    # Every output kept flowing during the flood.
+    expected = {'joint_states', 'chamber_pressure', 'contact_forces', 'estimated_contact_forces'}
+    assert expected - {target.topic} <= set(outputs.messages)
+    for consumer in target.consumers:
+        counted = figures.rejections[consumer]
+        assert 0 < counted <= figures.sent, (consumer, counted)
+        allowed = LOG_SLACK + LOG_LINES_PER_SECOND * (figures.seconds + 2.0)
+        assert figures.log_lines[consumer] <= allowed, (consumer, figures.log_lines[consumer])
+
+
+def test_memory_did_not_grow_over_the_floods(glove):
+    after = glove.rss()
+    for name, before in glove.rss_before.items():
+        assert after[name] <= (1.0 + MAX_RSS_GROWTH) * before, (name, before, after[name])
