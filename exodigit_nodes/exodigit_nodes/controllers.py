@@ -1,0 +1,206 @@
+"""Pressure controllers of the ``pressure_command`` node: open-loop sessions and closed loops.
+
+Each controller gives the desired chamber pressures (Pa, MCP, PIP, DIP) at time ``t`` (s since
+the session started) from the latest feedback; the safety limiter (:mod:`.safety`) then bounds
+them, and closed loops are told what was actually sent (:meth:`PIController.commit`) so their
+integrators do not wind up against the limits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from exodigit_model import GloveModel
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """Latest measurements; ``None`` when none (or none fresh) has arrived.
+
+    Attributes
+    ----------
+    angles : ndarray, shape (3,), optional
+        Joint angles from ``joint_states``, rad.
+    forces : ndarray, shape (3,), optional
+        Contact forces from ``estimated_contact_forces``, N.
+    """
+
+    angles: NDArray[np.float64] | None = None
+    forces: NDArray[np.float64] | None = None
+
+
+class OpenLoop:
+    """A pressure schedule in time; feedback is not used."""
+
+    closed_loop = False
+
+    def commit(self, raw: NDArray[np.float64], applied: NDArray[np.float64]) -> None:
+        """Open loop: nothing to update."""
+
+
+class Staircase(OpenLoop):
+    """The paper's staircase: 0 → ``peak`` in steps of ``step``, then back down, repeated.
+
+    Parameters
+    ----------
+    step : float
+        Pressure step, Pa (10 kPa in the paper).
+    peak : float
+        Highest level, Pa (50 kPa in the paper); rounded down to a whole number of steps.
+    step_duration : float
+        Time on each level, s.
+    """
+
+    def __init__(self, step: float, peak: float, step_duration: float) -> None:
+        count = math.floor(peak / step + 1e-9)
+        rising = [i * step for i in range(count + 1)]
+        self.levels = rising + rising[-2:0:-1]
+        self.step_duration = step_duration
+
+    def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
+        """All three chambers at the level of the current stair, Pa."""
+        index = int(t // self.step_duration) % len(self.levels)
+        return np.full(3, self.levels[index])
+
+
+class Sine(OpenLoop):
+    """Continuous passive motion: p(t) = low + (high − low)·(1 − cos 2πt/period)/2 on all chambers.
+
+    Parameters
+    ----------
+    low, high : float
+        Pressures at the ends of the motion, Pa.
+    period : float
+        Duration of one flex-extend cycle, s.
+    """
+
+    def __init__(self, low: float, high: float, period: float) -> None:
+        self.low, self.high, self.period = low, high, period
+
+    def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
+        """The three pressures at ``t``, Pa; starts at ``low``."""
+        phase = 0.5 * (1.0 - math.cos(2.0 * math.pi * t / self.period))
+        return np.full(3, self.low + (self.high - self.low) * phase)
+
+
+class Hold(OpenLoop):
+    """Constant pressures, Pa (MCP, PIP, DIP)."""
+
+    def __init__(self, pressure: NDArray[np.float64]) -> None:
+        self.pressure = np.array(pressure, dtype=float)
+
+    def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
+        """The held pressures, Pa."""
+        return self.pressure.copy()
+
+
+class PIController:
+    """Per-joint PI with conditional-integration anti-windup.
+
+    u = feed-forward + kp·e + ki·∫e dt. An integration step is kept only where the limiter left
+    the output alone, or where it moves the output back inside the limit.
+
+    Parameters
+    ----------
+    kp, ki : float
+        Proportional and integral gains (units of the output per unit error, and per unit
+        error-second).
+    """
+
+    def __init__(self, kp: float, ki: float) -> None:
+        self.kp, self.ki = kp, ki
+        self.integral = np.zeros(3)
+        self._step = np.zeros(3)
+
+    def output(
+        self, feedforward: NDArray[np.float64], error: NDArray[np.float64] | None, dt: float
+    ) -> NDArray[np.float64]:
+        """The raw output; no error (no feedback yet) gives the feed-forward plus the integral."""
+        self._step = np.zeros(3) if error is None else error * dt
+        proportional = 0.0 if error is None else self.kp * error
+        return feedforward + proportional + self.ki * (self.integral + self._step)
+
+    def commit(self, raw: NDArray[np.float64], applied: NDArray[np.float64]) -> None:
+        """Keep the integration step except where it pushed further into a limit."""
+        clipped = raw - applied
+        winding = ((clipped > 0.0) & (self._step > 0.0)) | ((clipped < 0.0) & (self._step < 0.0))
+        self.integral = np.where(winding, self.integral, self.integral + self._step)
+
+
+class PositionController(PIController):
+    """Joint-angle control: feed-forward ``GloveModel.pressure_for`` (eq 36 inverse) plus PI.
+
+    Parameters
+    ----------
+    model : GloveModel
+        Model of the glove and finger used for the feed-forward.
+    targets : array_like, shape (3,)
+        Desired joint angles, rad.
+    kp : float
+        Pa per rad of angle error.
+    ki : float
+        Pa per rad·s of integrated angle error.
+    """
+
+    closed_loop = True
+
+    def __init__(self, model: GloveModel, targets, kp: float, ki: float) -> None:
+        super().__init__(kp, ki)
+        self.model = model
+        self.set_targets(targets)
+
+    def set_targets(self, targets) -> None:
+        """New desired angles, rad; the feed-forward is recomputed once here."""
+        self.targets = np.array(targets, dtype=float)
+        self.feedforward = self.model.pressure_for(self.targets)
+
+    def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
+        """Feed-forward plus PI on the angle error, Pa."""
+        error = None if feedback.angles is None else self.targets - feedback.angles
+        return self.output(self.feedforward, error, dt)
+
+
+class ForceController(PIController):
+    """Contact-force control: robot-side feed-forward plus PI on ``estimated_contact_forces``.
+
+    The feed-forward is the pressure that makes the robot-side estimate (MODEL.md §7) equal the
+    target at the measured angles: p = B_R⁻¹((J_R*)ᵀ·f* − τ_s(q)), so it needs no finger model.
+
+    Parameters
+    ----------
+    model : GloveModel
+        Model of the exo-digit (its finger part is not used).
+    targets : array_like, shape (3,)
+        Desired contact forces, N.
+    kp : float
+        Pa per N of force error.
+    ki : float
+        Pa per N·s of integrated force error.
+    """
+
+    closed_loop = True
+
+    def __init__(self, model: GloveModel, targets, kp: float, ki: float) -> None:
+        super().__init__(kp, ki)
+        self.model = model
+        self.targets = np.array(targets, dtype=float)
+        self._moments = np.asarray(model.geometry.pressure_moments)
+
+    def feedforward(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Pressures giving the target forces at ``angles``, Pa (MODEL.md §7 solved for p)."""
+        j_robot, _ = self.model.contact_jacobians(angles)
+        torque = j_robot.T @ self.targets - self.model.structural_torque(angles)
+        return torque / self._moments
+
+    def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
+        """Feed-forward at the measured angles (zero angles before any) plus PI on force, Pa."""
+        angles = np.zeros(3) if feedback.angles is None else feedback.angles
+        error = None if feedback.forces is None else self.targets - feedback.forces
+        return self.output(self.feedforward(angles), error, dt)
+
+
+Controller = OpenLoop | PositionController | ForceController

@@ -1,0 +1,133 @@
+"""Declared node parameters as plain data: name, default, unit, range, and their validation.
+
+Each node lists its parameters once as :class:`ParamSpec` rows. The same rows give the ROS
+``ParameterDescriptor`` (see :mod:`.node_base`), the ``--help`` text, and the checks that refuse a
+bad value with a reason naming the parameter. No rclpy here, so the rules are unit-testable.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+ParamValue = bool | int | float | str | tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One node parameter.
+
+    Attributes
+    ----------
+    name : str
+        Parameter name as declared on the node.
+    default : bool, int, float, str or tuple of float
+        Default value; its type is the parameter's type (a tuple means three floats, one per
+        joint MCP, PIP, DIP).
+    description : str
+        What it means, with its SI unit.
+    low, high : float, optional
+        Inclusive range of a number (of every element of a joint vector).
+    read_only : bool
+        Structural: fixed once the node has started.
+    choices : tuple of str
+        Allowed values of a string parameter (empty: any string).
+    """
+
+    name: str
+    default: ParamValue
+    description: str
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+    choices: tuple[str, ...] = ()
+
+    def check(self, value: Any) -> ParamValue:
+        """``value`` converted to this parameter's type, or a ValueError naming the parameter."""
+        kind = type(self.default)
+        if kind is bool:
+            if not isinstance(value, bool):
+                raise ValueError(f'{self.name} must be true or false, got {value!r}')
+            return value
+        if kind is str:
+            if not isinstance(value, str):
+                raise ValueError(f'{self.name} must be a string, got {value!r}')
+            if self.choices and value not in self.choices:
+                raise ValueError(
+                    f'{self.name} must be one of {", ".join(self.choices)}, got {value!r}'
+                )
+            return value
+        if kind is tuple:
+            if isinstance(value, str | bytes) or not isinstance(value, Iterable):
+                raise ValueError(f'{self.name} must be a list of 3 numbers, got {value!r}')
+            items = list(value)
+            if len(items) != len(self.default):
+                raise ValueError(
+                    f'{self.name} must be a list of {len(self.default)} numbers (MCP, PIP, DIP), '
+                    f'got {len(items)}'
+                )
+            return tuple(self._number(item, float) for item in items)
+        return self._number(value, kind)
+
+    def _number(self, value: Any, kind: type) -> float | int:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f'{self.name} must be a number, got {value!r}')
+        if kind is int and not isinstance(value, int):
+            raise ValueError(f'{self.name} must be an integer, got {value!r}')
+        if not math.isfinite(value):
+            raise ValueError(f'{self.name} must be finite, got {value!r}')
+        if (self.low is not None and value < self.low) or (
+            self.high is not None and value > self.high
+        ):
+            raise ValueError(
+                f'{self.name} must lie in [{self.low:g}, {self.high:g}], got {value!r}'
+            )
+        return kind(value)
+
+    def help_line(self) -> str:
+        """One line of ``--help``: name, default, range, meaning."""
+        rule = f' [{self.low:g} .. {self.high:g}]' if self.low is not None else ''
+        if self.choices:
+            rule = f' {{{", ".join(self.choices)}}}'
+        default = list(self.default) if isinstance(self.default, tuple) else self.default
+        fixed = ' (read-only)' if self.read_only else ''
+        return f'  {self.name} = {default!r}{rule}{fixed}\n      {self.description}'
+
+
+class ParamTable:
+    """The parameters of one node, checked together.
+
+    Parameters
+    ----------
+    specs : iterable of ParamSpec
+        The node's parameters.
+    """
+
+    def __init__(self, specs: Iterable[ParamSpec]) -> None:
+        self.specs = {spec.name: spec for spec in specs}
+
+    def defaults(self) -> dict[str, ParamValue]:
+        """Every parameter at its default."""
+        return {name: spec.default for name, spec in self.specs.items()}
+
+    def check(self, values: Mapping[str, Any]) -> dict[str, ParamValue]:
+        """``values`` (a subset of the parameters) checked and converted.
+
+        Raises
+        ------
+        ValueError
+            Naming the first parameter that is unknown or breaks its rule.
+        """
+        checked = {}
+        for name, value in values.items():
+            spec = self.specs.get(name)
+            if spec is None:
+                raise ValueError(f'{name} is not a parameter of this node')
+            checked[name] = spec.check(value)
+        return checked
+
+    def help(self) -> str:
+        """All parameters, one entry each, for ``--help``."""
+        return '\n'.join(spec.help_line() for spec in self.specs.values())
