@@ -1,0 +1,196 @@
+"""``estimator``: robot-side contact forces and the finger's stiffness (INTERFACES.md).
+
+Pairs each ``joint_states`` with the ``chamber_pressure`` of the same plant step by their DDS
+source timestamps (refusing stale or unmatched samples) and publishes
+``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (MODEL.md §7, needs no finger
+model); every ``identification_period``, over the last ``identification_window`` pairs, it
+publishes the least-squares finger stiffness K_H as ``estimated_finger_stiffness``.
+
+Run: ``python -m exodigit_nodes.estimator --ros-args -p max_sample_age:=0.05``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.time import Time
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from .estimation import Pair, SamplePairer, StiffnessWindow
+from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age
+from .messages import (
+    CHAMBER_PRESSURE,
+    ESTIMATED_CONTACT_FORCES,
+    ESTIMATED_FINGER_STIFFNESS,
+    JOINT_STATES,
+    fill,
+    joint_vector_message,
+)
+from .node_base import GloveNode, load_model, run
+from .parameters import ParamSpec, ParamTable
+from .qos import GLOVE_QOS
+
+DIAGNOSTIC_PERIOD = 1.0
+"""Time between two /diagnostics reports, s."""
+MAX_PRESSURE_READING = 10e6
+"""Largest |chamber pressure| accepted as a measurement, Pa."""
+
+ESTIMATOR_PARAMETERS = ParamTable(
+    [
+        ParamSpec(
+            'params_file',
+            '',
+            'Model parameter YAML (MODEL.md §10); empty = built-in defaults',
+            read_only=True,
+        ),
+        ParamSpec(
+            'max_sample_age',
+            0.1,
+            'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
+            1e-4,
+            10.0,
+        ),
+        ParamSpec(
+            'max_pair_gap',
+            3e-3,
+            'Largest gap between the publication times of paired samples, s '
+            '(keep it under half the plant period)',
+            1e-6,
+            1.0,
+        ),
+        ParamSpec(
+            'identification_window',
+            500,
+            'Pairs used to identify the finger stiffness (sliding window), samples',
+            10.0,
+            100000.0,
+        ),
+        ParamSpec(
+            'identification_period',
+            1.0,
+            'Time between two stiffness identifications, s',
+            0.05,
+            3600.0,
+        ),
+    ]
+)
+
+
+def published(info: dict) -> float:
+    """Source (publication) time of a received message, s, from rclpy's message info."""
+    return info['source_timestamp'] * 1e-9
+
+
+class Estimator(GloveNode):
+    """The estimator node: wires ROS to :class:`.SamplePairer` and :class:`.StiffnessWindow`."""
+
+    executable = 'estimator'
+    table = ESTIMATOR_PARAMETERS
+
+    def __init__(self) -> None:
+        super().__init__('estimator', ESTIMATOR_PARAMETERS)
+        self.model = load_model(self.values['params_file'])
+        self.pairer = SamplePairer(self.values['max_pair_gap'])
+        self.window = StiffnessWindow(self.model, self.values['identification_window'])
+        self.pairs = 0
+        self.forces = np.zeros(3)
+        self.fit = None
+        self.fit_problem = 'no identification yet'
+        self.force_message = joint_vector_message()
+        self.stiffness_message = joint_vector_message()
+        self.force_publisher = self.create_publisher(
+            Float64MultiArray, ESTIMATED_CONTACT_FORCES, GLOVE_QOS
+        )
+        self.stiffness_publisher = self.create_publisher(
+            Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, GLOVE_QOS
+        )
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+        self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, GLOVE_QOS)
+        self.identify_timer = self.create_timer(
+            self.values['identification_period'], self.identify
+        )
+        self.create_timer(DIAGNOSTIC_PERIOD, self.report)
+        self.get_logger().info(
+            f'estimator: model from {self.values["params_file"] or "built-in defaults"}, '
+            f'window {self.values["identification_window"]} pairs'
+        )
+
+    def apply(self, settings, changed: set[str]) -> None:
+        """Use new ages, window size or identification period."""
+        self.pairer.max_gap = self.values['max_pair_gap']
+        if 'identification_window' in changed:
+            self.window = StiffnessWindow(self.model, self.values['identification_window'])
+        if 'identification_period' in changed:
+            self.destroy_timer(self.identify_timer)
+            self.identify_timer = self.create_timer(
+                self.values['identification_period'], self.identify
+            )
+
+    def on_joint_states(self, message: JointState, info: dict) -> None:
+        """Offer valid, recent joint angles (rad) to the pairer, with their publication time."""
+        try:
+            angles = joint_positions(message)
+            stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
+            stamp_age(stamp, self.now_seconds(), self.values['max_sample_age'], JOINT_STATES)
+            self.estimate(self.pairer.add_angles(angles, published(info)))
+        except InvalidInputError as error:
+            self.reject(JOINT_STATES, error)
+
+    def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
+        """Offer valid chamber pressures (Pa) to the pairer, with their publication time."""
+        try:
+            pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
+            self.estimate(self.pairer.add_pressure(pressure, published(info)))
+        except InvalidInputError as error:
+            self.reject(CHAMBER_PRESSURE, error)
+
+    def estimate(self, pair: Pair | None) -> None:
+        """Publish the robot-side contact forces of a pair (N) and keep it for identification."""
+        if pair is None:
+            return
+        forces = self.model.estimate_forces(pair.angles, pair.pressure)
+        if not np.isfinite(forces).all():
+            raise InvalidInputError(
+                'non-finite result', f'no finite force estimate at q={pair.angles.tolist()}'
+            )
+        self.pairs += 1
+        self.forces = forces
+        self.force_publisher.publish(fill(self.force_message, forces))
+        self.window.add(pair)
+
+    def identify(self) -> None:
+        """Fit K_H over the window and publish it (N·m/rad) when the window identifies it."""
+        try:
+            fit = self.window.fit()
+        except ValueError as error:
+            self.fit_problem = str(error)
+            return
+        if not np.isfinite(fit.stiffness).all():
+            self.fit_problem = f'fit not finite: {fit.stiffness.tolist()}'
+            return
+        self.fit, self.fit_problem = fit, ''
+        self.stiffness_publisher.publish(fill(self.stiffness_message, fit.stiffness))
+
+    def report(self) -> None:
+        """One /diagnostics status: pairs made, latest forces, identified stiffness."""
+        values = {
+            'pairs estimated': str(self.pairs),
+            'estimated contact forces (N)': str(self.forces.tolist()),
+            'window samples': str(self.window.count),
+            'unpaired samples': str(self.pairer.unpaired),
+        }
+        if self.fit is not None:
+            values['finger stiffness (N·m/rad)'] = str(self.fit.stiffness.tolist())
+            values['standard error (N·m/rad)'] = str(self.fit.standard_error.tolist())
+        text = 'running' if not self.fit_problem else f'running; K_H: {self.fit_problem}'
+        self.publish_status(DiagnosticStatus.OK, text, values)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``estimator`` (``ros2 run exodigit_nodes estimator``)."""
+    return run(Estimator, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,49 @@
+"""Topic names and message conversions shared by the nodes (INTERFACES.md)."""
+
+from __future__ import annotations
+
+from array import array
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+PRESSURE_COMMAND = 'pressure_command'
+CHAMBER_PRESSURE = 'chamber_pressure'
+JOINT_STATES = 'joint_states'
+CONTACT_FORCES = 'contact_forces'
+ESTIMATED_CONTACT_FORCES = 'estimated_contact_forces'
+ESTIMATED_FINGER_STIFFNESS = 'estimated_finger_stiffness'
+JOINT_TARGETS = 'joint_targets'
+MARKERS = 'markers'
+DIAGNOSTICS = '/diagnostics'
+RESET = 'reset'
+
+JOINT_DIMENSION = 'joint'
+"""Label of the one layout dimension of every joint-vector topic."""
+
+
+def joint_vector_message() -> Float64MultiArray:
+    """A Float64MultiArray with the ``joint`` layout (size 3), to be filled and reused."""
+    message = Float64MultiArray()
+    message.layout.dim = [MultiArrayDimension(label=JOINT_DIMENSION, size=3, stride=3)]
+    message.data = array('d', [0.0, 0.0, 0.0])
+    return message
+
+
+def fill(message: Float64MultiArray, values) -> Float64MultiArray:
+    """Put three floats into a message from :func:`joint_vector_message`; returns it."""
+    message.data = array('d', values)
+    return message
+
+
+def status(
+    name: str, hardware_id: str, level: bytes, text: str, values: dict[str, str]
+) -> DiagnosticStatus:
+    """A DiagnosticStatus from a level, a one-line message and key/values."""
+    return DiagnosticStatus(
+        level=level,
+        name=name,
+        message=text,
+        hardware_id=hardware_id,
+        values=[KeyValue(key=k, value=v) for k, v in values.items()],
+    )

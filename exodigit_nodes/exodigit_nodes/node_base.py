@@ -1,0 +1,240 @@
+"""What every exodigit node shares: parameters in three phases, diagnostics, rejections, main().
+
+A node lists its parameters as a :class:`~.parameters.ParamTable`, builds its plain settings
+from their values in :meth:`GloveNode.make_settings` (raising ``ValueError`` naming the
+parameter), and applies them in :meth:`GloveNode.apply`. The on-set callback only validates;
+the post-set callback applies (ros2/demos, ``set_parameters_callback.py``).
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+)
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from exodigit_model import GloveModel, ParameterError, load_params
+
+from .inputs import InvalidInputError, RejectionTally
+from .messages import DIAGNOSTICS, status
+from .parameters import ParamSpec, ParamTable
+from .qos import GLOVE_QOS
+
+LOG_THROTTLE = 2.0
+"""Shortest time between two repeats of a warning logged from a loop or callback, s."""
+
+_TYPES = {
+    bool: ParameterType.PARAMETER_BOOL,
+    int: ParameterType.PARAMETER_INTEGER,
+    float: ParameterType.PARAMETER_DOUBLE,
+    str: ParameterType.PARAMETER_STRING,
+    tuple: ParameterType.PARAMETER_DOUBLE_ARRAY,
+}
+
+
+class ConfigurationError(Exception):
+    """A node cannot start with its configuration; the text is the one line the user sees."""
+
+
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """The ROS ParameterDescriptor of a parameter: description, range, read-only.
+
+    Typing is dynamic so that a wrong type reaches our check, which names the parameter (rclpy's
+    own type error does not), and an integer given for a float is accepted.
+    """
+    kind = type(spec.default)
+    result = ParameterDescriptor(
+        name=spec.name,
+        type=_TYPES[kind],
+        description=spec.description,
+        read_only=spec.read_only,
+        dynamic_typing=True,
+    )
+    if spec.choices:
+        result.additional_constraints = 'one of: ' + ', '.join(spec.choices)
+    if kind is tuple:
+        result.additional_constraints = 'three values: MCP, PIP, DIP'
+    if spec.low is not None and kind is int:
+        result.integer_range = [
+            IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=0)
+        ]
+    elif spec.low is not None:
+        result.floating_point_range = [
+            FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high), step=0.0)
+        ]
+    return result
+
+
+def load_model(path: str) -> GloveModel:
+    """The glove model of a ``params_file`` ('' = defaults), or ConfigurationError in one line."""
+    try:
+        return GloveModel(load_params(path or None))
+    except (ParameterError, OSError, ValueError) as error:
+        raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
+
+
+class GloveNode(Node):
+    """Base of the three nodes: declared parameters, diagnostics and the rejection tally.
+
+    Parameters
+    ----------
+    name : str
+        Default node name.
+    table : ParamTable
+        The node's parameters.
+
+    Raises
+    ------
+    ConfigurationError
+        If a parameter given at start breaks its rule.
+    """
+
+    table: ParamTable
+
+    def __init__(self, name: str, table: ParamTable) -> None:
+        super().__init__(name)
+        self.table = table
+        given = {}
+        try:
+            for spec in table.specs.values():
+                default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+                given[spec.name] = self.declare_parameter(
+                    spec.name, default, descriptor(spec)
+                ).value
+            self.values = table.check(given)
+            settings = self.make_settings(self.values)
+        except (ValueError, ParameterException) as error:
+            raise ConfigurationError(' '.join(str(error).split())) from None
+        self.settings = settings
+        self._pending: tuple[dict[str, Any], Any] | None = None
+        self.rejections = RejectionTally()
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS, GLOVE_QOS)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+
+    # -- to be provided by each node -------------------------------------------------------
+
+    def make_settings(self, values: dict[str, Any]) -> Any:
+        """The node's plain settings from checked parameter values (ValueError if inconsistent)."""
+        return values
+
+    def apply(self, settings: Any, changed: set[str]) -> None:
+        """Take new settings into use (called after a successful parameter set)."""
+
+    def on_shutdown(self) -> None:
+        """Last words before the node is destroyed (e.g. a safe command)."""
+
+    # -- parameters ------------------------------------------------------------------------
+
+    def _validate_parameters(self, parameters) -> SetParametersResult:
+        try:
+            changed = self.table.check({p.name: p.value for p in parameters})
+            values = {**self.values, **changed}
+            self._pending = (values, self.make_settings(values))
+        except ValueError as error:
+            self._pending = None
+            return SetParametersResult(successful=False, reason=str(error))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters) -> None:
+        if self._pending is None:
+            return
+        self.values, self.settings = self._pending
+        self._pending = None
+        changed = {p.name for p in parameters}
+        self.apply(self.settings, changed)
+        self.get_logger().info(
+            'parameters set: ' + ', '.join(f'{name}={self.values[name]!r}' for name in changed)
+        )
+
+    # -- helpers ---------------------------------------------------------------------------
+
+    def now_seconds(self) -> float:
+        """The node clock (ROS time, so ``use_sim_time`` works), s."""
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def reject(self, topic: str, error: InvalidInputError) -> None:
+        """Count a dropped message and warn (throttled)."""
+        self.rejections.add(topic, error)
+        self.get_logger().warning(
+            f'dropped a message on {topic}: {error} ({self.rejections.total} dropped so far)',
+            throttle_duration_sec=LOG_THROTTLE,
+        )
+
+    def publish_status(self, level: bytes, text: str, values: dict[str, str]) -> None:
+        """Publish one DiagnosticStatus of this node on /diagnostics, stamped now."""
+        if self.rejections.total and level == DiagnosticStatus.OK:
+            level = DiagnosticStatus.WARN
+            text = f'{text}; {self.rejections.total} input messages dropped'
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [
+            status(
+                self.get_fully_qualified_name(),
+                self.get_namespace(),
+                level,
+                text,
+                {**values, **self.rejections.summary()},
+            )
+        ]
+        self.diagnostics_publisher.publish(array)
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _wants_help(args: list[str]) -> bool:
+    ours = args[: args.index('--ros-args')] if '--ros-args' in args else args
+    return '-h' in ours or '--help' in ours
+
+
+def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
+    """Start ``node_class``, spin until Ctrl-C / SIGTERM / shutdown, stop cleanly.
+
+    Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (one
+    line on stderr, no traceback).
+    """
+    argv = sys.argv[1:] if args is None else list(args)
+    program = node_class.executable
+    if _wants_help(argv):
+        print(f'usage: {program} [--ros-args -p name:=value ...]\n')
+        print(sys.modules[node_class.__module__].__doc__)
+        print('parameters:\n' + node_class.table.help())
+        return 0
+    signal.signal(signal.SIGTERM, _interrupt)
+    node = None
+    code = 0
+    try:
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except RuntimeError as error:  # rclpy's RCLError: malformed --ros-args
+            raise ConfigurationError(' '.join(str(error).split())) from None
+        node = node_class()
+        rclpy.spin(node)
+    except ConfigurationError as error:
+        print(f'{program}: error: {error}', file=sys.stderr)
+        code = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if node is not None and rclpy.ok():
+            node.on_shutdown()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code

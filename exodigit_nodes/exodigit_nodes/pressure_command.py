@@ -1,0 +1,331 @@
+"""``pressure_command``: the reference controller and command source of the glove (INTERFACES.md).
+
+Modes: ``staircase`` (0 → 50 kPa in 10 kPa steps and back, as in the paper's experiments), ``sine``
+(continuous passive motion between two pressures), ``hold``, ``position`` (feed-forward
+``GloveModel.pressure_for`` plus PI on ``joint_states``; targets from the ``joint_targets``
+parameter or topic) and ``force`` (target contact forces with PI on
+``estimated_contact_forces``). Every command passes the safety limiter: within [0, max_pressure],
+no faster than max_pressure_rate, ramping down when a joint leaves its range of motion or a
+contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes zero pressure.
+
+Run: ``python -m exodigit_nodes.pressure_command --ros-args -p mode:=staircase``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.duration import Duration
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from .controllers import (
+    Controller,
+    Feedback,
+    ForceController,
+    Hold,
+    PositionController,
+    Sine,
+    Staircase,
+)
+from .inputs import InvalidInputError, joint_positions, joint_vector
+from .messages import (
+    ESTIMATED_CONTACT_FORCES,
+    JOINT_STATES,
+    JOINT_TARGETS,
+    PRESSURE_COMMAND,
+    fill,
+    joint_vector_message,
+)
+from .node_base import LOG_THROTTLE, GloveNode, load_model, run
+from .parameters import ParamSpec, ParamTable
+from .qos import GLOVE_QOS
+from .safety import SafetyLimiter, SafetyLimits
+
+DIAGNOSTIC_PERIOD = 1.0
+"""Time between two /diagnostics reports, s."""
+MAX_FORCE_READING = 1e3
+"""Largest |estimated contact force| accepted as a measurement, N."""
+ZERO_ACK_TIMEOUT = 0.5
+"""How long the final zero command waits to be acknowledged by subscribers, s."""
+
+MODES = ('staircase', 'sine', 'hold', 'position', 'force')
+LIMIT_NAMES = frozenset(
+    {
+        'max_pressure',
+        'max_pressure_rate',
+        'joint_lower_limits',
+        'joint_upper_limits',
+        'max_contact_force',
+        'feedback_timeout',
+    }
+)
+
+COMMAND_PARAMETERS = ParamTable(
+    [
+        ParamSpec(
+            'params_file',
+            '',
+            'Model parameter YAML for the feed-forward (MODEL.md §10); empty = defaults',
+            read_only=True,
+        ),
+        ParamSpec('mode', 'sine', 'Command session', choices=MODES),
+        ParamSpec('rate_hz', 100.0, 'Command rate, Hz', 1.0, 1000.0, True),
+        ParamSpec('staircase_step', 10e3, 'staircase: pressure step, Pa', 100.0, 1e6),
+        ParamSpec('staircase_peak', 50e3, 'staircase: highest level, Pa', 100.0, 1e6),
+        ParamSpec('step_duration', 2.0, 'staircase: time on each level, s', 0.01, 3600.0),
+        ParamSpec('sine_low', 0.0, 'sine: lowest pressure, Pa', 0.0, 1e6),
+        ParamSpec('sine_high', 40e3, 'sine: highest pressure, Pa', 0.0, 1e6),
+        ParamSpec('sine_period', 4.0, 'sine: period of one flex-extend cycle, s', 0.1, 3600.0),
+        ParamSpec('hold_pressure', (20e3, 20e3, 20e3), 'hold: chamber pressures, Pa', 0.0, 1e6),
+        ParamSpec(
+            'joint_targets',
+            (0.3, 0.3, 0.2),
+            'position: desired joint angles, rad (the joint_targets topic overrides)',
+            -3.14,
+            3.14,
+        ),
+        ParamSpec('position_kp', 5e4, 'position: proportional gain, Pa/rad', 0.0, 1e7),
+        ParamSpec('position_ki', 3e5, 'position: integral gain, Pa/(rad·s)', 0.0, 1e8),
+        ParamSpec(
+            'force_targets', (0.1, 0.1, 0.1), 'force: desired contact forces, N', -100.0, 100.0
+        ),
+        ParamSpec('force_kp', 5e4, 'force: proportional gain, Pa/N', 0.0, 1e7),
+        ParamSpec('force_ki', 5e5, 'force: integral gain, Pa/(N·s)', 0.0, 1e8),
+        ParamSpec('max_pressure', 60e3, 'Safety: highest pressure ever sent, Pa', 1e3, 1e6),
+        ParamSpec('max_pressure_rate', 100e3, 'Safety: fastest command change, Pa/s', 1.0, 1e8),
+        ParamSpec(
+            'joint_lower_limits',
+            (-0.1, -0.1, -0.1),
+            'Safety: range of motion, lower ends, rad',
+            -3.14,
+            3.14,
+        ),
+        ParamSpec(
+            'joint_upper_limits',
+            (1.57, 1.75, 1.4),
+            'Safety: range of motion, upper ends, rad',
+            -3.14,
+            3.14,
+        ),
+        ParamSpec(
+            'max_contact_force', 5.0, 'Safety: largest |contact force| tolerated, N', 0.01, 100.0
+        ),
+        ParamSpec(
+            'feedback_timeout',
+            0.5,
+            'Feedback older than this is missing (closed loops ramp down to zero), s',
+            0.01,
+            60.0,
+        ),
+    ]
+)
+
+
+@dataclass(frozen=True)
+class CommandSettings:
+    """The command node's settings: its parameter values and the safety limits they give."""
+
+    values: dict[str, Any]
+    limits: SafetyLimits
+
+
+class PressureCommand(GloveNode):
+    """The command node: wires ROS to a controller and :class:`.SafetyLimiter`."""
+
+    executable = 'pressure_command'
+    table = COMMAND_PARAMETERS
+
+    def __init__(self) -> None:
+        super().__init__('pressure_command', COMMAND_PARAMETERS)
+        self.model = load_model(self.values['params_file'])
+        self.period = 1.0 / self.values['rate_hz']
+        self.limiter = SafetyLimiter(self.settings.limits)
+        self.angles: tuple[float, np.ndarray] | None = None
+        self.forces: tuple[float, np.ndarray] | None = None
+        self.topic_targets: np.ndarray | None = None
+        self.limit_counts: dict[str, int] = {}
+        self.last_reasons: dict[str, str] = {}
+        self.sent = np.zeros(3)
+        self.controller = self.make_controller()
+        self.started = self.now_seconds()
+        self.last_tick: float | None = None
+
+        self.command_message = joint_vector_message()
+        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+        self.create_subscription(
+            Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, GLOVE_QOS
+        )
+        self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, GLOVE_QOS)
+        self.create_timer(self.period, self.tick)
+        self.create_timer(DIAGNOSTIC_PERIOD, self.report)
+        self.get_logger().info(
+            f'pressure_command: mode {self.values["mode"]} at {self.values["rate_hz"]:g} Hz, '
+            f'max {self.values["max_pressure"]:g} Pa, {self.values["max_pressure_rate"]:g} Pa/s'
+        )
+
+    # -- parameters ------------------------------------------------------------------------
+
+    def make_settings(self, values) -> CommandSettings:
+        """Check the parameters together (ValueError naming the parameter)."""
+        if values['sine_low'] > values['sine_high']:
+            raise ValueError(
+                f'sine_low ({values["sine_low"]:g} Pa) must not exceed sine_high '
+                f'({values["sine_high"]:g} Pa)'
+            )
+        if values['staircase_peak'] < values['staircase_step']:
+            raise ValueError(
+                f'staircase_peak ({values["staircase_peak"]:g} Pa) must be at least '
+                f'staircase_step ({values["staircase_step"]:g} Pa)'
+            )
+        limits = SafetyLimits(
+            max_pressure=values['max_pressure'],
+            max_pressure_rate=values['max_pressure_rate'],
+            joint_lower=values['joint_lower_limits'],
+            joint_upper=values['joint_upper_limits'],
+            max_contact_force=values['max_contact_force'],
+        )
+        return CommandSettings(values, limits)
+
+    def apply(self, settings: CommandSettings, changed: set[str]) -> None:
+        """New limits at once; a new controller (session restarts) when its parameters change."""
+        self.limiter.limits = settings.limits
+        if changed - LIMIT_NAMES:
+            if 'joint_targets' in changed:
+                self.topic_targets = None
+            self.controller = self.make_controller()
+            self.started = self.now_seconds()
+
+    def make_controller(self) -> Controller:
+        """The controller of the current mode."""
+        v = self.values
+        mode = v['mode']
+        if mode == 'staircase':
+            return Staircase(v['staircase_step'], v['staircase_peak'], v['step_duration'])
+        if mode == 'sine':
+            return Sine(v['sine_low'], v['sine_high'], v['sine_period'])
+        if mode == 'hold':
+            return Hold(np.array(v['hold_pressure']))
+        if mode == 'position':
+            targets = v['joint_targets'] if self.topic_targets is None else self.topic_targets
+            return PositionController(self.model, targets, v['position_kp'], v['position_ki'])
+        return ForceController(self.model, v['force_targets'], v['force_kp'], v['force_ki'])
+
+    # -- inputs ----------------------------------------------------------------------------
+
+    def on_joint_states(self, message: JointState) -> None:
+        """Keep valid joint angles (rad) with their arrival time."""
+        try:
+            angles = joint_positions(message)
+        except InvalidInputError as error:
+            self.reject(JOINT_STATES, error)
+            return
+        self.angles = (self.now_seconds(), angles)
+
+    def on_forces(self, message: Float64MultiArray) -> None:
+        """Keep valid estimated contact forces (N) with their arrival time."""
+        try:
+            forces = joint_vector(message.data, ESTIMATED_CONTACT_FORCES, MAX_FORCE_READING)
+        except InvalidInputError as error:
+            self.reject(ESTIMATED_CONTACT_FORCES, error)
+            return
+        self.forces = (self.now_seconds(), forces)
+
+    def on_targets(self, message: Float64MultiArray) -> None:
+        """New position targets (rad), accepted only inside the range of motion."""
+        limits = self.limiter.limits
+        try:
+            targets = joint_vector(message.data, JOINT_TARGETS)
+            outside = (targets < limits.joint_lower) | (targets > limits.joint_upper)
+            if outside.any():
+                raise InvalidInputError(
+                    'out of range',
+                    f'{JOINT_TARGETS} {targets.tolist()} rad outside the range of motion',
+                )
+        except InvalidInputError as error:
+            self.reject(JOINT_TARGETS, error)
+            return
+        self.topic_targets = targets
+        if isinstance(self.controller, PositionController):
+            self.controller.set_targets(targets)
+
+    def fresh(self, sample: tuple[float, np.ndarray] | None, now: float) -> np.ndarray | None:
+        """The sample's value if it is younger than feedback_timeout, else None."""
+        if sample is None or now - sample[0] > self.values['feedback_timeout']:
+            return None
+        return sample[1]
+
+    # -- the loop --------------------------------------------------------------------------
+
+    def tick(self) -> None:
+        """Compute, limit and publish one command."""
+        now = self.now_seconds()
+        dt = self.period if self.last_tick is None else min(now - self.last_tick, self.period)
+        self.last_tick = now
+        feedback = Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now))
+        controller = self.controller
+        missing = controller.closed_loop and (
+            feedback.angles is None
+            or (isinstance(controller, ForceController) and feedback.forces is None)
+        )
+        if missing:
+            desired = np.zeros(3)
+            self.get_logger().warning(
+                f'{self.values["mode"]} mode: no fresh feedback for over '
+                f'{self.values["feedback_timeout"]:g} s: ramping down to zero',
+                throttle_duration_sec=LOG_THROTTLE,
+            )
+        else:
+            desired = controller.desired(now - self.started, feedback, dt)
+        limited = self.limiter.apply(desired, dt, feedback.angles, feedback.forces)
+        if not missing:
+            controller.commit(desired, limited.pressure)
+        for kind in limited.reasons:
+            self.limit_counts[kind] = self.limit_counts.get(kind, 0) + 1
+        if limited.reasons:
+            self.last_reasons = limited.reasons
+        if 'back-off' in limited.reasons or 'non-finite' in limited.reasons:
+            self.get_logger().warning(
+                '; '.join(limited.reasons.values()), throttle_duration_sec=LOG_THROTTLE
+            )
+        self.sent = limited.pressure
+        self.publisher.publish(fill(self.command_message, self.sent))
+
+    def on_shutdown(self) -> None:
+        """Send zero pressure and wait (briefly) until subscribers have it."""
+        self.sent = np.zeros(3)
+        self.publisher.publish(fill(self.command_message, self.sent))
+        self.publisher.wait_for_all_acked(Duration(seconds=ZERO_ACK_TIMEOUT))
+        self.get_logger().info('stopping: sent zero pressure')
+
+    def report(self) -> None:
+        """One /diagnostics status: mode, command, limits acting, feedback age."""
+        now = self.now_seconds()
+        problems = []
+        if self.fresh(self.angles, now) is None:
+            problems.append(f'no fresh {JOINT_STATES} (is the plant running?)')
+        if self.limiter.backing_off:
+            problems.append(self.last_reasons.get('back-off', 'backing off'))
+        values = {
+            'mode': self.values['mode'],
+            'command sent (Pa)': str(self.sent.tolist()),
+            'joint_states age (s)': 'none'
+            if self.angles is None
+            else f'{now - self.angles[0]:.3f}',
+            **{f'limited steps: {kind}': str(n) for kind, n in self.limit_counts.items()},
+        }
+        level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
+        self.publish_status(level, '; '.join(problems) or 'running', values)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``pressure_command`` (``ros2 run exodigit_nodes pressure_command``)."""
+    return run(PressureCommand, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

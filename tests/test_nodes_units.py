@@ -1,0 +1,460 @@
+"""Unit tests of the plain classes behind the nodes (no ROS traffic; fast)."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from exodigit_nodes.chambers import Chambers, ChamberSettings
+from exodigit_nodes.controllers import (
+    Feedback,
+    ForceController,
+    Hold,
+    PositionController,
+    Sine,
+    Staircase,
+)
+from exodigit_nodes.estimation import Pair, SamplePairer, StiffnessWindow
+from exodigit_nodes.inputs import (
+    InvalidInputError,
+    RejectionTally,
+    joint_positions,
+    joint_vector,
+    stamp_age,
+)
+from exodigit_nodes.parameters import ParamSpec, ParamTable
+from exodigit_nodes.safety import SafetyLimiter, SafetyLimits
+from exodigit_nodes.watchdog import Watchdog
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sensor_msgs.msg import JointState
+
+from exodigit_model import GloveModel, load_params, params_from_dict
+
+CONFIG = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'config'
+#: Relative tolerance of closed-form comparisons (floating-point rounding only).
+EXACT = 1e-12
+#: Angle tolerance of checks that go through the coupled solver, rad.
+SOLVE_TOLERANCE = 1e-9
+
+
+@pytest.fixture(scope='module')
+def model():
+    return GloveModel(load_params())
+
+
+def stiffer_finger_model(factor):
+    data = load_params().to_dict()
+    for joint in data['finger']['joints']:
+        joint['stiffness'] *= factor
+    return GloveModel(params_from_dict(data))
+
+
+# -- chambers ------------------------------------------------------------------------------
+
+
+def test_chamber_lag_matches_the_continuous_step_response():
+    constant, dt, command = 0.05, 0.01, np.array([10e3, 30e3, 50e3])
+    chambers = Chambers(ChamberSettings(time_constant=constant), np.random.default_rng(0))
+    for n in range(1, 41):
+        pressure = chambers.advance(command, dt)
+        expected = command * (1.0 - math.exp(-n * dt / constant))
+        np.testing.assert_allclose(pressure, expected, rtol=EXACT)
+
+
+def test_ideal_chambers_follow_the_command_at_once_and_saturate_reporting_it():
+    chambers = Chambers(ChamberSettings(0.0, 100e3), np.random.default_rng(0))
+    np.testing.assert_array_equal(
+        chambers.advance(np.array([1e3, 2e3, 3e3]), 0.01), [1e3, 2e3, 3e3]
+    )
+    assert not chambers.saturated_now
+    pressure = chambers.advance(np.array([-5.0, 50e3, 2e5]), 0.01)
+    np.testing.assert_array_equal(pressure, [0.0, 50e3, 100e3])
+    assert chambers.saturated_now
+    assert (chambers.saturation.below_zero, chambers.saturation.above_supply) == (1, 1)
+    chambers.reset()
+    np.testing.assert_array_equal(chambers.pressure, np.zeros(3))
+
+
+def test_sensor_noise_is_seeded_and_has_the_requested_spread():
+    def samples(seed):
+        chambers = Chambers(ChamberSettings(noise_std=500.0), np.random.default_rng(seed))
+        return np.array([chambers.measured() for _ in range(4000)])
+
+    first, again = samples(3), samples(3)
+    np.testing.assert_array_equal(first, again)
+    assert abs(first.std() / 500.0 - 1.0) < 0.05
+    assert abs(first.mean()) < 5 * 500.0 / math.sqrt(first.size)
+    quiet = Chambers(ChamberSettings(), np.random.default_rng(0))
+    np.testing.assert_array_equal(quiet.measured(), np.zeros(3))
+
+
+@pytest.mark.parametrize(
+    ('field', 'value'),
+    [('time_constant', -1.0), ('noise_std', math.nan), ('max_supply_pressure', 0.0)],
+)
+def test_chamber_settings_refuse_bad_values_naming_them(field, value):
+    with pytest.raises(ValueError, match=field):
+        ChamberSettings(**{field: value})
+
+
+# -- watchdog ------------------------------------------------------------------------------
+
+
+def test_watchdog_expires_after_its_timeout_and_counts_each_trip_once():
+    watchdog = Watchdog(0.5)
+    assert watchdog.expired(0.0) and watchdog.trips == 0  # nothing yet: missing, no trip
+    watchdog.feed(10.0)
+    assert not watchdog.expired(10.5)
+    assert watchdog.expired(10.5001) and watchdog.expired(11.0)
+    assert watchdog.trips == 1 and watchdog.tripped
+    watchdog.feed(12.0)
+    assert not watchdog.expired(12.1) and not watchdog.tripped
+    assert watchdog.expired(13.0) and watchdog.trips == 2
+    watchdog.clear()
+    assert watchdog.age(20.0) == math.inf and not watchdog.tripped
+
+
+# -- input checks --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize('length', [0, 1, 2, 4, 1000])
+def test_a_vector_of_the_wrong_length_is_rejected(length):
+    with pytest.raises(InvalidInputError, match='needs 3 values') as caught:
+        joint_vector([1.0] * length, 'pressure_command')
+    assert caught.value.kind == 'wrong length'
+
+
+@pytest.mark.parametrize('bad', [math.nan, math.inf, -math.inf])
+def test_a_non_finite_vector_is_rejected(bad):
+    with pytest.raises(InvalidInputError, match='non-finite'):
+        joint_vector([1.0, bad, 2.0], 'pressure_command')
+
+
+def test_a_vector_beyond_its_bound_is_rejected_and_a_good_one_passes():
+    with pytest.raises(InvalidInputError, match='beyond'):
+        joint_vector([1.0, 2.0, 1e308], 'chamber_pressure', 1e7)
+    np.testing.assert_array_equal(joint_vector([1.0, -2.0, 3e-310], 'x'), [1.0, -2.0, 3e-310])
+
+
+def state(names, position, velocity=(), effort=()):
+    return JointState(name=list(names), position=position, velocity=velocity, effort=effort)
+
+
+def test_joint_states_in_any_order_give_angles_in_mcp_pip_dip_order():
+    message = state(['l_dip', 'l_mcp', 'l_pip'], [0.3, 0.1, 0.2], [0.0] * 3)
+    np.testing.assert_array_equal(joint_positions(message), [0.1, 0.2, 0.3])
+
+
+@pytest.mark.parametrize(
+    'message',
+    [
+        state([], []),
+        state(['mcp', 'mcp', 'dip'], [0.1, 0.2, 0.3]),
+        state(['mcp', 'pip', ''], [0.1, 0.2, 0.3]),
+        state(['mcp', 'pip', 'dip'], [0.1, 0.2]),
+        state(['mcp', 'pip', 'dip'], [0.1, 0.2, 0.3], velocity=[0.0]),
+        state(['mcp', 'pip', 'dip'], [0.1, 0.2, 0.3], effort=[0.0] * 4),
+        state(['mcp', 'pip', 'dip'], [0.1, math.nan, 0.3]),
+        state(['mcp', 'pip', 'dip'], [0.1, 1e308, 0.3]),
+    ],
+)
+def test_malformed_joint_states_are_rejected(message):
+    with pytest.raises(InvalidInputError):
+        joint_positions(message)
+
+
+def test_stale_future_and_zero_stamps_are_rejected():
+    stamp_age(99.95, 100.0, 0.1, 'joint_states')
+    for stamp in (0.0, 99.0, 100.5):
+        with pytest.raises(InvalidInputError, match='max_sample_age'):
+            stamp_age(stamp, 100.0, 0.1, 'joint_states')
+
+
+def test_rejection_tally_counts_per_topic_and_reason():
+    tally = RejectionTally()
+    for data in ([1.0], [math.nan] * 3, [2.0]):
+        try:
+            joint_vector(data, 'pressure_command')
+        except InvalidInputError as error:
+            tally.add('pressure_command', error)
+    summary = tally.summary()
+    assert summary['rejected pressure_command: wrong length'] == '2'
+    assert summary['rejected pressure_command: non-finite'] == '1'
+    assert tally.total == 3 and 'needs 3 values' in summary['last rejection']
+
+
+# -- parameters ----------------------------------------------------------------------------
+
+RATE = ParamSpec('rate_hz', 100.0, 'rate, Hz', 1.0, 1000.0)
+TARGETS = ParamSpec('joint_targets', (0.1, 0.2, 0.3), 'targets, rad', -3.0, 3.0)
+MODE = ParamSpec('mode', 'sine', 'session', choices=('sine', 'hold'))
+
+
+@pytest.mark.parametrize(
+    ('spec', 'value'),
+    [
+        (RATE, 0.5),
+        (RATE, math.nan),
+        (RATE, math.inf),
+        (RATE, 'fast'),
+        (RATE, True),
+        (TARGETS, [0.1, 0.2]),
+        (TARGETS, [0.1, 0.2, 9.0]),
+        (TARGETS, 'abc'),
+        (MODE, 'bogus'),
+        (MODE, 3),
+    ],
+)
+def test_a_bad_value_is_refused_with_a_reason_naming_the_parameter(spec, value):
+    with pytest.raises(ValueError, match=spec.name):
+        spec.check(value)
+
+
+def test_good_values_are_converted_to_the_parameter_type():
+    assert RATE.check(200) == 200.0 and isinstance(RATE.check(200), float)
+    assert TARGETS.check([0, 1, 2]) == (0.0, 1.0, 2.0)
+    assert MODE.check('hold') == 'hold'
+    with pytest.raises(ValueError, match='not a parameter'):
+        ParamTable([RATE]).check({'rate': 1.0})
+
+
+def node_tables():
+    from exodigit_nodes.estimator import ESTIMATOR_PARAMETERS
+    from exodigit_nodes.plant import PLANT_PARAMETERS
+    from exodigit_nodes.pressure_command import COMMAND_PARAMETERS
+
+    return {
+        'plant': PLANT_PARAMETERS,
+        'pressure_command': COMMAND_PARAMETERS,
+        'estimator': ESTIMATOR_PARAMETERS,
+    }
+
+
+@pytest.mark.parametrize('node', ['plant', 'pressure_command', 'estimator'])
+def test_each_config_file_lists_every_parameter_at_its_default(node):
+    table = node_tables()[node]
+    text = (CONFIG / f'{node}.yaml').read_text()
+    values = yaml.safe_load(text)['/**']['ros__parameters']
+    assert table.check(values) == table.defaults()
+    for line in text.splitlines():
+        value = line.split(':', 1)[1].split('#')[0].strip() if ':' in line else ''
+        if any(c.isdigit() for c in value):
+            assert '#' in line, f'number without a unit comment: {line}'
+
+
+# -- controllers ---------------------------------------------------------------------------
+
+
+def test_staircase_rises_in_10_kpa_steps_to_50_kpa_and_comes_back():
+    staircase = Staircase(10e3, 50e3, 2.0)
+    expected_kpa = [0, 10, 20, 30, 40, 50, 40, 30, 20, 10, 0, 10]
+    for i, level in enumerate(expected_kpa):
+        for t in (2.0 * i + 0.01, 2.0 * i + 1.99):
+            np.testing.assert_array_equal(
+                staircase.desired(t, Feedback(), 0.01), [level * 1e3] * 3
+            )
+
+
+def test_sine_moves_between_its_two_pressures():
+    sine = Sine(5e3, 45e3, 4.0)
+    assert sine.desired(0.0, Feedback(), 0.01) == pytest.approx([5e3] * 3, rel=EXACT)
+    assert sine.desired(1.0, Feedback(), 0.01) == pytest.approx([25e3] * 3, rel=EXACT)
+    assert sine.desired(2.0, Feedback(), 0.01) == pytest.approx([45e3] * 3, rel=EXACT)
+    np.testing.assert_array_equal(Hold([1.0, 2.0, 3.0]).desired(5.0, Feedback(), 0.01), [1, 2, 3])
+
+
+def test_position_feedforward_holds_the_target_on_the_modelled_finger(model):
+    targets = np.array([0.4, 0.3, 0.2])
+    controller = PositionController(model, targets, 2e4, 5e4)
+    pressure = controller.desired(0.0, Feedback(angles=targets), 0.01)
+    solution = model.solve(pressure)
+    assert solution.converged
+    np.testing.assert_allclose(solution.q, targets, atol=SOLVE_TOLERANCE)
+
+
+def test_position_loop_removes_the_error_of_a_wrong_finger_model(model):
+    plant = stiffer_finger_model(1.5)  # the real finger is 50 % stiffer than the model says
+    targets = np.array([0.4, 0.3, 0.2])
+    controller = PositionController(model, targets, 5e4, 3e5)
+    limits = SafetyLimits(100e3, 1e6, (-0.5,) * 3, (2.0,) * 3, 50.0)
+    limiter, angles, dt = SafetyLimiter(limits), np.zeros(3), 0.01
+    for step in range(800):
+        desired = controller.desired(step * dt, Feedback(angles=angles), dt)
+        sent = limiter.apply(desired, dt, angles).pressure
+        controller.commit(desired, sent)
+        angles = plant.solve(sent, q0=angles).q
+    np.testing.assert_allclose(angles, targets, atol=1e-4)
+
+
+def test_force_feedforward_makes_the_robot_side_estimate_equal_the_target(model):
+    targets = np.array([0.2, -0.1, 0.3])
+    controller = ForceController(model, targets, 1e4, 2e4)
+    angles = np.array([0.3, 0.25, 0.1])
+    pressure = controller.feedforward(angles)
+    np.testing.assert_allclose(model.estimate_forces(angles, pressure), targets, atol=1e-12)
+
+
+def test_force_loop_reaches_the_target_forces(model):
+    targets = np.array([0.1, 0.1, 0.3])
+    controller = ForceController(model, targets, 5e4, 5e5)
+    limiter = SafetyLimiter(SafetyLimits(100e3, 1e6, (-0.5,) * 3, (2.0,) * 3, 50.0))
+    angles, forces, dt = np.zeros(3), np.zeros(3), 0.01
+    for step in range(800):
+        desired = controller.desired(step * dt, Feedback(angles, forces), dt)
+        sent = limiter.apply(desired, dt, angles, forces).pressure
+        controller.commit(desired, sent)
+        solution = model.solve(sent, q0=angles)
+        angles, forces = solution.q, solution.forces
+    np.testing.assert_allclose(forces, targets, atol=1e-4)
+
+
+def test_integrator_does_not_wind_up_against_a_limit(model):
+    controller = PositionController(model, [0.4, 0.3, 0.2], 0.0, 1e4)
+    error_feedback = Feedback(angles=np.zeros(3))
+    raw = controller.desired(0.0, error_feedback, 0.01)
+    controller.commit(raw, raw - 1.0)  # every chamber clipped from above while error > 0
+    np.testing.assert_array_equal(controller.integral, np.zeros(3))
+    raw = controller.desired(0.0, error_feedback, 0.01)
+    controller.commit(raw, raw)
+    np.testing.assert_allclose(controller.integral, [0.004, 0.003, 0.002], rtol=EXACT)
+
+
+# -- safety limiter ------------------------------------------------------------------------
+
+LIMITS = SafetyLimits(60e3, 100e3, (-0.1, -0.1, -0.1), (1.5, 1.7, 1.4), 5.0)
+hostile = st.floats(allow_nan=True, allow_infinity=True, width=64)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    requests=st.lists(st.lists(hostile, min_size=3, max_size=3), min_size=1, max_size=20),
+    dt=st.floats(0.0, 0.1),
+)
+def test_limiter_output_stays_in_range_rate_and_finite(requests, dt):
+    limiter = SafetyLimiter(LIMITS)
+    last = np.zeros(3)
+    for request in requests:
+        sent = limiter.apply(np.array(request), dt).pressure
+        assert np.isfinite(sent).all()
+        assert (sent >= 0.0).all() and (sent <= LIMITS.max_pressure).all()
+        assert (np.abs(sent - last) <= LIMITS.max_pressure_rate * dt * (1 + 1e-12)).all()
+        last = sent
+
+
+def test_limiter_backs_off_outside_the_range_of_motion_or_above_the_force_limit():
+    limiter = SafetyLimiter(LIMITS)
+    for _ in range(100):
+        limiter.apply(np.full(3, 40e3), 0.01)
+    np.testing.assert_allclose(limiter.last, 40e3)
+    out = limiter.apply(np.full(3, 40e3), 0.01, angles=np.array([0.2, 1.8, 0.1]))
+    np.testing.assert_allclose(out.pressure, 39e3)
+    assert 'pip' in out.reasons['back-off']
+    out = limiter.apply(np.full(3, 40e3), 0.01, forces=np.array([0.0, -6.0, 0.0]))
+    np.testing.assert_allclose(out.pressure, 38e3)
+    assert 'contact force' in out.reasons['back-off']
+
+
+def test_lowering_max_pressure_clips_at_once():
+    limiter = SafetyLimiter(LIMITS)
+    limiter.last = np.full(3, 50e3)
+    limiter.limits = SafetyLimits(20e3, 100e3, (-0.1,) * 3, (1.5,) * 3, 5.0)
+    np.testing.assert_array_equal(limiter.apply(np.full(3, 50e3), 0.01).pressure, [20e3] * 3)
+
+
+def test_limits_refuse_an_empty_range_of_motion():
+    with pytest.raises(ValueError, match='joint_lower_limits'):
+        SafetyLimits(60e3, 1e5, (0.0, 0.5, 0.0), (1.0, 0.4, 1.0), 5.0)
+
+
+# -- estimator bookkeeping -----------------------------------------------------------------
+
+
+def test_pairer_pairs_by_publication_time_whatever_the_arrival_order():
+    pairer = SamplePairer(1e-3)
+    q1, q2, p1, p2 = (np.full(3, v) for v in (1.0, 2.0, 10.0, 20.0))
+    assert pairer.add_angles(q1, 1.000) is None
+    assert pairer.add_angles(q2, 1.010) is None  # the executor ran late
+    pair = pairer.add_pressure(p1, 1.0002)
+    np.testing.assert_array_equal(pair.angles, q1)
+    np.testing.assert_array_equal(pair.pressure, p1)
+    pair = pairer.add_pressure(p2, 1.0101)
+    np.testing.assert_array_equal(pair.angles, q2)
+    assert pairer.unpaired == 0
+
+
+def test_pairer_drops_samples_that_lost_their_partner():
+    pairer = SamplePairer(1e-3)
+    assert pairer.add_pressure(np.ones(3), 1.000) is None  # its angles never come
+    assert pairer.add_angles(np.zeros(3), 1.010) is None
+    pair = pairer.add_pressure(np.full(3, 2.0), 1.0101)
+    np.testing.assert_array_equal(pair.angles, np.zeros(3))
+    assert pairer.unpaired == 1
+
+
+def test_window_identifies_the_finger_stiffness_and_slides(model):
+    other = stiffer_finger_model(2.0)
+    window = StiffnessWindow(model, 50)
+    with pytest.raises(ValueError, match='no samples'):
+        window.fit()
+    rng = np.random.default_rng(1)
+    for plant in (model, other):
+        for _ in range(50):
+            pressure = rng.uniform(5e3, 50e3, 3)
+            window.add(Pair(plant.solve(pressure).q, pressure))
+        stiffness = np.array([j.stiffness for j in plant.params.finger.joints])
+        np.testing.assert_allclose(window.fit().stiffness, stiffness, rtol=1e-9)
+
+
+# -- markers -------------------------------------------------------------------------------
+
+
+def test_markers_draw_the_finger_links_at_their_length_and_forces_to_scale(model):
+    from exodigit_nodes.markers import FORCE_SCALE, GloveMarkers
+
+    markers = GloveMarkers(model)
+    solution = model.solve([40e3, 40e3, 40e3])
+    backbone, finger, *arrows = markers.update(solution.q, solution.forces, None, 'base').markers
+    points = np.array([[p.x, p.y] for p in finger.points])
+    lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    expected = [2 * j.link_half_length for j in model.params.finger.joints]
+    np.testing.assert_allclose(lengths, expected, rtol=EXACT)
+    assert (backbone.points[0].x, backbone.points[0].y) == (0.0, 0.0)
+    for arrow, force in zip(arrows, solution.forces, strict=True):
+        start, end = arrow.points
+        length = math.hypot(end.x - start.x, end.y - start.y)
+        assert length == pytest.approx(FORCE_SCALE * abs(force), rel=1e-9)
+    assert all(m.header.frame_id == 'base' for m in markers.array.markers)
+
+
+# -- packaging of the logic ----------------------------------------------------------------
+
+
+def test_the_plain_logic_imports_no_ros():
+    modules = 'chambers, controllers, estimation, inputs, parameters, safety, watchdog'
+    code = (
+        'import sys\n'
+        f'from exodigit_nodes import {modules}\n'
+        "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
+        "{'rclpy', 'std_msgs', 'sensor_msgs', 'rcl_interfaces'})\n"
+        'print(bad); sys.exit(1 if bad else 0)'
+    )
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.mark.parametrize('node', ['plant', 'pressure_command', 'estimator'])
+def test_help_lists_every_parameter_and_exits_0(node, tmp_path):
+    result = subprocess.run(
+        [sys.executable, '-m', f'exodigit_nodes.{node}', '--help'],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    for name in node_tables()[node].specs:
+        assert f'  {name} = ' in result.stdout
