@@ -1,0 +1,34 @@
+"""Shared fixtures. ROS tests get a private domain id and a probe node (tests/ros_harness.py)."""
+
+import os
+
+import pytest
+from ros_harness import NodeLauncher, RosProbe, claim_domain
+
+# Nothing this test session starts may multicast discovery on the network interface.
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+
+
+@pytest.fixture(scope='session')
+def ros_domain():
+    """A ROS_DOMAIN_ID held exclusively by this test session (exported to children)."""
+    lease = claim_domain()
+    os.environ['ROS_DOMAIN_ID'] = str(lease.domain_id)
+    yield lease.domain_id
+    lease.release()
+
+
+@pytest.fixture(scope='session')
+def probe(ros_domain):
+    """The in-test rclpy node (a RosProbe), shared by the whole session."""
+    ros_probe = RosProbe(ros_domain)
+    yield ros_probe
+    ros_probe.close()
+
+
+@pytest.fixture(scope='module')
+def launcher(ros_domain, tmp_path_factory):
+    """Starts node processes for one test module (in a scratch dir); stops them afterwards."""
+    nodes = NodeLauncher(ros_domain, tmp_path_factory.mktemp('nodes'))
+    yield nodes
+    nodes.stop_all()

@@ -1,0 +1,429 @@
+"""Test harness: glove nodes as OS processes, and an in-test rclpy node that talks to them.
+
+Used by every test that needs ROS (tests/conftest.py gives fixtures around it). What it does:
+
+* :func:`claim_domain` picks a ROS_DOMAIN_ID nobody on this machine is using, by holding an
+  exclusive ``fcntl`` lock on ``/tmp/exodigit-domain-<id>.lock`` for the whole test session (ids
+  1-100, skipping the Makefile's 37), so parallel test runs never cross-talk. Discovery stays on
+  loopback (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, :func:`ros_environment`).
+* :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` in its own
+  session, in a scratch directory (never the repository root), output to log files; it stops
+  with SIGINT then, if needed, SIGKILL, and reads CPU time and resident memory from /proc.
+* :class:`RosProbe` is an rclpy node in its own context, spun by a background thread: record
+  topics (:class:`Inbox`), publish, call services, set and get other nodes' parameters
+  (rcl_interfaces SetParameters/GetParameters), list topics.
+* :func:`wait_until` polls a condition with a timeout: tests never sleep a fixed time.
+
+Example::
+
+    lease = claim_domain()
+    probe = RosProbe(lease.domain_id)
+    plant = NodeProcess('plant', {'rate_hz': 200.0}, lease.domain_id, workdir, namespace='/t')
+    states = probe.subscribe('/t/joint_states', JointState)
+    assert states.wait_count(10, timeout=10.0)
+    plant.stop()
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
+"""Domain ids tests may use (37 is the Makefile's ``make run`` domain)."""
+LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
+DISCOVERY_TIMEOUT = 10.0
+"""Longest wait for two processes to discover each other, s (median here is 0.45 s)."""
+STOP_TIMEOUT = 2.0
+"""How long a node may take to exit after SIGINT, s (INTERFACES.md)."""
+TEST_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+"""Probe subscriptions: reliable like the glove's topics, deep so a busy test loses nothing."""
+
+
+def wait_until(condition: Callable[[], Any], timeout: float, interval: float = 0.005) -> Any:
+    """Poll ``condition`` until it returns something truthy (returned) or ``timeout`` s pass.
+
+    Returns the last (falsy) value on timeout, so ``assert wait_until(...)`` reads naturally.
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value or time.monotonic() > deadline:
+            return value
+        time.sleep(interval)
+
+
+# -- domains and environment ---------------------------------------------------------------
+
+
+class DomainLease:
+    """An exclusive hold on one ROS_DOMAIN_ID for this process; release it when done."""
+
+    def __init__(self, domain_id: int, handle) -> None:
+        self.domain_id = domain_id
+        self._handle = handle
+
+    def release(self) -> None:
+        """Give the domain id back."""
+        if self._handle is not None:
+            fcntl.flock(self._handle, fcntl.LOCK_UN)
+            self._handle.close()
+            self._handle = None
+
+
+def claim_domain(candidates=DOMAIN_IDS) -> DomainLease:
+    """Lock a domain id nobody else on this machine holds (tried in random order)."""
+    order = list(candidates)
+    random.shuffle(order)
+    for domain_id in order:
+        handle = open(LOCK_PATTERN.format(domain_id), 'a')  # noqa: SIM115 (held until release)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        return DomainLease(domain_id, handle)
+    raise RuntimeError(f'every test ROS domain id in {order[0]}..{order[-1]} is in use')
+
+
+def ros_environment(domain_id: int) -> dict[str, str]:
+    """This process's environment for a ROS child: own domain, loopback-only discovery."""
+    env = dict(os.environ)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.pop('ROS_LOCALHOST_ONLY', None)
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+def format_value(value: Any) -> str:
+    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, str):
+        return "'" + value.replace("'", "''") + "'"
+    if isinstance(value, list | tuple):
+        return '[' + ','.join(format_value(v) for v in value) + ']'
+    return repr(value)
+
+
+def ros_args(
+    parameters: Mapping[str, Any] | None = None,
+    namespace: str | None = None,
+    name: str | None = None,
+    extra: list[str] | None = None,
+) -> list[str]:
+    """The ``--ros-args`` tail: parameter overrides, namespace and node-name remaps."""
+    args = ['--ros-args']
+    for key, value in (parameters or {}).items():
+        args += ['-p', f'{key}:={format_value(value)}']
+    if namespace:
+        args += ['-r', f'__ns:={namespace}']
+    if name:
+        args += ['-r', f'__node:={name}']
+    return args + list(extra or [])
+
+
+# -- node processes ------------------------------------------------------------------------
+
+
+class NodeProcess:
+    """One node run as a user would: ``python -m exodigit_nodes.<module> --ros-args ...``.
+
+    Parameters
+    ----------
+    module : str
+        ``plant``, ``pressure_command``, ``estimator`` (any module of exodigit_nodes).
+    parameters : mapping, optional
+        ``-p`` overrides.
+    domain_id : int
+        ROS_DOMAIN_ID for the process.
+    workdir : path
+        Scratch directory: the working directory and where ``<label>.out/.err`` logs go.
+    namespace, name : str, optional
+        ``__ns`` and ``__node`` remaps.
+    extra : list of str, optional
+        More arguments after the overrides (e.g. ``['--params-file', path]``).
+    """
+
+    def __init__(
+        self,
+        module: str,
+        parameters: Mapping[str, Any] | None,
+        domain_id: int,
+        workdir: Path,
+        namespace: str | None = None,
+        name: str | None = None,
+        extra: list[str] | None = None,
+    ) -> None:
+        self.module = module
+        workdir = Path(workdir)
+        label = f'{module}{(namespace or "").replace("/", "_")}-{time.monotonic_ns()}'
+        self.stdout_path = workdir / f'{label}.out'
+        self.stderr_path = workdir / f'{label}.err'
+        command = [sys.executable, '-m', f'exodigit_nodes.{module}']
+        command += ros_args(parameters, namespace, name, extra)
+        with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
+            self.process = subprocess.Popen(
+                command,
+                cwd=workdir,
+                env=ros_environment(domain_id),
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=err,
+                start_new_session=True,
+            )
+        self.pid = self.process.pid
+
+    def alive(self) -> bool:
+        """Whether the process is still running."""
+        return self.process.poll() is None
+
+    def signal(self, signum: int) -> None:
+        """Send a signal to the node's process group (if still running)."""
+        if self.alive():
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.pid, signum)
+
+    def wait(self, timeout: float) -> int | None:
+        """Exit status, or None if still running after ``timeout`` s."""
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def stop(self, timeout: float = STOP_TIMEOUT) -> int:
+        """SIGINT, wait ``timeout`` s, then SIGKILL if needed; returns the exit status."""
+        self.signal(signal.SIGINT)
+        code = self.wait(timeout)
+        if code is None:
+            self.signal(signal.SIGKILL)
+            code = self.process.wait()
+        return code
+
+    def kill(self) -> int:
+        """SIGKILL at once (fault tests); returns the exit status."""
+        self.signal(signal.SIGKILL)
+        return self.process.wait()
+
+    def stderr(self) -> str:
+        """What the node wrote on stderr so far."""
+        return self.stderr_path.read_text(errors='replace')
+
+    def stdout(self) -> str:
+        """What the node wrote on stdout so far."""
+        return self.stdout_path.read_text(errors='replace')
+
+    def cpu_seconds(self) -> float:
+        """User + system CPU time used so far, s (from /proc)."""
+        fields = Path(f'/proc/{self.pid}/stat').read_text().rsplit(')', 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+    def rss_bytes(self) -> int:
+        """Resident memory now, bytes (from /proc)."""
+        for line in Path(f'/proc/{self.pid}/status').read_text().splitlines():
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) * 1024
+        raise RuntimeError(f'no VmRSS for pid {self.pid}')
+
+
+class NodeLauncher:
+    """Starts :class:`NodeProcess` es in one domain and workdir, and stops them all at the end."""
+
+    def __init__(self, domain_id: int, workdir: Path) -> None:
+        self.domain_id = domain_id
+        self.workdir = Path(workdir)
+        self.processes: list[NodeProcess] = []
+
+    def start(
+        self, module: str, parameters: Mapping[str, Any] | None = None, **kwargs
+    ) -> NodeProcess:
+        """Start a node (see :class:`NodeProcess` for the keyword arguments)."""
+        node = NodeProcess(module, parameters, self.domain_id, self.workdir, **kwargs)
+        self.processes.append(node)
+        return node
+
+    def run(self, module: str, parameters=None, timeout: float = 30.0, **kwargs):
+        """Start a node and wait for it to exit by itself; returns (status, stdout, stderr)."""
+        node = self.start(module, parameters, **kwargs)
+        code = node.wait(timeout)
+        if code is None:
+            code = node.stop()
+        return code, node.stdout(), node.stderr()
+
+    def stop_all(self) -> None:
+        """Stop every node still running (SIGINT, then SIGKILL after the stop timeout)."""
+        for node in self.processes:
+            node.signal(signal.SIGINT)
+        for node in self.processes:
+            node.stop()
+
+
+# -- the in-test ROS node ------------------------------------------------------------------
+
+
+class Inbox:
+    """Messages received on one topic, with their arrival time (``time.monotonic()``)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._items: list[tuple[float, Any]] = []
+
+    def put(self, message) -> None:
+        """Store a message (called by the executor thread)."""
+        with self._lock:
+            self._items.append((time.monotonic(), message))
+
+    def items(self) -> list[tuple[float, Any]]:
+        """A snapshot of (arrival time, message) pairs, oldest first."""
+        with self._lock:
+            return list(self._items)
+
+    def messages(self, since: float = -1.0) -> list:
+        """Messages that arrived after ``since`` (a ``time.monotonic()`` value)."""
+        return [m for t, m in self.items() if t > since]
+
+    def latest(self):
+        """The newest message, or None."""
+        with self._lock:
+            return self._items[-1][1] if self._items else None
+
+    def count(self) -> int:
+        """How many have arrived."""
+        with self._lock:
+            return len(self._items)
+
+    def clear(self) -> None:
+        """Forget what has arrived."""
+        with self._lock:
+            self._items.clear()
+
+    def wait_count(self, n: int, timeout: float = DISCOVERY_TIMEOUT) -> bool:
+        """Wait until at least ``n`` messages have arrived."""
+        return bool(wait_until(lambda: self.count() >= n, timeout))
+
+    def wait_for(self, predicate: Callable[[Any], bool], timeout: float, since: float = -1.0):
+        """The first message after ``since`` that satisfies ``predicate`` (None on timeout)."""
+
+        def find():
+            return next((m for m in self.messages(since) if predicate(m)), None)
+
+        return wait_until(find, timeout)
+
+
+class RosProbe:
+    """An rclpy node in its own context, spun in a background thread, for driving tests.
+
+    Parameters
+    ----------
+    domain_id : int
+        ROS_DOMAIN_ID to join (the nodes under test must use the same).
+    name : str
+        Node name.
+    """
+
+    def __init__(self, domain_id: int, name: str = 'exodigit_test_probe') -> None:
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        self.context = rclpy.Context()
+        rclpy.init(
+            context=self.context,
+            domain_id=domain_id,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        with contextlib.suppress(ExternalShutdownException):
+            self.executor.spin()
+
+    def close(self) -> None:
+        """Stop spinning and shut the context down."""
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=2.0)
+
+    # topics
+
+    def subscribe(self, topic: str, message_type) -> Inbox:
+        """Record every message on ``topic`` (absolute name) in an :class:`Inbox`."""
+        inbox = Inbox()
+        with self._lock:
+            self.node.create_subscription(message_type, topic, inbox.put, TEST_QOS)
+        return inbox
+
+    def publisher(self, topic: str, message_type, wait_for: int = 1):
+        """A reliable publisher on ``topic``; waits until ``wait_for`` subscribers matched."""
+        with self._lock:
+            publisher = self.node.create_publisher(message_type, topic, TEST_QOS)
+        if wait_for:
+            matched = wait_until(
+                lambda: publisher.get_subscription_count() >= wait_for, DISCOVERY_TIMEOUT
+            )
+            assert matched, f'no subscriber on {topic} after {DISCOVERY_TIMEOUT} s'
+        return publisher
+
+    def topics(self) -> dict[str, list[str]]:
+        """Every topic seen on the graph and its types."""
+        return dict(self.node.get_topic_names_and_types())
+
+    def services(self) -> dict[str, list[str]]:
+        """Every service seen on the graph and its types."""
+        return dict(self.node.get_service_names_and_types())
+
+    # services and parameters
+
+    def call(self, service: str, service_type, request, timeout: float = DISCOVERY_TIMEOUT):
+        """Call ``service`` (absolute name) and return the response (AssertionError on timeout)."""
+        with self._lock:
+            client = self.node.create_client(service_type, service)
+        try:
+            assert client.wait_for_service(timeout_sec=timeout), f'{service} not available'
+            future = client.call_async(request)
+            assert wait_until(future.done, timeout), f'{service} did not answer in {timeout} s'
+            return future.result()
+        finally:
+            with self._lock:
+                self.node.destroy_client(client)
+
+    def set_parameters(self, node: str, values: Mapping[str, Any]):
+        """Set parameters of ``node`` (fully qualified name) one by one; list of results.
+
+        Values may be any Python value: wrong types are sent as such (tests use that).
+        """
+        request = SetParameters.Request()
+        request.parameters = [
+            Parameter(
+                name, value=list(value) if isinstance(value, tuple) else value
+            ).to_parameter_msg()
+            for name, value in values.items()
+        ]
+        return self.call(f'{node}/set_parameters', SetParameters, request).results
+
+    def get_parameters(self, node: str, names: list[str]) -> list[Any]:
+        """Current values of parameters of ``node`` (fully qualified name), as Python values."""
+        request = GetParameters.Request(names=list(names))
+        response = self.call(f'{node}/get_parameters', GetParameters, request)
+        return [parameter_value_to_python(value) for value in response.values]
