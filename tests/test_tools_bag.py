@@ -12,6 +12,7 @@ import sys
 
 import numpy as np
 import pytest
+from exodigit_model.tools.bag import pressure_at, read_bag
 from exodigit_model.tools.cli import main
 from ros_harness import ros_environment, wait_until
 from rosbags.rosbag2 import Reader
@@ -175,3 +176,13 @@ def test_plot_refuses_a_folder_without_a_bag(tmp_path, capsys):
     assert main(['plot', str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert 'not a rosbag2 bag folder' in err and '\n' not in err
+
+
+def test_plot_pairs_each_state_with_the_pressure_of_its_cycle(session):
+    """The angle-against-pressure view: every recorded state is the solve of its pressure."""
+    bag, _, _, _ = session
+    series = read_bag(bag)
+    pressure = pressure_at(series, series['joint_states'].time)
+    model = GloveModel(load_params())
+    solved = model.solve_batch(pressure).q
+    np.testing.assert_allclose(series['joint_states'].values, solved, atol=ANGLE_TOLERANCE)

@@ -97,13 +97,17 @@ def read_bag(path: Path) -> dict[str, Series]:
 
 
 def pressure_at(series: dict[str, Series], time: NDArray) -> NDArray:
-    """Chamber pressure in force at each of ``time`` (last sample before it; NaN before any)."""
+    """Chamber pressure (Pa) of the sample received nearest to each of ``time``.
+
+    The plant publishes joint_states and chamber_pressure in the same cycle, so the nearest
+    sample is the one of the same cycle whichever of the two arrived first.
+    """
     pressure = series['chamber_pressure']
-    index = np.searchsorted(pressure.time, time, side='right') - 1
-    result = np.full((time.size, 3), np.nan)
-    valid = index >= 0
-    result[valid] = pressure.values[index[valid]]
-    return result
+    after = np.clip(np.searchsorted(pressure.time, time), 1, pressure.time.size - 1)
+    before = after - 1
+    nearer = np.abs(pressure.time[before] - time) <= np.abs(pressure.time[after] - time)
+    index = np.where(nearer, before, after) if pressure.time.size > 1 else np.zeros_like(after)
+    return pressure.values[index]
 
 
 def plot_command(path: Path, out: Path) -> None:
@@ -132,13 +136,15 @@ def plot_command(path: Path, out: Path) -> None:
     }
     name = path.resolve().name
     timeseries = out / f'{name}_timeseries.png'
-    timeseries_figure(drawn, f'{name}: glove session', timeseries)
+    timeseries_figure(drawn, f'{path}: glove session', timeseries)
     written = [timeseries]
-    if 'joint_states' in series and 'chamber_pressure' in series:
+    if all(
+        key in series and series[key].time.size for key in ('joint_states', 'chamber_pressure')
+    ):
         angles = series['joint_states']
         pressure = pressure_at(series, angles.time)
         curves = out / f'{name}_angle_pressure.png'
-        title = f'{name}: joint angle against chamber pressure'
+        title = f'{path}: joint angle against chamber pressure'
         curve_figure(pressure / 1e3, np.degrees(angles.values), title, curves)
         written.append(curves)
     for signal in SIGNALS:
