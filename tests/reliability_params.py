@@ -13,6 +13,9 @@ import math
 
 from rcl_interfaces.msg import Parameter, ParameterDescriptor, ParameterType, ParameterValue
 
+#: Fraction of a parameter's range by which `other_valid_value` moves it.
+NUDGE = 0.01
+
 _FIELDS = {
     ParameterType.PARAMETER_BOOL: 'bool_value',
     ParameterType.PARAMETER_INTEGER: 'integer_value',
@@ -91,13 +94,14 @@ def other_valid_value(descriptor: ParameterDescriptor, current: ParameterValue):
     if not ranges:
         return None
     low, high = ranges[0].from_value, ranges[0].to_value
+    # A small move keeps rules between parameters (e.g. sine_low <= sine_high) satisfied.
     if kind == ParameterType.PARAMETER_INTEGER:
-        candidate = low if held != low else high
-        return value(kind, int(candidate))
+        return value(kind, int(held + 1 if held + 1 <= high else held - 1))
+    step = NUDGE * (high - low)
     if kind == ParameterType.PARAMETER_DOUBLE:
-        return value(kind, (low + held) / 2 if held != low else (low + high) / 2)
+        return value(kind, held + step if held + step <= high else held - step)
     if kind == ParameterType.PARAMETER_DOUBLE_ARRAY:
-        return value(kind, [(low + x) / 2 if x != low else (low + high) / 2 for x in held])
+        return value(kind, [x + step if x + step <= high else x - step for x in held])
     return None
 
 
