@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -445,17 +446,34 @@ def calibrate_command(data: str, params_path: str | None, mode: str, out: Path) 
     for line in report(result, samples):
         print(line)
     dump_params(result.params, out)
-    before, _, _ = predict(GloveModel(params), samples)
-    after, _, converged = predict(GloveModel(result.params), samples)
+    before_angles, before_forces, _ = predict(GloveModel(params), samples)
+    after_angles, after_forces, converged = predict(GloveModel(result.params), samples)
     if not np.all(converged):
-        print(f'warning: {np.count_nonzero(~converged)} samples did not converge after the fit')
-    plot = out.with_name(f'{out.stem}_fit.png')
-    fit_figure(
-        np.degrees(samples.angles),
-        np.degrees(before),
-        np.degrees(after),
-        [f'{name.upper()} angle' for name in JOINT_NAMES],
-        'deg',
-        plot,
+        count = np.count_nonzero(~converged)
+        print(f'warning: {count} samples did not converge after the fit', file=sys.stderr)
+    labels = [name.upper() for name in JOINT_NAMES]
+    measured, before, after = (
+        np.degrees(a) for a in (samples.angles, before_angles, after_angles)
     )
+    rows = [
+        [
+            (f'{label} angle', 'deg', measured[:, k], before[:, k], after[:, k])
+            for k, label in enumerate(labels)
+        ]
+    ]
+    if not np.all(np.isnan(samples.forces)):
+        rows.append(
+            [
+                (
+                    f'{label} force',
+                    'N',
+                    samples.forces[:, k],
+                    before_forces[:, k],
+                    after_forces[:, k],
+                )
+                for k, label in enumerate(labels)
+            ]
+        )
+    plot = out.with_name(f'{out.stem}_fit.png')
+    fit_figure(rows, plot)
     print(f'wrote {out} and {plot}')

@@ -92,19 +92,32 @@ def marker_figure(markers: dict, pressure, path: Path) -> None:
     _save(figure, path)
 
 
-def fit_figure(measured, before, after, labels, unit: str, path: Path) -> None:
-    """Measured against model values, before and after a fit, one panel per quantity."""
-    count = measured.shape[1]
-    figure, axes = _panels('Calibration: measured against model', ncols=count, size=(4 * count, 4))
-    for column, ax in enumerate(axes[0]):
-        low = min(measured[:, column].min(), after[:, column].min(), before[:, column].min())
-        high = max(measured[:, column].max(), after[:, column].max(), before[:, column].max())
-        ax.plot([low, high], [low, high], 'k-', linewidth=0.8)
-        ax.plot(measured[:, column], before[:, column], 'x', color='tab:gray', label='before')
-        ax.plot(measured[:, column], after[:, column], 'o', color='tab:red', label='fitted')
-        ax.set_title(labels[column])
-        ax.set_xlabel(f'measured ({unit})')
-        ax.set_ylabel(f'model ({unit})')
+def fit_figure(rows: list, path: Path) -> None:
+    """Measured against model values, before and after a fit.
+
+    ``rows`` is a list of figure rows, each a list of panels
+    ``(title, unit, measured, before, after)`` with 1-D arrays in display units (NaN = skip).
+    """
+    figure, axes = _panels(
+        'Calibration: measured against model',
+        ncols=max(len(row) for row in rows),
+        nrows=len(rows),
+        size=(12, 3.8 * len(rows)),
+    )
+    for row, row_axes in zip(rows, axes, strict=True):
+        for (title, unit, measured, before, after), ax in zip(row, row_axes, strict=False):
+            shown = ~np.isnan(measured)
+            ax.set_title(title)
+            if not np.any(shown):
+                ax.text(0.5, 0.5, 'not measured', ha='center', transform=ax.transAxes)
+                continue
+            values = np.concatenate([measured[shown], before[shown], after[shown]])
+            low, high = values.min(), values.max()
+            ax.plot([low, high], [low, high], 'k-', linewidth=0.8)
+            ax.plot(measured[shown], before[shown], 'x', color='tab:gray', label='before')
+            ax.plot(measured[shown], after[shown], 'o', color='tab:red', label='fitted')
+            ax.set_xlabel(f'measured ({unit})')
+            ax.set_ylabel(f'model ({unit})')
     axes[0, 0].legend(fontsize='small')
     _save(figure, path)
 
