@@ -22,8 +22,8 @@ EXIT_USAGE = 2
 EXAMPLES = {
     'curves': 'exodigit curves --out curves --pressures 0:50:10',
     'draw': 'exodigit draw --pressure 50 --out glove.png',
-    'calibrate': 'exodigit calibrate bench.csv --fit both --out my_glove.yaml',
-    'plot': 'exodigit plot runs/session_bag --out plots',
+    'calibrate': 'exodigit calibrate docs/example_bench.csv --fit both --out my_glove.yaml',
+    'plot': 'exodigit plot runs/stairs/bag --out runs/stairs',
 }
 
 DESCRIPTIONS = {
