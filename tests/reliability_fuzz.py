@@ -312,14 +312,9 @@ class GloveUnderFuzz:
 
     def report(self, node: str, since: float = -1.0):
         """The newest DiagnosticStatus of ``node`` that arrived after ``since``, or None."""
-        name = f'{self.namespace}/{node}'
-        for arrival, array in reversed(self.diagnostics.items()):
-            if arrival <= since:
-                return None
-            for status in array.status:
-                if status.name == name:
-                    return status
-        return None
+        from reliability_session import latest_status
+
+        return latest_status(self.diagnostics, f'{self.namespace}/{node}', since)
 
     def rejections(self, node: str, topic: str, since: float) -> int | None:
         """``node``'s count of dropped ``topic`` messages in a report newer than ``since``."""

@@ -1,0 +1,140 @@
+"""Faults in a running glove: kill -9 and restart each node; stop the plant under a controller.
+
+One session (namespace ``/faults``, controller in ``sine`` mode) goes through: normal; kill the
+plant (the controller says so in diagnostics, commands stay within limits), restart it, normal
+again; kill the controller (the plant vents on its watchdog and says so), restart it, normal;
+kill the estimator (plant and controller carry on), restart it (forces at once, stiffness within
+one identification window), normal. "Normal" is checked against the model (see
+`reliability_session.GloveSession.normal`); no manual step is ever taken between faults.
+
+A second session holds the controller in ``position`` mode and stops the plant: with no fresh
+feedback the controller reports it and ramps down to zero, never outside its limits.
+"""
+
+import itertools
+import time
+
+import numpy as np
+import pytest
+from reliability_session import (
+    IDENTIFICATION_PERIOD,
+    NODES,
+    RATE,
+    START_TIMEOUT,
+    WINDOW,
+    GloveSession,
+)
+from ros_harness import wait_until
+
+#: Plant command timeout (its default), s; venting is complete well within two of them + lag.
+COMMAND_TIMEOUT = 0.5
+#: A vented chamber holds less than this, Pa.
+VENTED = 100.0
+#: How long to watch the survivors of a kill, s.
+WATCH = 1.5
+#: Controller feedback timeout (its default), s, and its diagnostics period, s.
+FEEDBACK_TIMEOUT = 0.5
+REPORT_PERIOD = 1.0
+
+
+@pytest.fixture(scope='module')
+def session(launcher, probe):
+    glove = GloveSession(launcher, probe, '/faults')
+    for node in NODES:
+        glove.start(node)
+    problems = glove.normal(since=-1.0, timeout=2 * START_TIMEOUT)
+    assert problems == [], f'glove not normal at start: {problems}'
+    return glove
+
+
+def restart_and_recover(session: GloveSession, node: str) -> None:
+    restarted = time.monotonic()
+    session.start(node)
+    problems = session.normal(since=restarted)
+    assert problems == [], f'after restarting {node}: not normal: {problems}'
+
+
+def test_plant_killed_controller_reports_and_stays_safe_then_recovers(session):
+    killed = time.monotonic()
+    assert session.kill('plant') == -9
+    assert session.reported('pressure_command', killed + FEEDBACK_TIMEOUT)
+    status = session.status('pressure_command', killed + FEEDBACK_TIMEOUT)
+    assert status.level != b'\x00' and 'joint_states' in status.message, status.message
+    assert session.alive('pressure_command') and session.alive('estimator')
+    assert session.unsafe_commands(killed) == []
+    restart_and_recover(session, 'plant')
+
+
+def test_controller_killed_plant_vents_on_its_watchdog_then_recovers(session):
+    killed = time.monotonic()
+    assert session.kill('pressure_command') == -9
+    vent_by = COMMAND_TIMEOUT + 0.5
+    vented = session.inbox['chamber_pressure'].wait_for(
+        lambda m: max(m.data) < VENTED, timeout=vent_by + START_TIMEOUT, since=killed
+    )
+    assert vented is not None, 'chambers did not vent'
+
+    def venting_reported():
+        status = session.status('plant', killed)
+        values = {} if status is None else {kv.key: kv.value for kv in status.values}
+        return values.get('watchdog') == 'venting' and 'watchdog' in status.message
+
+    assert wait_until(venting_reported, COMMAND_TIMEOUT + 2 * REPORT_PERIOD), 'no venting report'
+
+    assert session.alive('plant') and session.alive('estimator')
+    restart_and_recover(session, 'pressure_command')
+
+
+def test_estimator_killed_others_carry_on_and_it_resumes_within_one_window(session):
+    killed = time.monotonic()
+    assert session.kill('estimator') == -9
+    watched = time.monotonic() + WATCH
+    assert session.flowing('joint_states', killed, count=int(0.5 * WATCH * RATE))
+    assert session.flowing('pressure_command', killed, count=int(0.5 * WATCH * RATE))
+    assert session.alive('plant') and session.alive('pressure_command')
+    assert time.monotonic() >= watched or session.flowing('joint_states', watched, count=1)
+    restarted = time.monotonic()
+    session.start('estimator')
+    first = session.inbox['estimated_contact_forces'].wait_for(
+        lambda m: True, timeout=START_TIMEOUT, since=restarted
+    )
+    assert first is not None, 'estimator did not resume its force estimates'
+    resumed = time.monotonic()
+    one_window = WINDOW / RATE + IDENTIFICATION_PERIOD
+    identified = session.inbox['estimated_finger_stiffness'].wait_for(
+        lambda m: True, timeout=one_window + REPORT_PERIOD, since=resumed
+    )
+    assert identified is not None, f'no stiffness within one window ({one_window:g} s)'
+    assert session.normal(since=restarted) == []
+
+
+@pytest.fixture(scope='module')
+def position_session(launcher, probe):
+    overrides = {'pressure_command': {'mode': 'position'}}
+    glove = GloveSession(launcher, probe, '/faults_position', overrides)
+    for node in NODES:
+        glove.start(node)
+    assert glove.flowing('joint_states', -1.0, timeout=2 * START_TIMEOUT)
+    assert glove.reported('pressure_command', -1.0)
+    return glove
+
+
+def test_plant_stopped_under_closed_loop_controller_reports_and_ramps_down(position_session):
+    glove = position_session
+    holding = glove.inbox['pressure_command'].wait_for(
+        lambda m: min(m.data) > 1e3, timeout=START_TIMEOUT
+    )
+    assert holding is not None, 'position mode never pressurised'
+    stopped = time.monotonic()
+    assert glove.processes['plant'].stop() == 0
+    zero = glove.inbox['pressure_command'].wait_for(
+        lambda m: max(m.data) == 0.0, timeout=START_TIMEOUT, since=stopped
+    )
+    assert zero is not None, 'controller did not ramp down to zero without feedback'
+    assert glove.reported('pressure_command', stopped + FEEDBACK_TIMEOUT)
+    status = glove.status('pressure_command', stopped + FEEDBACK_TIMEOUT)
+    assert status.level != b'\x00' and 'joint_states' in status.message, status.message
+    assert glove.unsafe_commands(stopped) == []
+    commands = [np.asarray(m.data) for m in glove.inbox['pressure_command'].messages(stopped)]
+    peaks = [c.max() for c in commands]
+    assert all(b <= a + 1e-9 for a, b in itertools.pairwise(peaks)), 'rose without feedback'
