@@ -23,64 +23,117 @@ def png_size(path):
     return struct.unpack('>II', data[16:24])
 
 
-def plant_step(signals, stamp, p, order=('chamber_pressure', 'joint_states', 'contact_forces')):
-    """Feed one plant step (chamber p, angles p/1e5 rad, forces p/1e4 N) in ``order``."""
-    values = {
-        'chamber_pressure': np.full(3, p),
-        'joint_states': np.full(3, p / 1e5),
-        'contact_forces': np.full(3, p / 1e4),
-    }
-    samples = [
-        signals.update(topic, values[topic], stamp if topic == 'joint_states' else None)
-        for topic in order
+PERIOD = 0.01  # s, plant step in these tests
+PLANT_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
+
+
+def step_messages(step, p, delays=(0.0, 50e-6, 100e-6)):
+    """The plant's three messages of one step: (topic, values, published, stamp).
+
+    Chamber ``p`` Pa, angles ``p / 1e5`` rad, forces ``p / 1e4`` N, so a joined sample shows
+    whether its values come from one step; published in the plant's order, ``delays`` after
+    the start of the step.
+    """
+    start = 1000.0 + PERIOD * step
+    values = {'chamber_pressure': p, 'joint_states': p / 1e5, 'contact_forces': p / 1e4}
+    return [
+        (topic, np.full(3, values[topic]), start + delay, 100.0 + PERIOD * step)
+        for topic, delay in zip(PLANT_ORDER, delays, strict=True)
     ]
+
+
+def feed(signals, messages):
+    """Deliver messages in the given order; all samples they complete."""
+    samples = []
+    for topic, values, published, stamp in messages:
+        stamp = stamp if topic == 'joint_states' else None
+        samples += signals.update(topic, values, published, stamp)
     return samples
 
 
-@pytest.mark.parametrize(
-    'order',
-    [
-        ('chamber_pressure', 'joint_states', 'contact_forces'),
-        ('joint_states', 'contact_forces', 'chamber_pressure'),
-        ('contact_forces', 'chamber_pressure', 'joint_states'),
-    ],
-)
-def test_a_sample_joins_the_three_topics_of_one_plant_step_in_any_order(order):
+def run_steps(signals, pressures):
+    """Deliver whole steps in publication order (and the next one, which closes the last)."""
+    messages = [m for i, p in enumerate([*pressures, -1.0]) for m in step_messages(i, p)]
+    samples = feed(signals, messages)
+    assert len(samples) == len(pressures)
+    return samples
+
+
+def assert_one_step(sample, p=None):
+    chamber = sample.values['chamber_pressure']
+    np.testing.assert_array_equal(sample.values['joint_states'], chamber / 1e5)
+    np.testing.assert_array_equal(sample.values['contact_forces'], chamber / 1e4)
+    if p is not None:
+        np.testing.assert_array_equal(chamber, np.full(3, p))
+
+
+@pytest.mark.parametrize('order', [(0, 1, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)])
+def test_a_sample_joins_the_three_topics_of_one_plant_step_in_any_delivery_order(order):
     signals = GloveSignals(NODES)
     signals.update('pressure_command', [1.0, 2.0, 3.0])
-    for step in range(3):
-        samples = plant_step(signals, 100.0 + 0.01 * step, 1000.0 * (step + 1), order)
-        assert samples[:2] == [None, None]
-        sample = samples[2]
-        assert sample.time == pytest.approx(0.01 * step)
-        p = sample.values['chamber_pressure']
-        np.testing.assert_array_equal(sample.values['joint_states'], p / 1e5)
-        np.testing.assert_array_equal(sample.values['contact_forces'], p / 1e4)
-        np.testing.assert_array_equal(p, np.full(3, 1000.0 * (step + 1)))
+    pressures = [1000.0, 2000.0, 3000.0]
+    messages = []
+    for step, p in enumerate([*pressures, 0.0]):
+        in_step = step_messages(step, p)
+        messages += [in_step[i] for i in order]
+    samples = feed(signals, messages)
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD, 2 * PERIOD])
+    for sample, p in zip(samples, pressures, strict=True):
+        assert_one_step(sample, p)
         np.testing.assert_array_equal(sample.values['pressure_command'], [1.0, 2.0, 3.0])
         assert sample.values['estimated_contact_forces'] is None
 
 
-def test_repeated_messages_of_one_topic_do_not_make_a_sample():
+def test_steps_delivered_topic_by_topic_are_not_mixed():
+    # Each topic keeps its own order (DDS), but one topic may run several steps ahead.
     signals = GloveSignals(NODES)
-    for _ in range(5):
-        assert signals.update('joint_states', [0.1, 0.2, 0.3], 1.0) is None
+    steps = [step_messages(i, 1000.0 * (i + 1)) for i in range(4)]
+    by_topic = [steps[i][k] for k in (1, 2, 0) for i in range(4)]
+    samples = feed(signals, by_topic)
+    assert [s.values['chamber_pressure'][0] for s in samples] == [1000.0, 2000.0, 3000.0]
+    for sample in samples:
+        assert_one_step(sample)
+
+
+def test_a_late_message_joins_its_own_step_not_the_next_one():
+    # The plant is preempted before publishing the forces of step 0; step 1 follows at once.
+    signals = GloveSignals(NODES)
+    late = step_messages(0, 1000.0, delays=(0.0, 50e-6, 9.5e-3))
+    early = step_messages(1, 2000.0, delays=(-0.4e-3, -0.35e-3, -0.3e-3))
+    samples = feed(signals, late + early + step_messages(2, 3000.0))
+    assert [s.values['chamber_pressure'][0] for s in samples] == [1000.0, 2000.0]
+    for sample in samples:
+        assert_one_step(sample)
+
+
+def test_a_step_with_a_lost_message_is_skipped_and_the_others_join():
+    signals = GloveSignals(NODES)
+    messages = [m for i in range(5) for m in step_messages(i, 1000.0 * (i + 1))]
+    lost = [messages[5], messages[7]]  # forces of step 1, angles of step 2
+    samples = feed(signals, [m for m in messages if not any(m is x for x in lost)])
+    assert [s.values['chamber_pressure'][0] for s in samples] == [1000.0, 4000.0]
+    for sample in samples:
+        assert_one_step(sample)
+
+
+def test_unknown_signals_are_refused():
     with pytest.raises(ValueError, match='unknown signal'):
-        signals.update('cmd_vel', [0.0, 0.0, 0.0])
+        GloveSignals(NODES).update('cmd_vel', [0.0, 0.0, 0.0])
 
 
 def test_run_record_csv_holds_display_units_and_empty_cells_for_missing_values(tmp_path):
     record = RunRecord(tmp_path / 'run')
     signals = GloveSignals(NODES)
     pressures = [12_345.0, 50_000.0]
-    for i, p in enumerate(pressures):
-        if i == 1:
-            signals.update('estimated_contact_forces', [0.5, 0.25, 0.125])
-        record.write(plant_step(signals, 5.0 + i, p)[-1])
+    samples = feed(signals, step_messages(0, pressures[0]) + step_messages(1, pressures[1]))
+    signals.update('estimated_contact_forces', [0.5, 0.25, 0.125])
+    samples += feed(signals, step_messages(2, 0.0))
+    for sample in samples:
+        record.write(sample)
     record.close()
     table = read_csv(record.csv_path)
     assert list(table) == csv_columns()
-    np.testing.assert_allclose(table['time_s'], [0.0, 1.0])
+    np.testing.assert_allclose(table['time_s'], [0.0, PERIOD])
     np.testing.assert_allclose(table['p_mcp_kpa'], np.array(pressures) / 1000.0, rtol=1e-12)
     np.testing.assert_allclose(
         table['q_dip_deg'], np.degrees(np.array(pressures) / 1e5), rtol=1e-11
@@ -94,9 +147,9 @@ def test_run_record_csv_holds_display_units_and_empty_cells_for_missing_values(t
 def test_run_record_plot_is_a_png_of_sensible_size(tmp_path):
     record = RunRecord(tmp_path)
     signals = GloveSignals(NODES)
-    for i in range(50):
-        signals.update('pressure_command', np.full(3, 1e3 * i))
-        record.write(plant_step(signals, 0.01 * i, 1e3 * i)[-1])
+    signals.update('pressure_command', np.full(3, 10e3))
+    for sample in run_steps(signals, 1e3 * np.arange(50)):
+        record.write(sample)
     record.close()
     assert record.plot() == record.plot_path
     width, height = png_size(record.plot_path)
@@ -120,7 +173,7 @@ def test_run_directories_are_never_reused(tmp_path):
 
 def test_summary_table_and_line_show_values_in_display_units():
     signals = GloveSignals(NODES)
-    plant_step(signals, 3.0, 25_000.0)
+    feed(signals, step_messages(0, 25_000.0))
     signals.update_health('plant', 0, 'ok', now=10.0)
     signals.update_health('estimator', 1, 'stale sample', now=10.0)
     table = signals.table(now=11.0, title='glove')

@@ -6,6 +6,7 @@ import sys
 import time
 
 from exodigit_nodes.supervisor import Supervisor
+from ros_harness import wait_until
 
 WAIT = 10.0
 
@@ -31,15 +32,6 @@ while True:
 """
 
 
-def wait_for(condition, timeout=WAIT):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.02)
-    return False
-
-
 def alive(pid):
     try:
         os.kill(pid, 0)
@@ -58,7 +50,7 @@ def test_processes_stop_in_the_given_order_with_sigint(tmp_path):
     supervisor = Supervisor(os.environ, log_dir=tmp_path / 'logs')
     for name in ('plant', 'estimator', 'pressure_command'):
         supervisor.start(name, [sys.executable, '-c', POLITE, name, str(order_log)])
-    assert wait_for(lambda: all(ready(supervisor, n) for n in supervisor.names))
+    assert wait_until(lambda: all(ready(supervisor, n) for n in supervisor.names), WAIT)
     pids = [supervisor.pid(name) for name in supervisor.names]
     # each child leads its own session, apart from the test's
     assert all(os.getsid(pid) == pid != os.getsid(0) for pid in pids)
@@ -76,7 +68,7 @@ def test_processes_stop_in_the_given_order_with_sigint(tmp_path):
 def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):
     supervisor = Supervisor(os.environ, log_dir=tmp_path)
     supervisor.start('stubborn', [sys.executable, '-c', STUBBORN])
-    assert wait_for(lambda: ready(supervisor, 'stubborn'))
+    assert wait_until(lambda: ready(supervisor, 'stubborn'), WAIT)
     started = time.monotonic()
     (exit_,) = supervisor.stop(['stubborn'], grace=0.5)
     assert time.monotonic() - started < 3.0
@@ -89,7 +81,7 @@ def test_an_unexpected_exit_is_seen_with_its_code_and_log(tmp_path):
     supervisor = Supervisor(os.environ, log_dir=tmp_path)
     supervisor.start('plant', [sys.executable, '-c', 'print("bad params_file"); exit(3)'])
     supervisor.start('estimator', [sys.executable, '-c', STUBBORN])
-    assert wait_for(lambda: supervisor.exited())
+    assert wait_until(supervisor.exited, WAIT)
     (exit_,) = supervisor.exited()
     assert (exit_.name, exit_.returncode) == ('plant', 3)
     assert exit_.describe() == 'plant exited with code 3'

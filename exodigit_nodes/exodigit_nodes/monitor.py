@@ -41,14 +41,14 @@ class GloveMonitor(Node):
     namespace : str
         The glove's namespace (absolute).
     on_sample : callable
-        Called with each completed `Sample` (one per plant step).
+        Called with each completed `Sample` (one per plant step). Subscriptions take the DDS
+        message info: its source timestamp joins the three messages of a plant step.
     """
 
     def __init__(self, signals: GloveSignals, namespace: str, on_sample: Callable[[Sample], None]):
         super().__init__('glove_monitor', namespace=namespace)
         self._signals = signals
         self._on_sample = on_sample
-        self.rejected = 0
         for topic in SIGNALS:
             if topic == 'joint_states':
                 self.create_subscription(JointState, topic, self._on_joint_state, GLOVE_QOS)
@@ -57,24 +57,22 @@ class GloveMonitor(Node):
                 self.create_subscription(Float64MultiArray, topic, callback, GLOVE_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, GLOVE_QOS)
 
-    def _array_callback(self, topic: str) -> Callable[[Float64MultiArray], None]:
-        def callback(message: Float64MultiArray) -> None:
-            self._update(topic, message.data)
+    def _array_callback(self, topic: str) -> Callable[[Float64MultiArray, dict], None]:
+        def callback(message: Float64MultiArray, info: dict) -> None:
+            self._update(topic, message.data, info)
 
         return callback
 
-    def _on_joint_state(self, message: JointState) -> None:
+    def _on_joint_state(self, message: JointState, info: dict) -> None:
         stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
-        self._update('joint_states', message.position, stamp)
+        self._update('joint_states', message.position, info, stamp)
 
-    def _update(self, topic: str, values, stamp: float | None = None) -> None:
+    def _update(self, topic: str, values, info: dict, stamp: float | None = None) -> None:
         values = np.asarray(values, dtype=float)
         if values.shape != (len(JOINT_LABELS),):
-            # Not ours to judge (the nodes report bad input); count it and show nothing wrong.
-            self.rejected += 1
-            return
-        sample = self._signals.update(topic, values, stamp)
-        if sample is not None:
+            return  # another publisher's malformed message: the nodes report those, not us
+        published = info['source_timestamp'] * 1e-9
+        for sample in self._signals.update(topic, values, published, stamp):
             self._on_sample(sample)
 
     def _on_diagnostics(self, message: DiagnosticArray) -> None:

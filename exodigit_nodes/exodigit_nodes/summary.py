@@ -5,6 +5,7 @@ inside; kPa, degrees and the unit labels appear only in the text this module wri
 """
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TextIO
@@ -13,8 +14,6 @@ import numpy as np
 
 #: Joint labels in topic order (INTERFACES.md: always MCP, PIP, DIP).
 JOINT_LABELS = ('MCP', 'PIP', 'DIP')
-#: Signals the plant publishes in one step; a sample is complete when each has arrived.
-PLANT_SIGNALS = frozenset({'chamber_pressure', 'joint_states', 'contact_forces'})
 
 
 @dataclass(frozen=True)
@@ -55,6 +54,10 @@ SIGNALS = {
     'estimated_contact_forces': Signal('force est', 'f_est', 1.0, 'N', 'n'),
     'estimated_finger_stiffness': Signal('K_H', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad'),
 }
+#: The order in which the plant publishes the messages of one step (``Plant.publish_state``).
+STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
+#: Messages of each plant topic kept while the rest of their step has not arrived.
+JOIN_BUFFER = 100
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 
@@ -96,10 +99,11 @@ class Health:
 class GloveSignals:
     """Latest value of each glove signal, and the samples the plant's steps make of them.
 
-    The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in the
-    same step but on three topics without a common stamp; a `Sample` is made once all three
-    have been updated since the previous one, so each sample joins the values of one step.
-    Signals of the other nodes (command, estimates) join with their latest value.
+    The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in each
+    step, on three topics without a common stamp. A `Sample` joins the three messages of one
+    step by their publication (DDS source) times (see `_join`), so it never mixes two steps,
+    however the messages are delivered or delayed. Signals of the other nodes (command,
+    estimates) join with their latest value.
 
     Parameters
     ----------
@@ -112,9 +116,12 @@ class GloveSignals:
         self.health: dict[str, Health | None] = dict.fromkeys(nodes)
         self.time: float | None = None
         self._first_stamp: float | None = None
-        self._fresh: set[str] = set()
+        self._waiting = {topic: deque(maxlen=JOIN_BUFFER) for topic in STEP_ORDER}
+        self._stream: deque = deque()  # known messages in publication order, not yet joined
 
-    def update(self, signal: str, values, stamp: float | None = None) -> Sample | None:
+    def update(
+        self, signal: str, values, published: float = 0.0, stamp: float | None = None
+    ) -> list[Sample]:
         """Record a new value of ``signal``.
 
         Parameters
@@ -123,26 +130,58 @@ class GloveSignals:
             A key of `SIGNALS`.
         values : array_like, shape (3,)
             The message's values, SI.
+        published : float
+            When the message was published (DDS source timestamp), s; joins plant steps.
         stamp : float, optional
-            Header stamp in seconds (``joint_states`` only).
+            Header stamp in seconds (``joint_states`` only): the sample's time.
 
         Returns
         -------
-        Sample or None
-            The completed sample when this value completes a plant step.
+        list of Sample
+            The plant steps this message completes (usually none or one).
         """
         if signal not in SIGNALS:
             raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
-        self.latest[signal] = np.array(values, dtype=float)
-        if stamp is not None:
+        values = np.array(values, dtype=float)
+        self.latest[signal] = values
+        if signal not in STEP_ORDER:
+            return []
+        self._waiting[signal].append((published, values, stamp))
+        samples = []
+        while (sample := self._join()) is not None:
+            samples.append(sample)
+        return samples
+
+    def _join(self) -> Sample | None:
+        """The oldest complete plant step, or None to wait for more messages.
+
+        Each topic arrives in publication order, so once every topic has delivered a message
+        published after time ``h``, all messages up to ``h`` are known. Merged by publication
+        time they read ``chamber_pressure, joint_states, contact_forces`` step after step
+        (`STEP_ORDER`); a step is three consecutive messages in that order. A step that lost a
+        message (a full history) breaks the pattern and is skipped, never mixed with another.
+        """
+        if not all(self._waiting.values()):
+            return None
+        horizon = min(queue[-1][0] for queue in self._waiting.values())
+        known = []
+        for topic, queue in self._waiting.items():
+            while queue and queue[0][0] <= horizon:
+                known.append((queue.popleft(), topic))
+        self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
+        while len(self._stream) >= len(STEP_ORDER):
+            step = [self._stream[i] for i in range(len(STEP_ORDER))]
+            if tuple(topic for _, topic in step) != STEP_ORDER:
+                self._stream.popleft()
+                continue
+            for _ in step:
+                self._stream.popleft()
+            values = {topic: message[1] for message, topic in step}
+            stamp = step[STEP_ORDER.index('joint_states')][0][2]
             if self._first_stamp is None:
                 self._first_stamp = stamp
             self.time = stamp - self._first_stamp
-        if signal in PLANT_SIGNALS:
-            self._fresh.add(signal)
-        if self._fresh == PLANT_SIGNALS and self.time is not None:
-            self._fresh.clear()
-            return Sample(self.time, dict(self.latest))
+            return Sample(self.time, {**self.latest, **values})
         return None
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:

@@ -1,0 +1,217 @@
+"""The glove command as a user runs it: real node processes over DDS, the summary, the record.
+
+Each test runs ``python -m exodigit_nodes.glove`` in its own namespace and ROS domain and checks
+what it printed and wrote against the model computed here, independently of the nodes.
+"""
+
+import csv
+import os
+import signal
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ros_harness import ros_environment, wait_until
+
+from exodigit_model import GloveModel, load_params
+
+GLOVE = [sys.executable, '-m', 'exodigit_nodes.glove']
+JOINTS = ('mcp', 'pip', 'dip')
+#: Angles in the record against GloveModel.solve of the recorded chamber pressures, rad.
+ANGLE_TOLERANCE = 1e-6
+#: Forces in the record against the same solve, N.
+FORCE_TOLERANCE = 1e-6
+#: Seconds the glove may take to exit after the end of its duration or a SIGINT.
+STOP_TIMEOUT = 15.0
+#: Seconds to wait for the nodes to start and the first samples to arrive.
+START_TIMEOUT = 60.0
+SUPPLY_LIMIT = 200e3  # Pa, plant default max_supply_pressure upper bound used as a sanity limit
+
+
+def namespace(tag):
+    return f'/glove_test_{os.getpid()}_{tag}'
+
+
+def node_pids(ns):
+    """Live processes started with ``-r __ns:=<ns>`` (the glove's nodes)."""
+    pids = []
+    for proc in Path('/proc').iterdir():
+        try:
+            cmdline = (proc / 'cmdline').read_bytes().split(b'\0')
+            state = (proc / 'stat').read_text().rsplit(')', 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError, PermissionError, NotADirectoryError):
+            continue
+        if f'__ns:={ns}'.encode() in cmdline and state != 'Z':
+            pids.append(int(proc.name))
+    return pids
+
+
+def read_record(path):
+    """The run-record CSV as float columns (stdlib csv; empty cells as NaN)."""
+    with open(path, newline='') as file:
+        rows = list(csv.DictReader(file))
+    return {key: np.array([float(r[key]) if r[key] else np.nan for r in rows]) for key in rows[0]}
+
+
+def joint_columns(table, stem, unit):
+    return np.stack([table[f'{stem}_{joint}_{unit}'] for joint in JOINTS], axis=1)
+
+
+def png_size(path):
+    data = path.read_bytes()
+    assert data[:8] == b'\x89PNG\r\n\x1a\n' and data[12:16] == b'IHDR'
+    return struct.unpack('>II', data[16:24])
+
+
+def summary_angles(stdout):
+    """Angles (deg) of every printed summary line that has them."""
+    angles = []
+    for line in stdout.splitlines():
+        if 'q_deg=[' in line:
+            cells = line.split('q_deg=[', 1)[1].split(']', 1)[0].split()
+            if '-' not in cells:
+                angles.append([float(c) for c in cells])
+    return np.array(angles)
+
+
+def commanded_rows(path):
+    """Rows of a run record written so far that carry a positive pressure command."""
+    try:
+        with open(path, newline='') as file:
+            return sum(float(r['p_cmd_mcp_kpa'] or 0) > 0 for r in csv.DictReader(file))
+    except (FileNotFoundError, ValueError):
+        return 0  # not created yet, or a row being written
+
+
+def test_a_timed_session_exits_0_and_records_what_the_model_predicts(ros_env, tmp_path):
+    ns = namespace('timed')
+    out = tmp_path / 'run'
+    result = subprocess.run(
+        [*GLOVE, '--duration', '8', '--namespace', ns, '--out', str(out)],
+        env=ros_env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=8 + START_TIMEOUT + STOP_TIMEOUT,
+    )
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert f'ROS_DOMAIN_ID={ros_env["ROS_DOMAIN_ID"]}' in result.stdout
+    assert str(out / 'signals.csv') in result.stdout
+
+    printed = summary_angles(result.stdout)
+    assert len(printed) >= 2, result.stdout
+    assert np.ptp(printed, axis=0).max() > 0.5, 'the summary angles did not change'
+
+    table = read_record(out / 'signals.csv')
+    pressure = 1e3 * joint_columns(table, 'p', 'kpa')
+    angles = np.radians(joint_columns(table, 'q', 'deg'))
+    forces = joint_columns(table, 'f', 'n')
+    assert len(pressure) >= 100
+    assert np.isfinite(pressure).all() and np.isfinite(angles).all()
+    assert np.isfinite(forces).all()
+    assert (pressure >= 0).all() and (pressure <= SUPPLY_LIMIT).all()
+    assert np.ptp(pressure[:, 0]) > 5e3, 'the sine session did not move the chambers'
+    assert np.all(np.diff(table['time_s']) > 0)
+
+    model = GloveModel(load_params())
+    for p, q, f in zip(pressure, angles, forces, strict=True):
+        expected = model.solve(p)
+        np.testing.assert_allclose(q, expected.q, rtol=0, atol=ANGLE_TOLERANCE)
+        np.testing.assert_allclose(f, expected.forces, rtol=0, atol=FORCE_TOLERANCE)
+    estimated = joint_columns(table, 'f_est', 'n')
+    assert np.isfinite(estimated[~np.isnan(estimated)]).all()
+    assert (~np.isnan(estimated)).any(), 'no estimated force was recorded'
+
+    width, height = png_size(out / 'signals.png')
+    assert width >= 400 and height >= 400
+    assert (out / 'logs' / 'plant.log').is_file()
+    assert node_pids(ns) == []
+
+
+def test_sigint_stops_every_node_with_zero_pressure_sent_first(ros_env, tmp_path):
+    ns = namespace('sigint')
+    out = tmp_path / 'run'
+    with open(tmp_path / 'stdout.txt', 'w') as stdout:
+        glove = subprocess.Popen(
+            [*GLOVE, '--namespace', ns, '--out', str(out)],
+            env=ros_env,
+            cwd=tmp_path,
+            stdout=stdout,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            started = wait_until(lambda: commanded_rows(out / 'signals.csv') >= 20, START_TIMEOUT)
+            assert started, (tmp_path / 'stdout.txt').read_text()[-2000:]
+            assert len(node_pids(ns)) == 3
+            glove.send_signal(signal.SIGINT)
+            interrupted = time.monotonic()
+            _, stderr = glove.communicate(timeout=STOP_TIMEOUT)
+            stop_time = time.monotonic() - interrupted
+        finally:
+            if glove.poll() is None:
+                glove.kill()
+    assert glove.returncode == 0, stderr
+    assert stop_time < 10.0
+    assert node_pids(ns) == []
+    printed = (tmp_path / 'stdout.txt').read_text()
+    assert 'stopping (SIGINT)' in printed
+    table = read_record(out / 'signals.csv')
+    command = joint_columns(table, 'p_cmd', 'kpa')
+    # pressure_command stops first and publishes zero; the plant still runs and is recorded
+    assert np.all(command[-1] == 0.0), command[-5:]
+    assert np.any(command[:-1] > 0.0)
+
+
+def test_a_bad_params_file_stops_the_glove_with_one_line_before_anything_starts(ros_env, tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('material:\n  c1: -5.0\n')
+    out = tmp_path / 'run'
+    result = subprocess.run(
+        [*GLOVE, '--params-file', str(bad), '--out', str(out), '--namespace', namespace('bad')],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert 'material.c1' in lines[0] and 'Traceback' not in result.stderr
+    assert not out.exists()
+
+
+def test_a_node_that_dies_is_named_with_its_exit_code_and_the_glove_fails(ros_env, tmp_path):
+    ns = namespace('dies')
+    ros_params = tmp_path / 'ros_params.yaml'
+    ros_params.write_text(f'{ns}/plant:\n  ros__parameters:\n    rate_hz: -5.0\n')
+    result = subprocess.run(
+        [
+            *GLOVE,
+            '--namespace',
+            ns,
+            '--out',
+            str(tmp_path / 'run'),
+            '--ros-params',
+            str(ros_params),
+        ],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=START_TIMEOUT + STOP_TIMEOUT,
+    )
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert 'glove: plant exited with code 2' in result.stderr
+    assert 'rate_hz' in result.stderr  # the plant's own one-line reason, from its log
+    assert 'Traceback' not in result.stderr
+    assert node_pids(ns) == []
+
+
+@pytest.fixture
+def ros_env(ros_domain):
+    """The environment a user's shell would have: the session's domain, loopback discovery."""
+    return ros_environment(ros_domain)
