@@ -130,15 +130,19 @@ def ros_args(
     name: str | None = None,
     extra: list[str] | None = None,
 ) -> list[str]:
-    """The ``--ros-args`` tail: parameter overrides, namespace and node-name remaps."""
-    args = ['--ros-args']
+    """The ``--ros-args`` tail: ``extra``, then overrides, namespace and node-name remaps.
+
+    ``extra`` comes first so that the ``-p`` overrides win over a ``--params-file`` in it (the
+    last setting of a parameter wins).
+    """
+    args = ['--ros-args', *(extra or [])]
     for key, value in (parameters or {}).items():
         args += ['-p', f'{key}:={format_value(value)}']
     if namespace:
         args += ['-r', f'__ns:={namespace}']
     if name:
         args += ['-r', f'__node:={name}']
-    return args + list(extra or [])
+    return args
 
 
 # -- node processes ------------------------------------------------------------------------
@@ -160,7 +164,7 @@ class NodeProcess:
     namespace, name : str, optional
         ``__ns`` and ``__node`` remaps.
     extra : list of str, optional
-        More arguments after the overrides (e.g. ``['--params-file', path]``).
+        More ROS arguments, placed before the overrides (e.g. ``['--params-file', path]``).
     """
 
     def __init__(
@@ -280,25 +284,29 @@ class NodeLauncher:
 
 
 class Inbox:
-    """Messages received on one topic, with their arrival time (``time.monotonic()``)."""
+    """Messages received on one topic, with arrival time (``time.monotonic()``) and info.
+
+    ``info`` is rclpy's message info (``source_timestamp``/``received_timestamp`` in ns of the
+    system clock) when the probe subscribed ``with_info``, else None.
+    """
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._items: list[tuple[float, Any]] = []
+        self._items: list[tuple[float, Any, dict | None]] = []
 
-    def put(self, message) -> None:
+    def put(self, message, info: dict | None = None) -> None:
         """Store a message (called by the executor thread)."""
         with self._lock:
-            self._items.append((time.monotonic(), message))
+            self._items.append((time.monotonic(), message, info))
 
-    def items(self) -> list[tuple[float, Any]]:
-        """A snapshot of (arrival time, message) pairs, oldest first."""
+    def records(self) -> list[tuple[float, Any, dict | None]]:
+        """A snapshot of (arrival time, message, info), oldest first."""
         with self._lock:
             return list(self._items)
 
     def messages(self, since: float = -1.0) -> list:
         """Messages that arrived after ``since`` (a ``time.monotonic()`` value)."""
-        return [m for t, m in self.items() if t > since]
+        return [m for t, m, _ in self.records() if t > since]
 
     def latest(self):
         """The newest message, or None."""
@@ -367,11 +375,15 @@ class RosProbe:
 
     # topics
 
-    def subscribe(self, topic: str, message_type) -> Inbox:
-        """Record every message on ``topic`` (absolute name) in an :class:`Inbox`."""
+    def subscribe(self, topic: str, message_type, with_info: bool = False) -> Inbox:
+        """Record every message on ``topic`` (absolute name) in an :class:`Inbox`.
+
+        ``with_info`` keeps rclpy's message info (source timestamps) beside each message.
+        """
         inbox = Inbox()
+        callback = (lambda message, info: inbox.put(message, info)) if with_info else inbox.put
         with self._lock:
-            self.node.create_subscription(message_type, topic, inbox.put, TEST_QOS)
+            self.node.create_subscription(message_type, topic, callback, TEST_QOS)
         return inbox
 
     def publisher(self, topic: str, message_type, wait_for: int = 1):

@@ -1,9 +1,11 @@
 """The estimator's bookkeeping: pairing angles with pressures, and a sliding identification window.
 
-The plant publishes ``chamber_pressure`` and ``joint_states`` back to back in the same step. The
-estimator pairs them by their DDS source timestamps (when each was published), not by arrival
-order, so a late executor never pairs one step's angles with another step's pressures. Samples
-left without a partner are dropped and counted.
+The plant publishes one ``chamber_pressure`` and one ``joint_states`` per step, so the n-th
+message of one publisher and the n-th of the other describe the same step: DDS numbers them
+(the publication sequence number in rclpy's message info). The estimator pairs by that number,
+not by arrival order or time, so neither a late executor nor a preempted plant can pair one
+step's angles with another step's pressures. Samples whose partner never comes are dropped and
+counted.
 """
 
 from __future__ import annotations
@@ -16,61 +18,51 @@ from numpy.typing import NDArray
 
 from exodigit_model import GloveModel, StiffnessFit
 
-PAIR_DEPTH = 8
+PAIR_DEPTH = 16
 """Unpaired samples kept per topic while waiting for their partner."""
 
 
 @dataclass(frozen=True)
 class Pair:
-    """Angles (rad) and pressures (Pa) published in the same plant step."""
+    """Angles (rad) and pressures (Pa) of the same plant step."""
 
     angles: NDArray[np.float64]
     pressure: NDArray[np.float64]
 
 
 class SamplePairer:
-    """Pairs ``joint_states`` and ``chamber_pressure`` samples published together.
+    """Pairs ``joint_states`` and ``chamber_pressure`` samples that carry the same step number."""
 
-    Parameters
-    ----------
-    max_gap : float
-        Largest difference of the two source timestamps of a pair, s; under half the plant's
-        step period, so that neighbouring steps never pair.
-    """
-
-    def __init__(self, max_gap: float) -> None:
-        self.max_gap = max_gap
+    def __init__(self) -> None:
         self.unpaired = 0
-        self._angles: deque[tuple[float, NDArray[np.float64]]] = deque()
-        self._pressure: deque[tuple[float, NDArray[np.float64]]] = deque()
+        self._angles: deque[tuple[int, NDArray[np.float64]]] = deque()
+        self._pressure: deque[tuple[int, NDArray[np.float64]]] = deque()
 
-    def add_angles(self, angles: NDArray[np.float64], published: float) -> Pair | None:
-        """Offer angles published at ``published`` (s); the pair if their pressures are here."""
-        found = self._add(self._angles, self._pressure, angles, published)
+    def add_angles(self, angles: NDArray[np.float64], step: int) -> Pair | None:
+        """Offer the angles of step ``step``; the pair if that step's pressures are here."""
+        found = self._add(self._angles, self._pressure, angles, step)
         return None if found is None else Pair(angles, found)
 
-    def add_pressure(self, pressure: NDArray[np.float64], published: float) -> Pair | None:
-        """Offer pressures published at ``published`` (s); the pair if their angles are here."""
-        found = self._add(self._pressure, self._angles, pressure, published)
+    def add_pressure(self, pressure: NDArray[np.float64], step: int) -> Pair | None:
+        """Offer the pressures of step ``step``; the pair if that step's angles are here."""
+        found = self._add(self._pressure, self._angles, pressure, step)
         return None if found is None else Pair(found, pressure)
 
-    def _add(self, mine: deque, others: deque, value, published: float):
-        partner = min(others, key=lambda entry: abs(entry[0] - published), default=None)
-        if partner is None or abs(partner[0] - published) > self.max_gap:
+    def _add(self, mine: deque, others: deque, value, step: int):
+        index = next((i for i, (key, _) in enumerate(others) if key == step), None)
+        if index is None:
             if len(mine) == PAIR_DEPTH:
                 mine.popleft()
                 self.unpaired += 1
-            mine.append((published, value))
+            mine.append((step, value))
             return None
-        # Samples published before the pair can no longer find their partner: drop them.
-        while others[0] is not partner:
+        # Each topic arrives in order: what came before the partner will find no partner now.
+        for _ in range(index):
             others.popleft()
-            self.unpaired += 1
-        others.popleft()
-        while mine and mine[0][0] < published:
-            mine.popleft()
-            self.unpaired += 1
-        return partner[1]
+        _, partner = others.popleft()
+        self.unpaired += index + len(mine)
+        mine.clear()
+        return partner
 
     def clear(self) -> None:
         """Forget every waiting sample."""

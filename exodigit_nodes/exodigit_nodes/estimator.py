@@ -1,7 +1,7 @@
 """``estimator``: robot-side contact forces and the finger's stiffness (INTERFACES.md).
 
 Pairs each ``joint_states`` with the ``chamber_pressure`` of the same plant step by their DDS
-source timestamps (refusing stale or unmatched samples) and publishes
+publication sequence numbers (refusing stale or unmatched samples) and publishes
 ``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (MODEL.md §7, needs no finger
 model); every ``identification_period``, over the last ``identification_window`` pairs, it
 publishes the least-squares finger stiffness K_H as ``estimated_finger_stiffness``.
@@ -52,14 +52,6 @@ ESTIMATOR_PARAMETERS = ParamTable(
             10.0,
         ),
         ParamSpec(
-            'max_pair_gap',
-            3e-3,
-            'Largest gap between the publication times of paired samples, s '
-            '(keep it under half the plant period)',
-            1e-6,
-            1.0,
-        ),
-        ParamSpec(
             'identification_window',
             500,
             'Pairs used to identify the finger stiffness (sliding window), samples',
@@ -77,9 +69,9 @@ ESTIMATOR_PARAMETERS = ParamTable(
 )
 
 
-def published(info: dict) -> float:
-    """Source (publication) time of a received message, s, from rclpy's message info."""
-    return info['source_timestamp'] * 1e-9
+def step_number(info: dict) -> int:
+    """The publisher's sequence number of a received message (rclpy's message info)."""
+    return info['publication_sequence_number']
 
 
 class Estimator(GloveNode):
@@ -91,7 +83,7 @@ class Estimator(GloveNode):
     def __init__(self) -> None:
         super().__init__('estimator', ESTIMATOR_PARAMETERS)
         self.model = load_model(self.values['params_file'])
-        self.pairer = SamplePairer(self.values['max_pair_gap'])
+        self.pairer = SamplePairer()
         self.window = StiffnessWindow(self.model, self.values['identification_window'])
         self.pairs = 0
         self.forces = np.zeros(3)
@@ -117,8 +109,7 @@ class Estimator(GloveNode):
         )
 
     def apply(self, settings, changed: set[str]) -> None:
-        """Use new ages, window size or identification period."""
-        self.pairer.max_gap = self.values['max_pair_gap']
+        """Use a new window size or identification period (max_sample_age is read live)."""
         if 'identification_window' in changed:
             self.window = StiffnessWindow(self.model, self.values['identification_window'])
         if 'identification_period' in changed:
@@ -128,20 +119,20 @@ class Estimator(GloveNode):
             )
 
     def on_joint_states(self, message: JointState, info: dict) -> None:
-        """Offer valid, recent joint angles (rad) to the pairer, with their publication time."""
+        """Offer valid, recent joint angles (rad) to the pairer, with their sequence number."""
         try:
             angles = joint_positions(message)
             stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
             stamp_age(stamp, self.now_seconds(), self.values['max_sample_age'], JOINT_STATES)
-            self.estimate(self.pairer.add_angles(angles, published(info)))
+            self.estimate(self.pairer.add_angles(angles, step_number(info)))
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
-        """Offer valid chamber pressures (Pa) to the pairer, with their publication time."""
+        """Offer valid chamber pressures (Pa) to the pairer, with their sequence number."""
         try:
             pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
-            self.estimate(self.pairer.add_pressure(pressure, published(info)))
+            self.estimate(self.pairer.add_pressure(pressure, step_number(info)))
         except InvalidInputError as error:
             self.reject(CHAMBER_PRESSURE, error)
 

@@ -22,7 +22,7 @@ from rcl_interfaces.msg import (
     SetParametersResult,
 )
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
@@ -193,8 +193,19 @@ class GloveNode(Node):
         self.diagnostics_publisher.publish(array)
 
 
-def _interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
+SPIN_PERIOD = 0.05
+"""Longest time between two checks for a stop request while spinning, s."""
+
+
+class StopRequest:
+    """Set by SIGINT/SIGTERM; the spin loop checks it (no exception thrown into rclpy's C code)."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    def __call__(self, signum, frame) -> None:
+        """Signal handler: ask the spin loop to stop."""
+        self.requested = True
 
 
 def _wants_help(args: list[str]) -> bool:
@@ -205,8 +216,10 @@ def _wants_help(args: list[str]) -> bool:
 def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     """Start ``node_class``, spin until Ctrl-C / SIGTERM / shutdown, stop cleanly.
 
-    Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (one
-    line on stderr, no traceback).
+    SIGINT and SIGTERM only set a flag that the spin loop checks every ``SPIN_PERIOD``, so no
+    KeyboardInterrupt can land inside rclpy's C code; the node then says its last words
+    (:meth:`GloveNode.on_shutdown`) while its context is still up. Returns the exit status: 0
+    after a normal stop, 2 when the configuration is refused (one line on stderr, no traceback).
     """
     argv = sys.argv[1:] if args is None else list(args)
     program = node_class.executable
@@ -215,7 +228,9 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         print(sys.modules[node_class.__module__].__doc__)
         print('parameters:\n' + node_class.table.help())
         return 0
-    signal.signal(signal.SIGTERM, _interrupt)
+    stop = StopRequest()
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
     node = None
     code = 0
     try:
@@ -224,11 +239,14 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         except RuntimeError as error:  # rclpy's RCLError: malformed --ros-args
             raise ConfigurationError(' '.join(str(error).split())) from None
         node = node_class()
-        rclpy.spin(node)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop.requested:
+            executor.spin_once(timeout_sec=SPIN_PERIOD)
     except ConfigurationError as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)

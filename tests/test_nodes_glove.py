@@ -1,0 +1,252 @@
+"""The three nodes as separate processes, talking over DDS as a user would run them.
+
+One plant (no lag, no noise), one pressure_command (a fast staircase) and one estimator run for
+the whole module in namespace /nodes_glove; the tests watch their topics from the probe node.
+"""
+
+import math
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from ros_harness import STOP_TIMEOUT, wait_until
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from visualization_msgs.msg import MarkerArray
+
+from exodigit_model import GloveModel, load_params
+
+NS = '/nodes_glove'
+CONFIG = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'config'
+RATE_HZ = 100.0
+MAX_PRESSURE = 60e3  # Pa
+MAX_PRESSURE_RATE = 400e3  # Pa/s
+#: Angle tolerance of the plant against an independent solve, rad (issue 3).
+ANGLE_TOLERANCE = 1e-9
+#: Force tolerance of the estimator against the plant, N (solver residual 1e-13 N·m).
+FORCE_TOLERANCE = 1e-9
+TYPES = {
+    'joint_states': 'sensor_msgs/msg/JointState',
+    'chamber_pressure': 'std_msgs/msg/Float64MultiArray',
+    'contact_forces': 'std_msgs/msg/Float64MultiArray',
+    'markers': 'visualization_msgs/msg/MarkerArray',
+    'pressure_command': 'std_msgs/msg/Float64MultiArray',
+    'estimated_contact_forces': 'std_msgs/msg/Float64MultiArray',
+    'estimated_finger_stiffness': 'std_msgs/msg/Float64MultiArray',
+    'joint_targets': 'std_msgs/msg/Float64MultiArray',
+}
+VECTOR_TOPICS = [t for t, kind in TYPES.items() if kind.endswith('Float64MultiArray')]
+
+
+@pytest.fixture(scope='module')
+def model():
+    return GloveModel(load_params())
+
+
+@pytest.fixture(scope='module')
+def glove(launcher, probe):
+    inboxes = {
+        topic: probe.subscribe(f'{NS}/{topic}', Float64MultiArray, with_info=True)
+        for topic in VECTOR_TOPICS
+    }
+    inboxes['joint_states'] = probe.subscribe(f'{NS}/joint_states', JointState, with_info=True)
+    inboxes['markers'] = probe.subscribe(f'{NS}/markers', MarkerArray)
+    inboxes['diagnostics'] = probe.subscribe('/diagnostics', DiagnosticArray)
+    nodes = {
+        'plant': launcher.start(
+            'plant',
+            {'pressure_time_constant': 0.0, 'rate_hz': RATE_HZ},
+            namespace=NS,
+            extra=['--params-file', str(CONFIG / 'plant.yaml')],
+        ),
+        'pressure_command': launcher.start(
+            'pressure_command',
+            {
+                'mode': 'staircase',
+                'step_duration': 0.3,
+                'max_pressure': MAX_PRESSURE,
+                'max_pressure_rate': MAX_PRESSURE_RATE,
+            },
+            namespace=NS,
+        ),
+        'estimator': launcher.start('estimator', {'identification_period': 0.2}, namespace=NS),
+    }
+    assert inboxes['estimated_finger_stiffness'].wait_count(1, timeout=30.0), {
+        name: node.stderr() for name, node in nodes.items()
+    }
+    return nodes, inboxes
+
+
+def same_step_pairs(first, second):
+    """(message of ``first``, message of ``second``) published in the same plant step.
+
+    The plant publishes one message per step on each topic, so the publishers' sequence
+    numbers name the step.
+    """
+    by_step = {info['publication_sequence_number']: m for _, m, info in second.records()}
+    return [
+        (message, by_step[info['publication_sequence_number']])
+        for _, message, info in first.records()
+        if info['publication_sequence_number'] in by_step
+    ]
+
+
+def test_every_topic_and_service_exists_with_its_type(glove, probe):
+    def all_seen():
+        topics = probe.topics()
+        return all(topics.get(f'{NS}/{t}') == [kind] for t, kind in TYPES.items())
+
+    assert wait_until(all_seen, 10.0), probe.topics()
+    assert probe.topics()['/diagnostics'] == ['diagnostic_msgs/msg/DiagnosticArray']
+    assert wait_until(
+        lambda: probe.services().get(f'{NS}/reset') == ['std_srvs/srv/Trigger'], 10.0
+    )
+
+
+def test_vector_topics_carry_one_joint_dimension_of_size_3(glove):
+    _, inboxes = glove
+    for topic in VECTOR_TOPICS:
+        if topic == 'joint_targets':
+            continue  # nobody publishes targets here
+        message = inboxes[topic].latest()
+        assert message is not None, topic
+        assert [(d.label, d.size) for d in message.layout.dim] == [('joint', 3)], topic
+        assert len(message.data) == 3
+
+
+def test_joint_states_are_named_and_stamped(glove):
+    _, inboxes = glove
+    message = inboxes['joint_states'].latest()
+    assert list(message.name) == ['mcp', 'pip', 'dip']
+    stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+    assert abs(stamp - time.time()) < 5.0
+
+
+def test_staircase_joint_states_equal_the_model_solve_of_the_chamber_pressures(glove, model):
+    _, inboxes = glove
+    assert wait_until(lambda: len(levels(inboxes)) >= 5, 10.0), levels(inboxes)
+    pairs = same_step_pairs(inboxes['joint_states'], inboxes['chamber_pressure'])
+    assert len(pairs) > 100
+    for state, pressure in pairs:
+        solution = model.solve(np.array(pressure.data))
+        np.testing.assert_allclose(state.position, solution.q, rtol=0, atol=ANGLE_TOLERANCE)
+
+
+def levels(inboxes):
+    return {
+        round(m.data[0]) for m in inboxes['chamber_pressure'].messages() if m.data[0] % 1e4 == 0
+    }
+
+
+def test_effort_is_the_finger_joint_torque_of_the_contact_forces(glove, model):
+    _, inboxes = glove
+    pairs = same_step_pairs(inboxes['joint_states'], inboxes['contact_forces'])
+    assert len(pairs) > 100
+    for state, forces in pairs[-50:]:
+        _, j_finger = model.contact_jacobians(np.array(state.position))
+        torque = j_finger.T @ np.array(forces.data)
+        np.testing.assert_allclose(state.effort, torque, rtol=1e-9, atol=1e-12)
+
+
+def test_estimated_forces_equal_the_plant_contact_forces_on_noise_free_data(glove):
+    _, inboxes = glove
+    simulated = [np.array(m.data) for m in inboxes['contact_forces'].messages()]
+    estimates = inboxes['estimated_contact_forces'].messages()
+    assert len(estimates) > 100
+    matched = 0
+    for estimate in estimates[-200:]:
+        distance = min(np.abs(np.array(estimate.data) - f).max() for f in simulated)
+        assert distance < FORCE_TOLERANCE, estimate.data
+        matched += 1
+    assert matched == min(200, len(estimates))
+
+
+def test_estimated_finger_stiffness_is_the_finger_stiffness_of_the_model(glove):
+    _, inboxes = glove
+    expected = [j.stiffness for j in load_params().finger.joints]
+    assert inboxes['estimated_finger_stiffness'].wait_count(2, timeout=10.0)
+    np.testing.assert_allclose(
+        inboxes['estimated_finger_stiffness'].latest().data, expected, rtol=1e-6
+    )
+
+
+def test_commands_stay_inside_the_pressure_and_rate_limits(glove):
+    _, inboxes = glove
+    commands = np.array([m.data for m in inboxes['pressure_command'].messages()])
+    assert len(commands) > 100
+    assert np.isfinite(commands).all()
+    assert commands.min() >= 0.0 and commands.max() <= MAX_PRESSURE
+    largest_step = np.abs(np.diff(commands, axis=0)).max()
+    assert largest_step <= MAX_PRESSURE_RATE / RATE_HZ * (1 + 1e-12)
+
+
+def test_markers_show_the_glove(glove):
+    _, inboxes = glove
+    assert inboxes['markers'].wait_count(1, timeout=5.0)
+    markers = inboxes['markers'].latest().markers
+    assert [m.ns for m in markers] == ['exo_digit', 'finger'] + ['contact_force'] * 3
+    assert all(m.header.frame_id == 'exodigit_base' for m in markers)
+    assert all(math.isfinite(p.x) and math.isfinite(p.y) for m in markers for p in m.points)
+
+
+@pytest.mark.parametrize(
+    ('node', 'values', 'named'),
+    [
+        ('pressure_command', {'mode': 'bogus'}, 'mode'),
+        ('pressure_command', {'max_pressure': math.nan}, 'max_pressure'),
+        ('pressure_command', {'max_pressure_rate': 'fast'}, 'max_pressure_rate'),
+        ('pressure_command', {'sine_low': 50e3}, 'sine_low'),
+        ('pressure_command', {'joint_upper_limits': [1.0, 1.0]}, 'joint_upper_limits'),
+        ('pressure_command', {'rate_hz': 10.0}, 'rate_hz'),
+        ('estimator', {'max_sample_age': 0.0}, 'max_sample_age'),
+        ('estimator', {'identification_window': 2.5}, 'identification_window'),
+        ('estimator', {'params_file': '/tmp/other.yaml'}, 'params_file'),
+    ],
+)
+def test_a_bad_parameter_set_is_refused_naming_it_and_the_node_runs_on(
+    glove, probe, node, values, named
+):
+    nodes, inboxes = glove
+    name = next(iter(values))
+    before = probe.get_parameters(f'{NS}/{node}', [name])
+    results = probe.set_parameters(f'{NS}/{node}', values)
+    assert not results[0].successful
+    assert named in results[0].reason
+    assert probe.get_parameters(f'{NS}/{node}', [name]) == before
+    output = 'pressure_command' if node == 'pressure_command' else 'estimated_contact_forces'
+    mark = time.monotonic()
+    assert inboxes[output].wait_for(lambda m: True, timeout=5.0, since=mark) is not None
+    assert nodes[node].alive()
+
+
+def test_a_good_parameter_set_is_applied(glove, probe):
+    _, inboxes = glove
+    results = probe.set_parameters(f'{NS}/pressure_command', {'max_pressure': 30e3})
+    assert results[0].successful, results[0].reason
+    mark = time.monotonic()
+    capped = inboxes['pressure_command'].wait_for(lambda m: m.data[0] == 30e3, 5.0, since=mark)
+    assert capped is not None
+    assert max(m.data[0] for m in inboxes['pressure_command'].messages(mark)) <= 30e3
+    assert probe.set_parameters(f'{NS}/pressure_command', {'max_pressure': MAX_PRESSURE})[
+        0
+    ].successful
+
+
+def test_sigint_stops_every_node_within_2_s_and_the_command_node_sends_zero_first(glove):
+    nodes, inboxes = glove
+    command = nodes['pressure_command']
+    assert inboxes['pressure_command'].wait_for(lambda m: max(m.data) > 0.0, 5.0) is not None
+    started = time.monotonic()
+    command.signal(signal.SIGINT)
+    assert command.wait(STOP_TIMEOUT) == 0, command.stderr()
+    assert time.monotonic() - started < STOP_TIMEOUT
+    assert wait_until(lambda: list(inboxes['pressure_command'].latest().data) == [0.0] * 3, 2.0)
+    for name in ('estimator', 'plant'):
+        started = time.monotonic()
+        nodes[name].signal(signal.SIGINT)
+        assert nodes[name].wait(STOP_TIMEOUT) == 0, nodes[name].stderr()
+        assert time.monotonic() - started < STOP_TIMEOUT
+        assert 'Traceback' not in nodes[name].stderr()
