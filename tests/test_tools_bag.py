@@ -30,7 +30,7 @@ ANGLE_TOLERANCE = 1e-6
 #: Plant cycles (joint_states messages) to wait after the last command before stopping.
 AFTER_LAST_COMMAND = 20
 #: Seconds for the plant to settle, or for the recorder to start or stop.
-TIMEOUT = 20.0
+TIMEOUT = 60.0
 
 
 def recorder_command(output):
@@ -186,3 +186,22 @@ def test_plot_pairs_each_state_with_the_pressure_of_its_cycle(session):
     model = GloveModel(load_params())
     solved = model.solve_batch(pressure).q
     np.testing.assert_allclose(series['joint_states'].values, solved, atol=ANGLE_TOLERANCE)
+
+
+def test_recorder_stops_by_itself_after_duration(ros_domain, tmp_path):
+    bag = tmp_path / 'timed'
+    command = recorder_command(bag)
+    command[command.index('--output') + 2 : command.index('--output') + 2] = ['--duration', '1']
+    recorder = subprocess.Popen(
+        command,
+        cwd=tmp_path,
+        env=ros_environment(ros_domain),
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    _, err = recorder.communicate(timeout=TIMEOUT)
+    assert recorder.returncode == 0, err
+    _, types = read_back(bag)
+    assert set(types) >= {f'{NAMESPACE}/joint_states', f'{NAMESPACE}/markers', '/diagnostics'}

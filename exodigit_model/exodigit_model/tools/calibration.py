@@ -95,7 +95,7 @@ def read_samples(path: str | Path) -> Samples:
     ToolError
         Naming the line and column of the first bad value, a missing or unknown column.
     """
-    with open(path, newline='') as handle:
+    with open(path, newline='', encoding='utf-8-sig') as handle:  # a spreadsheet's BOM is fine
         reader = csv.DictReader(handle)
         header = [name.strip() for name in reader.fieldnames or []]
         missing = [name for name in REQUIRED_COLUMNS if name not in header]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -26,15 +27,22 @@ EXAMPLES = {
     'plot': 'exodigit plot runs/stairs/bag --out runs/stairs',
 }
 
+SUMMARIES = {
+    'curves': "simulate the paper's bench experiments: CSV files and PNG plots",
+    'draw': 'draw the finger and the exo-digit at one pressure',
+    'calibrate': 'fit Yeoh coefficients and/or finger stiffness to measurements',
+    'plot': 'plot a recorded session (rosbag2 bag)',
+}
+
 DESCRIPTIONS = {
     'curves': "Simulate the paper's bench experiments (free bending of each module, bending on "
     'the finger, contact forces, tip markers) and write CSV files and PNG plots.',
     'draw': 'Draw the finger and the exo-digit at one pressure, to scale, with contact forces '
     'and joint angles.',
     'calibrate': 'Fit the Yeoh coefficients and/or the finger stiffness to measured samples and '
-    'write a parameter file.',
+    'write a parameter file, with standard errors and a measured-against-model plot.',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
-    'exodigit_nodes.recorder.',
+    'exodigit_nodes.recorder (or ros2 bag record).',
 }
 
 
@@ -60,8 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     def command(name: str) -> argparse.ArgumentParser:
         return commands.add_parser(
             name,
-            help=DESCRIPTIONS[name].split('.')[0].split(' and write')[0],
-            description=DESCRIPTIONS[name],
+            help=SUMMARIES[name],
+            description=textwrap.fill(DESCRIPTIONS[name], 79),
             epilog=f'example:\n  {EXAMPLES[name]}',
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )

@@ -100,7 +100,8 @@ def draw(model: GloveModel, pressure, path: Path) -> Drawing:
     ax.plot(*(pose.contact_points * mm).T, 'kx', markersize=8, label='contact (exo-digit)')
     ax.plot(*contacts.T, 'ko', markersize=5, label='contact (finger)')
     for i in range(3):
-        ax.plot(*np.array([pose.contact_points[i], contacts[i] / mm]).T * mm, 'k:', linewidth=1)
+        link = np.array([pose.contact_points[i] * mm, contacts[i]])
+        ax.plot(link[:, 0], link[:, 1], 'k:', linewidth=1)
         arrow = pose.contact_normals[i] * solution.forces[i] * FORCE_ARROW_SCALE * mm
         if np.linalg.norm(arrow) > 0.2:
             ax.arrow(*contacts[i], *arrow, color='tab:red', width=0.4, length_includes_head=True)
