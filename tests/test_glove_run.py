@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ros_harness import ros_environment, wait_until
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
 
 from exodigit_model import GloveModel, load_params
 
@@ -132,12 +134,23 @@ def test_a_timed_session_exits_0_and_records_what_the_model_predicts(ros_env, tm
     assert node_pids(ns) == []
 
 
-def test_sigint_stops_every_node_with_zero_pressure_sent_first(ros_env, tmp_path):
+def bag_messages(path, topic):
+    """The messages of one topic in a rosbag2 bag, read with rosbags."""
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(path) as reader:
+        connections = [c for c in reader.connections if c.topic == topic]
+        return [
+            typestore.deserialize_cdr(raw, connection.msgtype)
+            for connection, _, raw in reader.messages(connections=connections)
+        ]
+
+
+def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_env, tmp_path):
     ns = namespace('sigint')
     out = tmp_path / 'run'
     with open(tmp_path / 'stdout.txt', 'w') as stdout:
         glove = subprocess.Popen(
-            [*GLOVE, '--namespace', ns, '--out', str(out)],
+            [*GLOVE, '--namespace', ns, '--out', str(out), '--record'],
             env=ros_env,
             cwd=tmp_path,
             stdout=stdout,
@@ -147,7 +160,7 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first(ros_env, tmp_path
         try:
             started = wait_until(lambda: commanded_rows(out / 'signals.csv') >= 20, START_TIMEOUT)
             assert started, (tmp_path / 'stdout.txt').read_text()[-2000:]
-            assert len(node_pids(ns)) == 3
+            assert len(node_pids(ns)) == 4  # three nodes and the recorder
             glove.send_signal(signal.SIGINT)
             interrupted = time.monotonic()
             _, stderr = glove.communicate(timeout=STOP_TIMEOUT)
@@ -165,6 +178,11 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first(ros_env, tmp_path
     # pressure_command stops first and publishes zero; the plant still runs and is recorded
     assert np.all(command[-1] == 0.0), command[-5:]
     assert np.any(command[:-1] > 0.0)
+    # the recorder stops last: its bag ends with the zero command too
+    recorded = bag_messages(out / 'bag', f'{ns}/pressure_command')
+    assert any(np.any(message.data > 0.0) for message in recorded)
+    assert np.all(recorded[-1].data == 0.0)
+    assert len(bag_messages(out / 'bag', f'{ns}/joint_states')) >= 20
 
 
 def test_a_bad_params_file_stops_the_glove_with_one_line_before_anything_starts(ros_env, tmp_path):
