@@ -35,8 +35,12 @@ def pyplot() -> ModuleType:
 
 
 def progress(iterable=None, **kwargs):
-    """A tqdm progress bar on stderr (``iterable`` or ``total`` as for tqdm)."""
+    """A tqdm progress bar on stderr (``iterable`` or ``total`` as for tqdm).
+
+    Shown on a terminal only (``disable=None``), so logs and CI output stay clean.
+    """
     tqdm = require('tqdm')
+    kwargs.setdefault('disable', None)
     kwargs.setdefault('leave', False)
     kwargs.setdefault('dynamic_ncols', True)
     return tqdm.tqdm(iterable, **kwargs)
