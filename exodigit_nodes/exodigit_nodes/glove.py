@@ -27,8 +27,6 @@ NODES = ('plant', 'estimator', 'pressure_command')
 #: Stop order: commands first (the node publishes zero pressure as it stops), recorder last.
 STOP_ORDER = ('pressure_command', 'estimator', 'plant', 'recorder')
 MODES = ('sine', 'staircase', 'hold', 'position', 'force')
-#: Nodes that load the model parameter file.
-MODEL_NODES = ('plant', 'estimator', 'pressure_command')
 #: Seconds between two refreshes of the terminal summary.
 REFRESH_PERIOD = 0.25
 #: Lines of a dead node's log shown when it exits unexpectedly.
@@ -52,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The command-line interface of ``python -m exodigit_nodes.glove``."""
     parser = argparse.ArgumentParser(
         prog='python -m exodigit_nodes.glove',
-        description='Run the simulated soft glove (plant, estimator, pressure_command) with a '
+        description='Run the simulated soft glove (plant, estimator, pressure_command) with a\n'
         'live summary; write a run record (CSV and PNG) of the published signals.',
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -135,7 +133,7 @@ def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list
     command += ['--ros-args', '-r', f'__ns:={args.namespace}']
     for path in args.ros_params:
         command += ['--params-file', str(Path(path).resolve())]
-    if node in MODEL_NODES and args.params_file is not None:
+    if node in NODES and args.params_file is not None:  # each node loads the model
         command += ['-p', f'params_file:={Path(args.params_file).resolve()}']
     if node == 'pressure_command':
         command += ['-p', f'mode:={args.mode}']
