@@ -89,7 +89,8 @@ def read_bag(path: Path) -> dict[str, Series]:
                 else:
                     bad.append(stamp)
     except rosbag2.ReaderError as error:
-        raise ToolError(f'{path}: cannot read the bag ({error})') from None
+        reason = ' '.join(str(error).split())
+        raise ToolError(f'{path}: cannot read the bag ({reason})') from None
     return {
         signal: Series(topic, np.array(times), np.array(rows).reshape(-1, 3), len(bad))
         for signal, (topic, times, rows, bad) in samples.items()
