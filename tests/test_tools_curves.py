@@ -121,12 +121,15 @@ def test_bad_pressure_sweep_is_one_line_and_exit_2(spec, tmp_path, capsys):
     assert err.startswith('exodigit curves: error: --pressures') and '\n' not in err
 
 
-def test_bad_params_file_is_one_line(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ('text', 'fragment'), [('material: {c1: -5}\n', 'c1'), ('material: [\n', 'YAML')]
+)
+def test_bad_params_file_is_one_line(text, fragment, tmp_path, capsys):
     bad = tmp_path / 'bad.yaml'
-    bad.write_text('material: {c1: -5}\n')
+    bad.write_text(text)
     assert main(['curves', '--params', str(bad), '--out', str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert 'c1' in err and '\n' not in err
+    assert fragment in err and '\n' not in err
 
 
 def test_help_shows_an_example_for_every_subcommand():

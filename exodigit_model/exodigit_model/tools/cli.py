@@ -228,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         COMMANDS[args.command](args)
     except (ToolError, ParameterError) as error:
-        print(f'exodigit {args.command}: error: {error}', file=sys.stderr)
+        reason = ' '.join(str(error).split())  # one line, whatever the message's source
+        print(f'exodigit {args.command}: error: {reason}', file=sys.stderr)
         return EXIT_USAGE
     except OSError as error:
         reason = error.strerror or str(error)
