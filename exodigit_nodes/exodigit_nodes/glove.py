@@ -191,24 +191,24 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
     stop = StopRequest()
     supervisor = Supervisor(env, log_dir=record.log_dir)
     names = (('recorder',) if args.record else ()) + NODES
-    for name in names:
-        supervisor.start(name, node_command(name, args, record))
-
-    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
-    signals = GloveSignals(NODES)
-    monitor = GloveMonitor(signals, args.namespace, record.write)
-    executor = SingleThreadedExecutor()
-    executor.add_node(monitor)
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')
     title = f'exodigit glove {args.namespace} ({args.mode})'
-
-    def spin() -> None:
-        executor.spin_once(timeout_sec=0.02)
-
-    started = time.monotonic()
-    next_refresh = started
-    failures = []
+    signals = GloveSignals(NODES)
+    executor = monitor = None
+    failures, stops = [], []
     try:
+        for name in names:
+            supervisor.start(name, node_command(name, args, record))
+        rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+        monitor = GloveMonitor(signals, args.namespace, record.write)
+        executor = SingleThreadedExecutor()
+        executor.add_node(monitor)
+
+        def spin() -> None:
+            executor.spin_once(timeout_sec=0.02)
+
+        started = time.monotonic()
+        next_refresh = started
         while not stop.requested:
             spin()
             now = time.monotonic()
@@ -226,8 +226,11 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(STOP_ORDER, idle=spin)
     finally:
-        executor.shutdown()
-        monitor.destroy_node()
+        supervisor.stop(STOP_ORDER)  # after an error above: no node is left behind
+        if executor is not None:
+            executor.shutdown()
+        if monitor is not None:
+            monitor.destroy_node()
         rclpy.try_shutdown()
         record.close()
 

@@ -135,6 +135,8 @@ class Supervisor:
         return [self._stop_one(name, idle, grace) for name in names if name in self._processes]
 
     def _stop_one(self, name: str, idle: Callable[[], None] | None, grace: float) -> Exit:
+        if name in self._exits:
+            return self._exits[name]  # stopped (or seen dead) before
         forced = False
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
             if self._poll(name) is not None:
