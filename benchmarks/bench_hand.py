@@ -21,6 +21,7 @@ carrying its values minus the arrival of the command. The plant publishes ``join
 just before ``chamber_pressure`` in the same step. A command overwritten by the next one
 before a plant step used it is counted as superseded, not lost.
 
+Nodes run on a free ROS domain with loopback discovery (tests/ros_harness.py starts them).
 Run: ``.venv/bin/python benchmarks/bench_hand.py [--duration 60] [--fingers thumb,index]``.
 ``--json FILE`` also writes the figures for tests.
 """
@@ -28,11 +29,8 @@ Run: ``.venv/bin/python benchmarks/bench_hand.py [--duration 60] [--fingers thum
 from __future__ import annotations
 
 import argparse
-import contextlib
-import fcntl
 import json
 import os
-import random
 import sys
 import time
 from dataclasses import dataclass, field
@@ -41,6 +39,10 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / 'tests'))
+
+from ros_harness import NodeLauncher, claim_domain  # noqa: E402
+
 HAND_DIR = REPO / 'exodigit_nodes' / 'config' / 'hand'
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 NODES = ('plant', 'pressure_command', 'estimator')
@@ -48,27 +50,6 @@ NODES = ('plant', 'pressure_command', 'estimator')
 LATE_FACTOR = 1.5
 #: Seconds to wait for every plant's first joint_states.
 START_TIMEOUT = 60.0
-#: Domain ids tried for a free one (lock files /tmp/exodigit-domain-<id>.lock).
-DOMAIN_RANGE = range(100, 201)
-
-
-def hold_free_domain() -> tuple[int, object]:
-    """A ROS domain id nobody else holds, with its open lock file (keep it open)."""
-    for domain in random.sample(DOMAIN_RANGE, len(DOMAIN_RANGE)):
-        handle = open(f'/tmp/exodigit-domain-{domain}.lock', 'w')  # noqa: SIM115 (held)
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
-            continue
-        return domain, handle
-    raise RuntimeError('no free ROS domain id in 100-200')
-
-
-def cpu_seconds(pid: int) -> float:
-    """User + system CPU time of process ``pid`` so far, s (from /proc/<pid>/stat)."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 @dataclass
@@ -117,18 +98,19 @@ def command_gaps(record: FingerRecord, period: float) -> int:
     return int(np.sum(np.maximum(np.round(gaps / period) - 1, 0)[gaps > LATE_FACTOR * period]))
 
 
-def node_commands(finger: str, rate: float) -> dict[str, list[str]]:
-    """Command lines of the three nodes of one finger."""
-    params = HAND_DIR / f'{finger}.yaml'
-    common = ['--ros-args', '-r', f'__ns:=/hand/{finger}']
-    python = [sys.executable, '-m']
-    plant = ['-p', f'joint_prefix:={finger}_', '-p', 'pressure_time_constant:=0.0',
-             '-p', 'marker_rate_hz:=0.0', '-p', f'rate_hz:={rate}']  # fmt: skip
-    controller = ['-p', 'mode:=sine', '-p', f'rate_hz:={rate}']
-    extra = {'plant': plant, 'pressure_command': controller, 'estimator': []}
+def node_parameters(finger: str, rate: float) -> dict[str, dict]:
+    """Parameters of the three nodes of one finger."""
+    params = str(HAND_DIR / f'{finger}.yaml')
     return {
-        node: [*python, f'exodigit_nodes.{node}', *common, '-p', f'params_file:={params}', *more]
-        for node, more in extra.items()
+        'plant': {
+            'params_file': params,
+            'joint_prefix': f'{finger}_',
+            'rate_hz': rate,
+            'pressure_time_constant': 0.0,
+            'marker_rate_hz': 0.0,
+        },
+        'pressure_command': {'params_file': params, 'mode': 'sine', 'rate_hz': rate},
+        'estimator': {'params_file': params},
     }
 
 
@@ -199,21 +181,22 @@ def percentile_ms(values: list[float], q: float) -> float:
     return float(np.percentile(values, q) * 1e3) if values else float('nan')
 
 
-def measure(args: argparse.Namespace) -> dict:
+def measure(args: argparse.Namespace, domain_id: int) -> dict:
     """Start the hand, measure for ``args.duration`` s, stop it; return the figures."""
     import rclpy
-    from exodigit_nodes.supervisor import Supervisor
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
-    env['ROS_DOMAIN_ID'] = str(args.domain_id)
-    os.environ.update(env)
+    os.environ.update(ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', ROS_DOMAIN_ID=str(domain_id))
     fingers = args.fingers
-    supervisor = Supervisor(env, log_dir=Path(args.log_dir))
-    for finger in fingers:
-        for node, argv in node_commands(finger, args.rate).items():
-            supervisor.start(f'{finger}/{node}', argv)
+    log_dir = Path(args.log_dir)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    launcher = NodeLauncher(domain_id, log_dir)
+    nodes = {
+        f'{finger}/{node}': launcher.start(node, parameters, namespace=f'/hand/{finger}')
+        for finger in fingers
+        for node, parameters in node_parameters(finger, args.rate).items()
+    }
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
     monitor = HandMonitor(fingers)
     executor = SingleThreadedExecutor()
@@ -222,13 +205,14 @@ def measure(args: argparse.Namespace) -> dict:
     try:
         deadline = time.monotonic() + START_TIMEOUT
         while not all(r.state_stamps and r.diagnostics for r in monitor.records.values()):
-            if time.monotonic() > deadline or supervisor.exited():
+            exited = [name for name, node in nodes.items() if not node.alive()]
+            if time.monotonic() > deadline or exited:
                 raise RuntimeError(
-                    f'the hand did not start within {START_TIMEOUT:g} s (logs in {args.log_dir}; '
-                    f'exited: {[e.describe() for e in supervisor.exited()]})'
+                    f'the hand did not start within {START_TIMEOUT:g} s (logs in {log_dir}; '
+                    f'exited: {exited})'
                 )
             executor.spin_once(timeout_sec=0.05)
-        start_cpu = {name: cpu_seconds(supervisor.pid(name)) for name in supervisor.names}
+        start_cpu = {name: node.cpu_seconds() for name, node in nodes.items()}
         start_diag = {f: dict(r.diagnostics) for f, r in monitor.records.items()}
         for record in monitor.records.values():
             record.clear()
@@ -237,13 +221,12 @@ def measure(args: argparse.Namespace) -> dict:
             executor.spin_once(timeout_sec=0.05)
         elapsed = time.monotonic() - started
         cpu = {
-            name: 100.0 * (cpu_seconds(supervisor.pid(name)) - start_cpu[name]) / elapsed
-            for name in supervisor.names
+            name: 100.0 * (node.cpu_seconds() - start_cpu[name]) / elapsed
+            for name, node in nodes.items()
         }
-        crashed = [e.describe() for e in supervisor.exited()]
-        supervisor.stop([f'{f}/pressure_command' for f in fingers], idle=lambda: None)
+        crashed = [name for name, node in nodes.items() if not node.alive()]
     finally:
-        supervisor.stop([])
+        launcher.stop_all()
         executor.shutdown()
         monitor.node.destroy_node()
         rclpy.try_shutdown()
@@ -335,7 +318,6 @@ def build_parser() -> argparse.ArgumentParser:
         default=list(FINGERS),
         help='comma-separated subset of ' + ','.join(FINGERS),
     )
-    parser.add_argument('--domain-id', type=int, help='ROS domain (default: a free one)')
     parser.add_argument('--log-dir', default='runs/bench_hand', help='node logs go here')
     parser.add_argument('--json', help='also write the figures to this file')
     return parser
@@ -348,11 +330,11 @@ def main(argv=None) -> int:
     if unknown or args.duration <= 0 or args.rate <= 0:
         print(f'bench_hand: bad arguments (unknown fingers {unknown})', file=sys.stderr)
         return 2
-    lock = contextlib.nullcontext()
-    if args.domain_id is None:
-        args.domain_id, lock = hold_free_domain()
-    with lock:
-        result = measure(args)
+    lease = claim_domain()
+    try:
+        result = measure(args, lease.domain_id)
+    finally:
+        lease.release()
     print(report(result))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1))

@@ -33,6 +33,7 @@ def glove(launcher, probe):
     return under_fuzz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('target', TARGETS, ids=[t.topic for t in TARGETS])
 def test_flood_leaves_every_node_alive_with_bounded_finite_outputs(glove, target):
     figures = glove.flood(target, COUNT, seed=len(target.topic))
@@ -52,6 +53,7 @@ def test_flood_leaves_every_node_alive_with_bounded_finite_outputs(glove, target
         assert figures.log_lines[consumer] <= allowed, (consumer, figures.log_lines[consumer])
 
 
+@pytest.mark.slow
 def test_memory_did_not_grow_over_the_floods(glove):
     after = glove.rss()
     for name, before in glove.rss_before.items():
