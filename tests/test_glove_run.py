@@ -27,6 +27,8 @@ JOINTS = ('mcp', 'pip', 'dip')
 ANGLE_TOLERANCE = 1e-6
 #: Forces in the record against the same solve, N.
 FORCE_TOLERANCE = 1e-6
+#: Relative tolerance of the identified finger stiffness on noise-free data.
+STIFFNESS_TOLERANCE = 1e-3
 #: Seconds the glove may take to exit after the end of its duration or a SIGINT.
 STOP_TIMEOUT = 15.0
 #: Seconds to wait for the nodes to start and the first samples to arrive.
@@ -107,6 +109,9 @@ def test_a_timed_session_exits_0_and_records_what_the_model_predicts(ros_env, tm
     printed = summary_angles(result.stdout)
     assert len(printed) >= 2, result.stdout
     assert np.ptp(printed, axis=0).max() > 0.5, 'the summary angles did not change'
+    last_line = [line for line in result.stdout.splitlines() if 'q_deg=[' in line][-1]
+    for node in ('plant', 'estimator', 'pressure_command'):
+        assert f'{node} OK' in last_line or f'{node} WARN' in last_line, last_line
 
     table = read_record(out / 'signals.csv')
     pressure = 1e3 * joint_columns(table, 'p', 'kpa')
@@ -127,6 +132,10 @@ def test_a_timed_session_exits_0_and_records_what_the_model_predicts(ros_env, tm
     estimated = joint_columns(table, 'f_est', 'n')
     assert np.isfinite(estimated[~np.isnan(estimated)]).all()
     assert (~np.isnan(estimated)).any(), 'no estimated force was recorded'
+    # the estimator identifies the finger of the default parameters from the session
+    stiffness = joint_columns(table, 'k_est', 'nm_per_rad')[-1]
+    true_stiffness = [j['stiffness'] for j in load_params().to_dict()['finger']['joints']]
+    np.testing.assert_allclose(stiffness, true_stiffness, rtol=STIFFNESS_TOLERANCE)
 
     width, height = png_size(out / 'signals.png')
     assert width >= 400 and height >= 400

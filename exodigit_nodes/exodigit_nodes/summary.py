@@ -32,6 +32,8 @@ class Signal:
         Display unit.
     unit_tag : str
         The unit as it appears in column names and one-line summaries.
+    decimals : int
+        Decimals shown in the summary.
     """
 
     label: str
@@ -39,6 +41,7 @@ class Signal:
     scale: float
     unit: str
     unit_tag: str
+    decimals: int = 2
 
     def columns(self) -> list[str]:
         """The three run-record column names of this signal, MCP, PIP, DIP."""
@@ -50,9 +53,9 @@ SIGNALS = {
     'pressure_command': Signal('command', 'p_cmd', 1e-3, 'kPa', 'kpa'),
     'chamber_pressure': Signal('chamber', 'p', 1e-3, 'kPa', 'kpa'),
     'joint_states': Signal('angle', 'q', 180.0 / math.pi, 'deg', 'deg'),
-    'contact_forces': Signal('force sim', 'f', 1.0, 'N', 'n'),
-    'estimated_contact_forces': Signal('force est', 'f_est', 1.0, 'N', 'n'),
-    'estimated_finger_stiffness': Signal('K_H', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad'),
+    'contact_forces': Signal('force sim', 'f', 1.0, 'N', 'n', decimals=3),
+    'estimated_contact_forces': Signal('force est', 'f_est', 1.0, 'N', 'n', decimals=3),
+    'estimated_finger_stiffness': Signal('K_H', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
 }
 #: The order in which the plant publishes the messages of one step (``Plant.publish_state``).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
@@ -208,7 +211,7 @@ class GloveSignals:
         clock = '-' if self.time is None else f'{self.time:7.2f} s'
         lines = [f'{title}   t = {clock}', f'{"":10}' + ''.join(f'{j:>9}' for j in JOINT_LABELS)]
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal.scale, width=9)
+            cells = _cells(self.latest[topic], signal, width=9)
             lines.append(f'{signal.label:<10}{cells}  {signal.unit}')
         lines.append('nodes: ' + ', '.join(self.health_text(now)))
         return '\n'.join(lines)
@@ -218,15 +221,15 @@ class GloveSignals:
         clock = '-' if self.time is None else f'{self.time:.2f}s'
         parts = [f't={clock}']
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal.scale, width=0)
+            cells = _cells(self.latest[topic], signal, width=0)
             parts.append(f'{signal.column}_{signal.unit_tag}=[{cells}]')
         return ' '.join(parts) + ' nodes: ' + '; '.join(self.health_text(now))
 
 
-def _cells(values, scale: float, width: int) -> str:
+def _cells(values, signal: Signal, width: int) -> str:
     if values is None:
         return ' '.join(f'{"-":>{width}}' for _ in JOINT_LABELS)
-    return ' '.join(f'{scale * v:{width}.2f}' for v in values)
+    return ' '.join(f'{signal.scale * v:{width}.{signal.decimals}f}' for v in values)
 
 
 class SummaryDisplay:
