@@ -194,13 +194,28 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
     assert len(bag_messages(out / 'bag', f'{ns}/joint_states')) >= 20
 
 
-def test_a_bad_params_file_stops_the_glove_with_one_line_before_anything_starts(ros_env, tmp_path):
-    bad = tmp_path / 'bad.yaml'
-    bad.write_text('material:\n  c1: -5.0\n')
+@pytest.mark.parametrize(
+    ('arguments', 'environment', 'culprit'),
+    [
+        (['--params-file', '{bad_yaml}'], {}, 'material.c1'),
+        (['--params-file', '{tmp}/missing.yaml'], {}, 'missing.yaml'),
+        (['--ros-params', '{tmp}/missing.yaml'], {}, '--ros-params'),
+        (['--duration', '-1'], {}, '--duration'),
+        (['--namespace', 'glove'], {}, '--namespace'),
+        ([], {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LAN'}, 'ROS_AUTOMATIC_DISCOVERY_RANGE'),
+        ([], {'ROS_DOMAIN_ID': '500'}, 'ROS_DOMAIN_ID'),
+    ],
+)
+def test_bad_input_stops_the_glove_with_one_line_before_anything_starts(
+    ros_env, tmp_path, arguments, environment, culprit
+):
+    bad_yaml = tmp_path / 'bad.yaml'
+    bad_yaml.write_text('material:\n  c1: -5.0\n')
     out = tmp_path / 'run'
+    arguments = [a.format(bad_yaml=bad_yaml, tmp=tmp_path) for a in arguments]
     result = subprocess.run(
-        [*GLOVE, '--params-file', str(bad), '--out', str(out), '--namespace', namespace('bad')],
-        env=ros_env,
+        [*GLOVE, *arguments, '--out', str(out)],
+        env={**ros_env, **environment},
         capture_output=True,
         text=True,
         timeout=60,
@@ -208,7 +223,8 @@ def test_a_bad_params_file_stops_the_glove_with_one_line_before_anything_starts(
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, result.stderr
-    assert 'material.c1' in lines[0] and 'Traceback' not in result.stderr
+    assert lines[0].startswith('glove: ') and culprit in lines[0]
+    assert 'Traceback' not in result.stderr
     assert not out.exists()
 
 
