@@ -205,3 +205,24 @@ def test_recorder_stops_by_itself_after_duration(ros_domain, tmp_path):
     assert recorder.returncode == 0, err
     _, types = read_back(bag)
     assert set(types) >= {f'{NAMESPACE}/joint_states', f'{NAMESPACE}/markers', '/diagnostics'}
+
+
+@pytest.mark.parametrize(
+    ('arguments', 'fragment'),
+    [
+        (['--output', 'x', '--ros-args', '-p'], 'recorder: error: Failed to parse ROS arguments'),
+        (['--output', 'x', '--duration', 'nan'], '--duration nan: must be a finite number'),
+    ],
+)
+def test_recorder_refuses_bad_arguments(arguments, fragment, ros_domain, tmp_path):
+    result = subprocess.run(
+        [sys.executable, '-m', 'exodigit_nodes.recorder', *arguments],
+        cwd=tmp_path,
+        env=ros_environment(ros_domain),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+    )
+    assert result.returncode == 2
+    assert fragment in result.stderr and 'Traceback' not in result.stderr
+    assert not (tmp_path / 'x').exists()

@@ -16,6 +16,7 @@ the bag cleanly (metadata.yaml written); a topic nobody publishes is listed with
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 import time
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
@@ -32,6 +33,7 @@ from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
+from .node_base import SPIN_PERIOD, StopRequest
 from .qos import GLOVE_QOS
 
 TOPICS = {
@@ -163,28 +165,36 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
     return options
 
 
-def _stop(signum, frame) -> None:
-    raise KeyboardInterrupt
-
-
 def main(args: list[str] | None = None) -> int:
-    """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``)."""
+    """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``).
+
+    SIGINT and SIGTERM only set a flag that the spin loop checks (as every glove node does), so
+    the bag is always closed outside rclpy's C code.
+    """
     argv = sys.argv if args is None else ['recorder', *args]
-    options = parse_arguments(remove_ros_args(argv)[1:])
-    signal.signal(signal.SIGINT, _stop)
-    signal.signal(signal.SIGTERM, _stop)
+    try:
+        own = remove_ros_args(argv)[1:]
+    except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError: malformed --ros-args
+        print(f'recorder: error: {" ".join(str(error).split())}', file=sys.stderr)
+        return 2
+    options = parse_arguments(own)
+    stop = StopRequest()
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
     node = None
     code = 0
     try:
         rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
         node = Recorder(Path(options.output))
-        deadline = time.monotonic() + options.duration if options.duration > 0 else None
-        while rclpy.ok() and (deadline is None or time.monotonic() < deadline):
-            rclpy.spin_once(node, timeout_sec=0.1)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.monotonic() + options.duration if options.duration > 0 else math.inf
+        while not stop.requested and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=SPIN_PERIOD)
     except RecorderError as error:
         print(f'recorder: error: {error}', file=sys.stderr)
         code = 2
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
