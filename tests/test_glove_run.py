@@ -27,6 +27,15 @@ JOINTS = ('mcp', 'pip', 'dip')
 ANGLE_TOLERANCE = 1e-6
 #: Forces in the record against the same solve, N.
 FORCE_TOLERANCE = 1e-6
+#: A model parameter file: the default glove on a finger twice as stiff.
+STIFF_FINGER = """finger:
+  joints:
+    - {name: mcp, link_half_length: 0.023, stiffness: 0.080}
+    - {name: pip, link_half_length: 0.0135, stiffness: 0.060}
+    - {name: dip, link_half_length: 0.009, stiffness: 0.030}
+"""
+#: pressure_command's default hold pressure, kPa (config/pressure_command.yaml).
+HOLD_PRESSURE_KPA = 20.0
 #: Relative tolerance of the identified finger stiffness on noise-free data.
 STIFFNESS_TOLERANCE = 1e-3
 #: Seconds the glove may take to exit after the end of its duration or a SIGINT.
@@ -155,11 +164,15 @@ def bag_messages(path, topic):
 
 
 def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_env, tmp_path):
+    # Also passes a model file (a stiffer finger) and a mode to the nodes.
     ns = namespace('sigint')
     out = tmp_path / 'run'
+    params_file = tmp_path / 'stiff_finger.yaml'
+    params_file.write_text(STIFF_FINGER)
+    arguments = ['--mode', 'hold', '--params-file', str(params_file), '--record']
     with open(tmp_path / 'stdout.txt', 'w') as stdout:
         glove = subprocess.Popen(
-            [*GLOVE, '--namespace', ns, '--out', str(out), '--record'],
+            [*GLOVE, '--namespace', ns, '--out', str(out), *arguments],
             env=ros_env,
             cwd=tmp_path,
             stdout=stdout,
@@ -167,7 +180,7 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
             text=True,
         )
         try:
-            started = wait_until(lambda: commanded_rows(out / 'signals.csv') >= 20, START_TIMEOUT)
+            started = wait_until(lambda: commanded_rows(out / 'signals.csv') >= 50, START_TIMEOUT)
             assert started, (tmp_path / 'stdout.txt').read_text()[-2000:]
             assert len(node_pids(ns)) == 4  # three nodes and the recorder
             glove.send_signal(signal.SIGINT)
@@ -186,7 +199,14 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
     command = joint_columns(table, 'p_cmd', 'kpa')
     # pressure_command stops first and publishes zero; the plant still runs and is recorded
     assert np.all(command[-1] == 0.0), command[-5:]
-    assert np.any(command[:-1] > 0.0)
+    assert np.nanmax(command) == pytest.approx(HOLD_PRESSURE_KPA)  # --mode hold reached it
+    model = GloveModel(load_params(params_file))
+    pressure = 1e3 * joint_columns(table, 'p', 'kpa')
+    angles = np.radians(joint_columns(table, 'q', 'deg'))
+    solved = model.solve_batch(pressure).q
+    np.testing.assert_allclose(angles, solved, rtol=0, atol=ANGLE_TOLERANCE)
+    default = GloveModel(load_params()).solve_batch(pressure).q
+    assert np.abs(default - angles).max() > 100 * ANGLE_TOLERANCE  # the file was used
     # the recorder stops last: its bag ends with the zero command too
     recorded = bag_messages(out / 'bag', f'{ns}/pressure_command')
     assert any(np.any(message.data > 0.0) for message in recorded)
