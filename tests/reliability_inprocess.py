@@ -9,7 +9,9 @@ the wire would deliver) and fires the timers by hand; the recorded outputs are t
 
 from __future__ import annotations
 
+import inspect
 import math
+import time
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 
@@ -63,6 +65,7 @@ class InProcessNode:
             rclpy.try_shutdown()
             raise
         self.published: dict[str, list] = defaultdict(list)
+        self.sequence: dict[str, int] = {}
         for publisher in self.node.publishers:
             topic = publisher.topic_name.removeprefix(NAMESPACE + '/')
             publisher.publish = self._recorder(topic)
@@ -81,9 +84,24 @@ class InProcessNode:
         }
 
     def deliver(self, topic: str, message) -> None:
-        """Hand ``message`` (after a wire round trip) to the subscription of ``topic``."""
+        """Hand ``message`` (after a wire round trip) to the subscription of ``topic``.
+
+        A callback taking message info gets what rclpy would give: one publisher per topic,
+        numbering its messages 1, 2, ... (``publication_sequence_number``).
+        """
         _, callback = self.subscriptions()[topic]
-        callback(wire_copy(message))
+        if len(inspect.signature(callback).parameters) == 1:
+            callback(wire_copy(message))
+            return
+        self.sequence[topic] = self.sequence.get(topic, 0) + 1
+        now = time.time_ns()
+        info = {
+            'source_timestamp': now,
+            'received_timestamp': now,
+            'publication_sequence_number': self.sequence[topic],
+            'reception_sequence_number': self.sequence[topic],
+        }
+        callback(wire_copy(message), info)
 
     def fire_timers(self) -> None:
         """Run every timer callback of the node once (a cycle of the node's loops)."""
