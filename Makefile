@@ -1,5 +1,7 @@
 # exodigit: the two commands a user needs.
-#   make run [DURATION=20]   the simulated glove, headless, with a live summary (Ctrl-C to stop)
+#   make run [DURATION=20] [RECORD=1]
+#                            the simulated glove, headless, with a live summary (Ctrl-C to stop);
+#                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag
 #   make test                lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
 # requirements or package file changed.
@@ -10,6 +12,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 DURATION ?= 0
 NAMESPACE ?= /glove
+RECORD ?=
 PYTEST_ARGS ?=
 
 # Discovery never leaves this machine (see README, "Networking"); one domain per command.
@@ -35,7 +38,8 @@ $(VENV)/.installed: $(INSTALL_INPUTS)
 	touch $@
 
 run: venv
-	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE)
+	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE) \
+		$(if $(RECORD),--record)
 
 test: venv
 	$(BIN)/ruff check .
