@@ -13,7 +13,6 @@ names or mismatched arrays). Stamp checks depend on the node, so stamps do not e
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from collections.abc import Iterator
@@ -21,6 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from builtin_interfaces.msg import Time
+from reliability_session import MAX_PRESSURE, MAX_SUPPLY, NODES, GloveSession
+from ros_harness import wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -192,16 +193,8 @@ class OutputCheck:
 #: Messages per fuzzed topic in the default test run; the full run (bench_fuzz.py, or this
 #: variable set to 10000) uses 10,000.
 DEFAULT_COUNT = 2000
-#: Plant supply limit, controller pressure and rate limits of the fuzz session (Pa, Pa/s).
-MAX_SUPPLY = 100e3
-MAX_PRESSURE = 60e3
-MAX_PRESSURE_RATE = 100e3
-COMMAND_RATE = 100.0
-#: Slack on the per-cycle rate limit for float rounding, Pa.
-RATE_SLACK = 1e-6
 #: Seconds to wait for a node's diagnostics after a flood (they come every second).
 REPORT_TIMEOUT = 10.0
-NODE_NAMES = ('plant', 'pressure_command', 'estimator')
 #: Output topics and the documented bounds of their values.
 OUTPUT_BOUNDS = {
     'joint_states': (-math.inf, math.inf),
@@ -221,10 +214,6 @@ class FuzzTarget:
     consumers: tuple[str, ...]
     scale: float
     mode: str = 'sine'
-
-    @property
-    def joint_states(self) -> bool:
-        return self.topic == 'joint_states'
 
 
 TARGETS = (
@@ -248,7 +237,7 @@ class FloodFigures:
     log_lines: dict[str, int] = field(default_factory=dict)
     alive: dict[str, bool] = field(default_factory=dict)
     outputs: OutputCheck | None = None
-    rate_violations: int = 0
+    unsafe_commands: list[str] = field(default_factory=list)
 
 
 def drop_log_lines(text: str) -> int:
@@ -256,69 +245,26 @@ def drop_log_lines(text: str) -> int:
     return sum('dropped' in line for line in text.splitlines())
 
 
-class GloveUnderFuzz:
-    """The three nodes in namespace ``/fuzz`` and a probe recording every output.
-
-    Parameters
-    ----------
-    launcher : ros_harness.NodeLauncher
-    probe : ros_harness.RosProbe
-    """
-
-    namespace = '/fuzz'
+class GloveUnderFuzz(GloveSession):
+    """The glove in namespace ``/fuzz`` (a `GloveSession`), flooded topic by topic."""
 
     def __init__(self, launcher, probe) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray
-
-        self.probe = probe
-        self.nodes = {
-            'plant': launcher.start(
-                'plant', {'max_supply_pressure': MAX_SUPPLY}, namespace=self.namespace
-            ),
-            'pressure_command': launcher.start(
-                'pressure_command',
-                {
-                    'max_pressure': MAX_PRESSURE,
-                    'max_pressure_rate': MAX_PRESSURE_RATE,
-                    'rate_hz': COMMAND_RATE,
-                },
-                namespace=self.namespace,
-            ),
-            'estimator': launcher.start('estimator', namespace=self.namespace),
-        }
-        self.inboxes = {
-            topic: probe.subscribe(f'{self.namespace}/{topic}', self.message_type(topic))
-            for topic in OUTPUT_BOUNDS
-        }
-        self.diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+        super().__init__(launcher, probe, '/fuzz')
+        for node in NODES:
+            self.start(node)
         self.publishers = {}
-
-    @staticmethod
-    def message_type(topic: str) -> type:
-        return JointState if topic == 'joint_states' else Float64MultiArray
+        self.flood_windows: dict[str, list[tuple[int, int]]] = {}
 
     def wait_running(self, timeout: float) -> bool:
         """Every output flows and every node has reported."""
-        from ros_harness import wait_until
-
-        def ready() -> bool:
-            flowing = all(
-                self.inboxes[t].count() > 0
-                for t in ('joint_states', 'pressure_command', 'estimated_contact_forces')
-            )
-            return flowing and all(self.report(n) is not None for n in NODE_NAMES)
-
-        return bool(wait_until(ready, timeout))
-
-    def report(self, node: str, since: float = -1.0):
-        """The newest DiagnosticStatus of ``node`` that arrived after ``since``, or None."""
-        from reliability_session import latest_status
-
-        return latest_status(self.diagnostics, f'{self.namespace}/{node}', since)
+        return all(
+            self.flowing(topic, -1.0, count=1, timeout=timeout)
+            for topic in ('joint_states', 'pressure_command', 'estimated_contact_forces')
+        ) and all(self.reported(node, -1.0, timeout) for node in NODES)
 
     def rejections(self, node: str, topic: str, since: float) -> int | None:
         """``node``'s count of dropped ``topic`` messages in a report newer than ``since``."""
-        status = self.report(node, since)
+        status = self.status(node, since)
         if status is None:
             return None
         prefix = f'rejected {topic}:'
@@ -331,60 +277,63 @@ class GloveUnderFuzz:
 
     def rss(self) -> dict[str, int]:
         """Resident memory of each node, bytes."""
-        return {name: node.rss_bytes() for name, node in self.nodes.items()}
+        return {name: node.rss_bytes() for name, node in self.processes.items()}
+
+    def publisher(self, topic: str):
+        """The probe's publisher on ``topic`` (kept: destroying one races its executor)."""
+        if topic not in self.publishers:
+            kind = JointState if topic == 'joint_states' else Float64MultiArray
+            self.publishers[topic] = self.probe.publisher(f'{self.namespace}/{topic}', kind)
+        return self.publishers[topic]
 
     def flood(self, target: FuzzTarget, count: int, seed: int) -> FloodFigures:
         """Send ``count`` hostile messages on ``target.topic`` at full speed; measure."""
-        from ros_harness import wait_until
-
         figures = FloodFigures(target.topic)
         self.set_mode(target.mode)
-        topic = f'{self.namespace}/{target.topic}'
-        if topic not in self.publishers:  # kept: destroying one races the probe's executor
-            self.publishers[topic] = self.probe.publisher(topic, self.message_type(target.topic))
-        publisher = self.publishers[topic]
-        logs = {name: drop_log_lines(self.nodes[name].stderr()) for name in target.consumers}
-        before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODE_NAMES}
-        if target.joint_states:
+        publisher = self.publisher(target.topic)
+        stderr = {name: self.processes[name].stderr for name in target.consumers}
+        logs = {name: drop_log_lines(read()) for name, read in stderr.items()}
+        before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODES}
+        if target.topic == 'joint_states':
             messages = hostile_joint_states(count, '', time.time_ns(), seed)
         else:
             messages = hostile_vectors(count, target.scale, seed)
-        started = time.monotonic()
+        started, started_ns = time.monotonic(), time.time_ns()
         for message, malformed in messages:
             publisher.publish(message)
             figures.sent += 1
             figures.malformed += malformed
         finished = time.monotonic()
+        self.flood_windows.setdefault(target.topic, []).append((started_ns, time.time_ns()))
         figures.seconds = finished - started
         for name in target.consumers:
             counted = wait_until(
                 lambda n=name: self.rejections(n, target.topic, finished + 1.0), REPORT_TIMEOUT
             )
             figures.rejections[name] = (counted or 0) - before[name]
-        for name in target.consumers:
-            figures.log_lines[name] = drop_log_lines(self.nodes[name].stderr()) - logs[name]
-        figures.alive = {name: node.alive() for name, node in self.nodes.items()}
-        figures.outputs, figures.rate_violations = self.check_outputs(target.topic, started)
+            figures.log_lines[name] = drop_log_lines(stderr[name]()) - logs[name]
+        figures.alive = {name: self.alive(name) for name in NODES}
+        figures.outputs = self.check_outputs(target.topic, started)
+        if target.topic != 'pressure_command':  # else the probe's own commands are in there
+            ours = self.flood_windows.get('pressure_command', [])
+            figures.unsafe_commands = self.unsafe_commands(started, exclude=ours)
         return figures
 
-    def check_outputs(self, fuzzed: str, since: float) -> tuple[OutputCheck, int]:
-        """Bounds of every output since ``since`` (not the fuzzed topic: the probe sent those)."""
+    def check_outputs(self, fuzzed: str, since: float) -> OutputCheck:
+        """Bounds of every output since ``since``, leaving out what the probe sent itself (the
+        fuzzed topic, and messages of earlier floods still arriving)."""
         check = OutputCheck(OUTPUT_BOUNDS)
-        for topic, inbox in self.inboxes.items():
+        for topic in OUTPUT_BOUNDS:
             if topic == fuzzed:
                 continue
-            for message in inbox.messages(since):
+            windows = self.flood_windows.get(topic, [])
+            for arrival, message, info in self.inbox[topic].records():
+                stamp = info['source_timestamp']
+                if arrival <= since or any(start <= stamp <= end for start, end in windows):
+                    continue
                 if topic == 'joint_states':
                     values = [*message.position, *message.velocity, *message.effort]
                 else:
                     values = message.data
                 check.add(topic, values)
-        rate_violations = 0
-        if fuzzed != 'pressure_command':
-            step = MAX_PRESSURE_RATE / COMMAND_RATE + RATE_SLACK
-            sent = self.inboxes['pressure_command'].messages(since)
-            commands = [np.asarray(m.data) for m in sent]
-            rate_violations = sum(
-                int(np.any(np.abs(b - a) > step)) for a, b in itertools.pairwise(commands)
-            )
-        return check, rate_violations
+        return check

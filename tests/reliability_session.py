@@ -20,8 +20,9 @@ from std_msgs.msg import Float64MultiArray
 from exodigit_model import GloveModel, load_params
 
 NODES = ('plant', 'pressure_command', 'estimator')
-#: Controller rate and limits of fault sessions.
+#: Controller rate and limits, plant supply limit, of sessions (Hz, Pa, Pa/s).
 RATE = 100.0
+MAX_SUPPLY = 100e3
 MAX_PRESSURE = 60e3
 MAX_PRESSURE_RATE = 100e3
 #: Estimator window (pairs) and identification period (s): one window is WINDOW / RATE s.
@@ -39,7 +40,11 @@ START_TIMEOUT = 20.0 + DISCOVERY_TIMEOUT
 RATE_SLACK = 1e-6
 
 PARAMETERS = {
-    'plant': {'pressure_time_constant': 0.02, 'marker_rate_hz': 0.0},
+    'plant': {
+        'pressure_time_constant': 0.02,
+        'marker_rate_hz': 0.0,
+        'max_supply_pressure': MAX_SUPPLY,
+    },
     'pressure_command': {
         'mode': 'sine',
         'sine_period': 2.0,
@@ -84,7 +89,10 @@ class GloveSession:
         self.namespace = namespace
         self.parameters = {n: dict(PARAMETERS[n], **(overrides or {}).get(n, {})) for n in NODES}
         self.processes = {}
-        self.inbox = {t: probe.subscribe(f'{namespace}/{t}', kind) for t, kind in TOPICS.items()}
+        self.inbox = {
+            topic: probe.subscribe(f'{namespace}/{topic}', kind, with_info=True)
+            for topic, kind in TOPICS.items()
+        }
         self.diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
         self.model = GloveModel(load_params())
 
@@ -165,12 +173,19 @@ class GloveSession:
             time.sleep(0.05)
         return sorted(pending)
 
-    def unsafe_commands(self, since: float) -> list[str]:
+    def unsafe_commands(self, since: float, exclude=()) -> list[str]:
         """Commands after ``since`` outside [0, max_pressure] or changing faster than allowed.
 
-        Only meaningful while one controller process runs (a restarted one starts from zero).
+        ``exclude`` lists (start, end) windows of source timestamps (ns, system clock) of
+        messages that are not the controller's (a test published them). Only meaningful while
+        one controller process runs (a restarted one starts from zero).
         """
-        commands = [np.asarray(m.data) for m in self.inbox['pressure_command'].messages(since)]
+        commands = [
+            np.asarray(message.data)
+            for arrival, message, info in self.inbox['pressure_command'].records()
+            if arrival > since
+            and not any(start <= info['source_timestamp'] <= end for start, end in exclude)
+        ]
         step = MAX_PRESSURE_RATE / RATE + RATE_SLACK
         bad = [
             f'{c.tolist()} out of range'
