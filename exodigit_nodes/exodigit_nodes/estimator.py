@@ -46,7 +46,7 @@ ESTIMATOR_PARAMETERS = ParamTable(
         ),
         ParamSpec(
             'max_sample_age',
-            0.1,
+            0.5,
             'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
             1e-4,
             10.0,

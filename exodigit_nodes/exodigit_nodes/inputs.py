@@ -104,9 +104,9 @@ def stamp_age(stamp_seconds: float, now: float, max_age: float, what: str) -> No
     """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
     age = now - stamp_seconds
     if not math.isfinite(age) or abs(age) > max_age:
+        when = f'{age:.3g} s ago' if age > 0 else f'{-age:.3g} s in the future'
         raise InvalidInputError(
-            'stale',
-            f'{what} stamped {age:+.3g} s from now, beyond max_sample_age {max_age:g} s',
+            'stale', f'{what} stamped {when}, beyond max_sample_age {max_age:g} s'
         )
 
 

@@ -148,7 +148,8 @@ class PressureCommand(GloveNode):
         self.forces: tuple[float, np.ndarray] | None = None
         self.topic_targets: np.ndarray | None = None
         self.limit_counts: dict[str, int] = {}
-        self.last_reasons: dict[str, str] = {}
+        self.last_back_off = ''
+        self.back_offs_reported = 0
         self.sent = np.zeros(3)
         self.controller = self.make_controller()
         self.started = self.now_seconds()
@@ -286,8 +287,8 @@ class PressureCommand(GloveNode):
             controller.commit(desired, limited.pressure)
         for kind in limited.reasons:
             self.limit_counts[kind] = self.limit_counts.get(kind, 0) + 1
-        if limited.reasons:
-            self.last_reasons = limited.reasons
+        if 'back-off' in limited.reasons:
+            self.last_back_off = limited.reasons['back-off']
         if 'back-off' in limited.reasons or 'non-finite' in limited.reasons:
             self.get_logger().warning(
                 '; '.join(limited.reasons.values()), throttle_duration_sec=LOG_THROTTLE
@@ -308,8 +309,10 @@ class PressureCommand(GloveNode):
         problems = []
         if self.fresh(self.angles, now) is None:
             problems.append(f'no fresh {JOINT_STATES} (is the plant running?)')
-        if self.limiter.backing_off:
-            problems.append(self.last_reasons.get('back-off', 'backing off'))
+        backed_off = self.limit_counts.get('back-off', 0) - self.back_offs_reported
+        if backed_off:
+            problems.append(f'{backed_off} steps {self.last_back_off}')
+            self.back_offs_reported += backed_off
         values = {
             'mode': self.values['mode'],
             'command sent (Pa)': str(self.sent.tolist()),
