@@ -35,7 +35,7 @@ def test_whole_hand_runs_without_crashes_or_lost_messages(tmp_path):
     figures = json.loads(figures_file.read_text())
     assert figures['crashed'] == []
     assert sorted(figures['fingers']) == sorted(FINGERS.split(','))
-    assert len(figures['cpu (% of a core)']) == 3 * len(figures['fingers'])
+    assert len(figures['cpu (% of a core)']) == 3 * len(figures['fingers']) + 1  # + monitor
     for finger, row in figures['fingers'].items():
         assert row['plant cycles'] > 0, finger
         assert row['commands received'] > 0, finger
