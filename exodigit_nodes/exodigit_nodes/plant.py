@@ -265,7 +265,9 @@ class Plant(GloveNode):
         self.force_publisher.publish(self.force_message)
 
     def publish_markers(self) -> None:
-        """Publish the glove's markers at the current state."""
+        """Publish the glove's markers at the current state (only when someone listens)."""
+        if self.marker_publisher.get_subscription_count() == 0:
+            return
         stamp = self.get_clock().now().to_msg()
         self.marker_publisher.publish(
             self.markers.update(self.angles, self.forces, stamp, self.settings.frame_id)
