@@ -192,6 +192,7 @@ def test_rejection_tally_counts_per_topic_and_reason():
 RATE = ParamSpec('rate_hz', 100.0, 'rate, Hz', 1.0, 1000.0)
 TARGETS = ParamSpec('joint_targets', (0.1, 0.2, 0.3), 'targets, rad', -3.0, 3.0)
 MODE = ParamSpec('mode', 'sine', 'session', choices=('sine', 'hold'))
+FRAME = ParamSpec('frame_id', 'base', 'marker frame', required=True)
 
 
 @pytest.mark.parametrize(
@@ -207,6 +208,8 @@ MODE = ParamSpec('mode', 'sine', 'session', choices=('sine', 'hold'))
         (TARGETS, 'abc'),
         (MODE, 'bogus'),
         (MODE, 3),
+        (FRAME, ''),
+        (FRAME, 1.0),
     ],
 )
 def test_a_bad_value_is_refused_with_a_reason_naming_the_parameter(spec, value):

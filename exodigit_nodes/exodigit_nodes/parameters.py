@@ -34,6 +34,8 @@ class ParamSpec:
         Structural: fixed once the node has started.
     choices : tuple of str
         Allowed values of a string parameter (empty: any string).
+    required : bool
+        A string parameter that may not be empty.
     """
 
     name: str
@@ -43,6 +45,7 @@ class ParamSpec:
     high: float | None = None
     read_only: bool = False
     choices: tuple[str, ...] = ()
+    required: bool = False
 
     def check(self, value: Any) -> ParamValue:
         """``value`` converted to this parameter's type, or a ValueError naming the parameter."""
@@ -54,6 +57,8 @@ class ParamSpec:
         if kind is str:
             if not isinstance(value, str):
                 raise ValueError(f'{self.name} must be a string, got {value!r}')
+            if self.required and not value.strip():
+                raise ValueError(f'{self.name} must not be empty')
             if self.choices and value not in self.choices:
                 raise ValueError(
                     f'{self.name} must be one of {", ".join(self.choices)}, got {value!r}'

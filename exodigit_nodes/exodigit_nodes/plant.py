@@ -83,7 +83,9 @@ PLANT_PARAMETERS = ParamTable(
         ParamSpec(
             'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True
         ),
-        ParamSpec('frame_id', 'exodigit_base', 'Frame of the markers (exo-digit base)'),
+        ParamSpec(
+            'frame_id', 'exodigit_base', 'Frame of the markers (exo-digit base)', required=True
+        ),
         ParamSpec('marker_rate_hz', 10.0, 'Rate of the markers topic, Hz (0 = off)', 0.0, 100.0),
     ]
 )
