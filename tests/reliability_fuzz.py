@@ -235,6 +235,7 @@ class FloodFigures:
     seconds: float = 0.0
     rejections: dict[str, int] = field(default_factory=dict)
     log_lines: dict[str, int] = field(default_factory=dict)
+    levels: dict[str, bytes] = field(default_factory=dict)
     alive: dict[str, bool] = field(default_factory=dict)
     outputs: OutputCheck | None = None
     unsafe_commands: list[str] = field(default_factory=list)
@@ -311,6 +312,7 @@ class GloveUnderFuzz(GloveSession):
                 lambda n=name: self.rejections(n, target.topic, finished + 1.0), REPORT_TIMEOUT
             )
             figures.rejections[name] = (counted or 0) - before[name]
+            figures.levels[name] = self.status(name, finished + 1.0).level
             figures.log_lines[name] = drop_log_lines(stderr[name]()) - logs[name]
         figures.alive = {name: self.alive(name) for name in NODES}
         figures.outputs = self.check_outputs(target.topic, started)
