@@ -23,7 +23,7 @@ FORCE_SETTLED = 1e-3
 SETTLE_TIME = 15.0  # s
 MAX_PRESSURE = 60e3  # Pa, the node's default
 #: How far past a range-of-motion limit the lagging chambers may carry a joint, rad.
-OVERSHOOT = 0.1
+OVERSHOOT = 0.01
 
 
 @pytest.fixture(scope='module')
@@ -126,9 +126,10 @@ def test_leaving_the_range_of_motion_makes_the_controller_back_off(loop, probe):
         lambda: [s for s in command_status(inboxes, mark) if 'backing off' in s.message], 5.0
     )
     assert backing_off and backing_off[-1].level == DiagnosticStatus.WARN
-    settled = time.monotonic()
     states = inboxes['joint_states']
-    assert wait_until(lambda: len(states.messages(settled)) >= 100, 10.0)
+    assert states.wait_for(lambda m: m.position[0] <= 0.15, 10.0, since=mark) is not None
+    settled = time.monotonic()
+    assert wait_until(lambda: len(states.messages(settled)) >= 150, 10.0)
     overshoot = max(m.position[0] for m in states.messages(settled))
     assert overshoot < 0.15 + OVERSHOOT
 

@@ -361,6 +361,25 @@ def test_limiter_backs_off_outside_the_range_of_motion_or_above_the_force_limit(
     assert 'contact force' in out.reasons['back-off']
 
 
+def test_after_a_back_off_the_command_stays_capped_until_the_controller_asks_for_less():
+    limiter = SafetyLimiter(LIMITS)
+    limiter.last = np.full(3, 40e3)
+    outside = np.array([1.6, 0.5, 0.5])  # mcp beyond 1.5 rad
+    inside = np.array([1.4, 0.5, 0.5])
+    for _ in range(5):
+        limiter.apply(np.full(3, 45e3), 0.01, angles=outside)
+    np.testing.assert_allclose(limiter.last, 35e3)
+    for _ in range(20):  # back inside, the controller still asks for more
+        out = limiter.apply(np.full(3, 45e3), 0.01, angles=inside)
+        np.testing.assert_allclose(out.pressure, 35e3)
+        assert 'ceiling' in out.reasons
+    out = limiter.apply(np.full(3, 30e3), 0.01, angles=inside)  # asks for less: cap released
+    np.testing.assert_allclose(out.pressure, 34e3)
+    assert 'ceiling' not in out.reasons
+    out = limiter.apply(np.full(3, 45e3), 0.01, angles=inside)
+    np.testing.assert_allclose(out.pressure, 35e3)
+
+
 def test_lowering_max_pressure_clips_at_once():
     limiter = SafetyLimiter(LIMITS)
     limiter.last = np.full(3, 50e3)

@@ -190,6 +190,12 @@ class PressureCommand(GloveNode):
             joint_upper=values['joint_upper_limits'],
             max_contact_force=values['max_contact_force'],
         )
+        targets = np.array(values['joint_targets'])
+        if ((targets < limits.joint_lower) | (targets > limits.joint_upper)).any():
+            raise ValueError(
+                f'joint_targets {list(values["joint_targets"])} rad must lie inside '
+                'joint_lower_limits .. joint_upper_limits'
+            )
         return CommandSettings(values, limits)
 
     def apply(self, settings: CommandSettings, changed: set[str]) -> None:

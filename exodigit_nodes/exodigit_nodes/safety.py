@@ -2,7 +2,9 @@
 
 Whatever a controller asks, what is sent stays in [0, max_pressure], changes by at most
 max_pressure_rate·dt per step, and ramps down toward zero while a joint is outside its range of
-motion or a contact force exceeds max_contact_force.
+motion or a contact force exceeds max_contact_force. When the glove is back inside, the command
+stays capped at what it was then (the pressure that brought it back), until the controller asks
+for less: the glove settles at the edge of the range instead of pushing through it again.
 """
 
 from __future__ import annotations
@@ -61,7 +63,8 @@ class Limited:
     pressure : ndarray, shape (3,)
         What to send, Pa.
     reasons : dict of str to str
-        Per limit that acted (``non-finite``, ``back-off``, ``pressure``, ``rate``), why;
+        Per limit that acted (``non-finite``, ``back-off``, ``ceiling``, ``pressure``,
+        ``rate``), why;
         empty when the command went through untouched.
     """
 
@@ -82,6 +85,7 @@ class SafetyLimiter:
         self.limits = limits
         self.last = np.zeros(3)
         self.backing_off = False
+        self.ceiling = np.full(3, np.inf)
 
     def violations(
         self, angles: NDArray[np.float64] | None, forces: NDArray[np.float64] | None
@@ -117,10 +121,18 @@ class SafetyLimiter:
             reasons['non-finite'] = f'controller asked for {desired.tolist()}; sending toward 0'
             desired = np.zeros(3)
         violations = self.violations(angles, forces)
-        self.backing_off = bool(violations)
-        target = np.zeros(3) if violations else desired
         if violations:
+            target = np.zeros(3)
             reasons['back-off'] = 'backing off: ' + '; '.join(violations)
+        else:
+            if self.backing_off:  # just back inside: cap at the pressure that got us here
+                self.ceiling = self.last.copy()
+            if (desired <= self.ceiling).all():
+                self.ceiling = np.full(3, np.inf)
+            target = np.minimum(desired, self.ceiling)
+            if np.isfinite(self.ceiling).any():
+                reasons['ceiling'] = f'capped at {self.ceiling.tolist()} Pa after a back-off'
+        self.backing_off = bool(violations)
         bounded = np.clip(target, 0.0, limits.max_pressure)
         if not np.array_equal(bounded, target):
             reasons['pressure'] = f'pressure limited to [0, {limits.max_pressure:g}] Pa'
@@ -134,5 +146,7 @@ class SafetyLimiter:
         return Limited(sent.copy(), reasons)
 
     def reset(self) -> None:
-        """Forget the last command (start again from zero)."""
+        """Forget the last command and any cap (start again from zero)."""
         self.last = np.zeros(3)
+        self.ceiling = np.full(3, np.inf)
+        self.backing_off = False
