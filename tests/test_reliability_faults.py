@@ -87,11 +87,10 @@ def test_controller_killed_plant_vents_on_its_watchdog_then_recovers(session):
 def test_estimator_killed_others_carry_on_and_it_resumes_within_one_window(session):
     killed = time.monotonic()
     assert session.kill('estimator') == -9
-    watched = time.monotonic() + WATCH
-    assert session.flowing('joint_states', killed, count=int(0.5 * WATCH * RATE))
-    assert session.flowing('pressure_command', killed, count=int(0.5 * WATCH * RATE))
+    # Plant and controller still publish WATCH s after the kill.
+    assert session.flowing('joint_states', killed + WATCH, count=1)
+    assert session.flowing('pressure_command', killed + WATCH, count=1)
     assert session.alive('plant') and session.alive('pressure_command')
-    assert time.monotonic() >= watched or session.flowing('joint_states', watched, count=1)
     restarted = time.monotonic()
     session.start('estimator')
     first = session.inbox['estimated_contact_forces'].wait_for(
