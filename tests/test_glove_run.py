@@ -214,6 +214,34 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
     assert len(bag_messages(out / 'bag', f'{ns}/joint_states')) >= 20
 
 
+def test_ctrl_c_while_the_nodes_start_is_a_clean_stop_even_from_a_background_shell(
+    ros_env, tmp_path
+):
+    # A shell starts background jobs with SIGINT ignored; the glove still takes Ctrl-C (kill
+    # -INT), and nodes interrupted while still importing count as stopped, not failed.
+    ns = namespace('early')
+    out = tmp_path / 'run'
+    glove = subprocess.Popen(
+        [*GLOVE, '--namespace', ns, '--out', str(out)],
+        env=ros_env,
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    try:
+        assert wait_until(lambda: len(node_pids(ns)) == 3, START_TIMEOUT)
+        glove.send_signal(signal.SIGINT)
+        stdout, stderr = glove.communicate(timeout=STOP_TIMEOUT)
+    finally:
+        if glove.poll() is None:
+            glove.kill()
+    assert glove.returncode == 0, stdout + stderr
+    assert 'stopping (SIGINT)' in stdout and 'Traceback' not in stdout + stderr
+    assert node_pids(ns) == []
+
+
 @pytest.mark.parametrize(
     ('arguments', 'environment', 'culprit'),
     [

@@ -23,6 +23,12 @@ print('ready', flush=True)
 while True:
     time.sleep(0.01)
 """
+STARTING = """
+import time
+print('ready', flush=True)
+while True:
+    time.sleep(0.01)
+"""
 STUBBORN = """
 import signal, time
 signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -63,6 +69,16 @@ def test_processes_stop_in_the_given_order_with_sigint(tmp_path):
     assert idle_calls
     assert not any(alive(pid) for pid in pids)
     assert supervisor.running() == []
+
+
+def test_a_process_still_starting_when_sigint_comes_stops_cleanly(tmp_path):
+    # No SIGINT handler of its own yet: Python's default ends it by the signal.
+    supervisor = Supervisor(os.environ, log_dir=tmp_path)
+    supervisor.start('plant', [sys.executable, '-c', STARTING])
+    assert wait_until(lambda: ready(supervisor, 'plant'), WAIT)
+    (exit_,) = supervisor.stop(['plant'])
+    assert exit_.returncode == -signal.SIGINT
+    assert exit_.clean
 
 
 def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):

@@ -146,6 +146,10 @@ class StopRequest:
     def __init__(self):
         self.requested = False
         self.signal_name = ''
+        self.install()
+
+    def install(self) -> None:
+        """Handle SIGINT and SIGTERM here (also when the shell started us ignoring SIGINT)."""
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, self._handle)
 
@@ -182,13 +186,14 @@ def main(argv=None) -> int:
 
 def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
     """Start the processes, show the summary until stop or failure, stop, write the record."""
+    stop = StopRequest()  # from here on, Ctrl-C means a clean stop
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
     from exodigit_nodes.monitor import GloveMonitor
 
-    stop = StopRequest()
+    stop.install()  # again: loading rclpy's C extension takes the signals over
     supervisor = Supervisor(env, log_dir=record.log_dir)
     names = (('recorder',) if args.record else ()) + NODES
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')

@@ -41,8 +41,12 @@ class Exit:
 
     @property
     def clean(self) -> bool:
-        """True for exit code 0 without being forced."""
-        return self.returncode == 0 and not self.forced
+        """True for a stop as asked, never when it had to be forced.
+
+        Exit code 0, or death by the SIGINT itself: a process still starting (before it took
+        over SIGINT) ends that way.
+        """
+        return self.returncode in (0, -signal.SIGINT) and not self.forced
 
     def describe(self) -> str:
         """One human line, e.g. ``plant exited with code 1`` or ``plant killed by SIGKILL``."""
