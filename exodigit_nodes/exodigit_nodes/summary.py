@@ -150,13 +150,10 @@ class GloveSignals:
         if signal not in STEP_ORDER:
             return []
         self._waiting[signal].append((published, values, stamp))
-        samples = []
-        while (sample := self._join()) is not None:
-            samples.append(sample)
-        return samples
+        return self._join()
 
-    def _join(self) -> Sample | None:
-        """The oldest complete plant step, or None to wait for more messages.
+    def _join(self) -> list[Sample]:
+        """The plant steps now complete, oldest first.
 
         Each topic arrives in publication order, so once every topic has delivered a message
         published after time ``h``, all messages up to ``h`` are known. Merged by publication
@@ -164,14 +161,14 @@ class GloveSignals:
         (`STEP_ORDER`); a step is three consecutive messages in that order. A step that lost a
         message (a full history) breaks the pattern and is skipped, never mixed with another.
         """
-        if not all(self._waiting.values()):
-            return None
-        horizon = min(queue[-1][0] for queue in self._waiting.values())
-        known = []
-        for topic, queue in self._waiting.items():
-            while queue and queue[0][0] <= horizon:
-                known.append((queue.popleft(), topic))
-        self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
+        if all(self._waiting.values()):
+            horizon = min(queue[-1][0] for queue in self._waiting.values())
+            known = []
+            for topic, queue in self._waiting.items():
+                while queue and queue[0][0] <= horizon:
+                    known.append((queue.popleft(), topic))
+            self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
+        samples = []
         while len(self._stream) >= len(STEP_ORDER):
             step = [self._stream[i] for i in range(len(STEP_ORDER))]
             if tuple(topic for _, topic in step) != STEP_ORDER:
@@ -179,13 +176,13 @@ class GloveSignals:
                 continue
             for _ in step:
                 self._stream.popleft()
-            values = {topic: message[1] for message, topic in step}
             stamp = step[STEP_ORDER.index('joint_states')][0][2]
             if self._first_stamp is None:
                 self._first_stamp = stamp
             self.time = stamp - self._first_stamp
-            return Sample(self.time, {**self.latest, **values})
-        return None
+            values = {topic: message[1] for message, topic in step}
+            samples.append(Sample(self.time, {**self.latest, **values}))
+        return samples
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""
