@@ -252,6 +252,7 @@ def test_ctrl_c_while_the_nodes_start_is_a_clean_stop_even_from_a_background_she
         (['--namespace', 'glove'], {}, '--namespace'),
         ([], {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LAN'}, 'ROS_AUTOMATIC_DISCOVERY_RANGE'),
         ([], {'ROS_DOMAIN_ID': '500'}, 'ROS_DOMAIN_ID'),
+        (['--out', '{bad_yaml}/run'], {}, 'run record'),
     ],
 )
 def test_bad_input_stops_the_glove_with_one_line_before_anything_starts(
@@ -262,7 +263,7 @@ def test_bad_input_stops_the_glove_with_one_line_before_anything_starts(
     out = tmp_path / 'run'
     arguments = [a.format(bad_yaml=bad_yaml, tmp=tmp_path) for a in arguments]
     result = subprocess.run(
-        [*GLOVE, *arguments, '--out', str(out)],
+        [*GLOVE, '--out', str(out), *arguments],
         env={**ros_env, **environment},
         capture_output=True,
         text=True,

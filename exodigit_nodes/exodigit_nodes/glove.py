@@ -177,8 +177,12 @@ def main(argv=None) -> int:
         return 2
     env = settings.apply(os.environ)
     os.environ.update(env)  # this process's own ROS context reads the same settings
-    run_dir = Path(args.out) if args.out else new_run_directory(Path('runs'))
-    record = RunRecord(run_dir)
+    try:
+        run_dir = Path(args.out) if args.out else new_run_directory(Path('runs'))
+        record = RunRecord(run_dir)
+    except OSError as error:
+        print(f'glove: cannot write the run record: {error}', file=sys.stderr)
+        return 2
     print(settings.describe())
     print(f'glove {args.namespace}: mode {args.mode}; run record and node logs in {run_dir}/')
     return run_glove(args, env, record)
