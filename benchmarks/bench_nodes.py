@@ -10,7 +10,8 @@ Prints, measured in one run on this machine:
 2. the highest plant ``rate_hz`` (of the ones tried) that keeps fewer than 1 % late cycles
    (a cycle is late when it starts more than 1.5 periods after the previous one) over
    ``--duration`` seconds, with a pressure_command session driving it;
-3. the CPU use of each node (% of one core) at the default 100 Hz.
+3. the CPU use of each node (% of one core) at the default 100 Hz, beside that of a bare rclpy
+   node with the plant's input and outputs and none of its work (the executor's floor).
 
 Run: ``.venv/bin/python benchmarks/bench_nodes.py [--duration 10] [--rates 250 500 1000 2000]``.
 Targets (issue 3): ≥ 500 Hz, plant ≤ 15 % of a core at 100 Hz, step median ≤ 1× echo round trip.
@@ -39,6 +40,7 @@ from ros_harness import (
     NodeLauncher,
     RosProbe,
     claim_domain,
+    cpu_seconds,
     ros_environment,
     wait_until,
 )
@@ -66,6 +68,36 @@ def echo_main() -> None:
     node = rclpy.create_node('bench_echo')
     pong = node.create_publisher(JointState, 'pong', 10)
     node.create_subscription(JointState, 'ping', pong.publish, 10)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        rclpy.try_shutdown()
+
+
+def bare_main(namespace: str) -> None:
+    """A bare rclpy node with the plant's I/O and none of its work: the executor's floor.
+
+    Subscribes to the glove's ``pressure_command`` and publishes a JointState and two
+    Float64MultiArray at 100 Hz (on ``bare_*`` topics, so the glove does not hear them).
+    """
+    rclpy.init()
+    node = rclpy.create_node('bench_bare', namespace=namespace)
+    publishers = [
+        (node.create_publisher(JointState, 'bare_joint_states', 10), JointState),
+        (node.create_publisher(Float64MultiArray, 'bare_chamber_pressure', 10), Float64MultiArray),
+        (node.create_publisher(Float64MultiArray, 'bare_contact_forces', 10), Float64MultiArray),
+    ]
+    latest = []
+    node.create_subscription(Float64MultiArray, 'pressure_command', latest.append, 10)
+
+    def publish_all():
+        latest.clear()
+        for publisher, kind in publishers:
+            publisher.publish(kind())
+
+    node.create_timer(0.01, publish_all)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
@@ -198,26 +230,43 @@ def sustained_rate(launcher, probe, diagnostics, rate_hz: float, duration: float
     return last[0] - first[0], last[1] - first[1], last[2] - first[2]
 
 
-def cpu_at_100_hz(launcher, probe, duration: float) -> dict[str, float]:
-    """% of one core used by each node of a glove at the default 100 Hz."""
+def cpu_at_100_hz(launcher, probe, duration: float, workdir: Path) -> dict[str, float]:
+    """% of one core used by each node of a glove at the default 100 Hz, and by a bare node."""
     namespace = f'{NS}_cpu'
     states = probe.subscribe(f'{namespace}/estimated_contact_forces', Float64MultiArray)
+    for topic, kind in (
+        ('bare_joint_states', JointState),
+        ('bare_chamber_pressure', Float64MultiArray),
+        ('bare_contact_forces', Float64MultiArray),
+    ):
+        probe.subscribe(f'{namespace}/{topic}', kind)
     nodes = {
         'plant': launcher.start('plant', {}, namespace=namespace),
         'pressure_command': launcher.start('pressure_command', {}, namespace=namespace),
         'estimator': launcher.start('estimator', {}, namespace=namespace),
     }
+    bare = subprocess.Popen(
+        [sys.executable, __file__, '--bare', namespace],
+        env=ros_environment(launcher.domain_id),
+        cwd=workdir,
+        start_new_session=True,
+    )
     assert states.wait_count(10, 30.0), nodes['estimator'].stderr()
     time.sleep(WARM_UP)
-    before = {name: node.cpu_seconds() for name, node in nodes.items()}
+    processes = {name: node.pid for name, node in nodes.items()}
+    processes['bare rclpy node'] = bare.pid
+    before = {name: cpu_seconds(pid) for name, pid in processes.items()}
     started = time.monotonic()
     time.sleep(duration)
     elapsed = time.monotonic() - started
     used = {
-        name: 100.0 * (node.cpu_seconds() - before[name]) / elapsed for name, node in nodes.items()
+        name: 100.0 * (cpu_seconds(pid) - before[name]) / elapsed
+        for name, pid in processes.items()
     }
     for node in nodes.values():
         node.stop()
+    bare.terminate()
+    bare.wait()
     return used
 
 
@@ -229,9 +278,13 @@ def main(argv=None) -> int:
         '--rates', type=float, nargs='+', default=[250.0, 500.0, 1000.0, 2000.0], help='Hz'
     )
     parser.add_argument('--echo', action='store_true', help=argparse.SUPPRESS)
+    parser.add_argument('--bare', help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.echo:
         echo_main()
+        return 0
+    if args.bare:
+        bare_main(args.bare)
         return 0
     lease = claim_domain()
     print(f'ROS_DOMAIN_ID={lease.domain_id}, discovery on loopback only')
@@ -247,7 +300,7 @@ def main(argv=None) -> int:
                 rate: sustained_rate(launcher, probe, diagnostics, rate, args.duration)
                 for rate in args.rates
             }
-            cpu = cpu_at_100_hz(launcher, probe, args.duration)
+            cpu = cpu_at_100_hz(launcher, probe, args.duration, Path(workdir))
         finally:
             launcher.stop_all()
             probe.close()

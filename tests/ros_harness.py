@@ -148,6 +148,12 @@ def ros_args(
 # -- node processes ------------------------------------------------------------------------
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time process ``pid`` has used so far, s (from /proc)."""
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
 class NodeProcess:
     """One node run as a user would: ``python -m exodigit_nodes.<module> --ros-args ...``.
 
@@ -237,8 +243,7 @@ class NodeProcess:
 
     def cpu_seconds(self) -> float:
         """User + system CPU time used so far, s (from /proc)."""
-        fields = Path(f'/proc/{self.pid}/stat').read_text().rsplit(')', 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+        return cpu_seconds(self.pid)
 
     def rss_bytes(self) -> int:
         """Resident memory now, bytes (from /proc)."""
