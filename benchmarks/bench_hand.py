@@ -7,7 +7,8 @@ node in this process listens for ``--duration`` seconds and prints, per node, CP
 core (and its own, so a starved monitor shows), and per finger:
 
 - late cycles: plant steps that started more than 1.5 periods after the previous one (the
-  plant's own count, read from its /diagnostics at the start and end of the window);
+  plant's own count, read from its /diagnostics at the start and end of the window), and the
+  worst burst: the most late cycles between two of its reports (one per second);
 - lost messages: "message lost" events of the monitor's reliable subscriptions, and gaps in
   the command stream;
 - end-to-end latency p50/p99, command publish to the plant state that reflects it.
@@ -60,12 +61,14 @@ class FingerRecord:
     pressures: list[tuple[float, tuple[float, ...]]] = field(default_factory=list)
     lost: int = 0
     diagnostics: dict[str, str] = field(default_factory=dict)
+    late_counts: list[int] = field(default_factory=list)
 
     def clear(self) -> None:
-        """Forget everything before the measurement window (keeps diagnostics)."""
+        """Forget everything before the measurement window (keeps the latest diagnostics)."""
         self.commands.clear()
         self.pressures.clear()
         self.lost = 0
+        self.late_counts.clear()
 
 
 def command_latencies(record: FingerRecord) -> tuple[list[float], int]:
@@ -81,6 +84,11 @@ def command_latencies(record: FingerRecord) -> tuple[list[float], int]:
         elif index + 1 < len(record.commands):
             superseded += 1
     return latencies, superseded
+
+
+def worst_second(late_counts: list[int]) -> int:
+    """Most late cycles between two consecutive plant reports (one per second): a burst."""
+    return int(np.max(np.diff(late_counts), initial=0)) if len(late_counts) > 1 else 0
 
 
 def command_gaps(record: FingerRecord, period: float) -> int:
@@ -152,6 +160,7 @@ class HandMonitor:
                 record = self.records.get(parts[1])
                 if record is not None:
                     record.diagnostics = {kv.key: kv.value for kv in status.values}
+                    record.late_counts.append(int(record.diagnostics['late cycles']))
 
 
 def percentile_ms(values: list[float], q: float) -> float:
@@ -224,6 +233,7 @@ def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
         fingers[finger] = {
             'plant cycles': int(end['cycles']) - int(begin['cycles']),
             'late cycles (plant)': int(end['late cycles']) - int(begin['late cycles']),
+            'worst second, late cycles': worst_second(record.late_counts),
             'commands received': len(record.commands),
             'commands expected': round(elapsed / period),
             'command gaps': command_gaps(record, period),
@@ -257,7 +267,8 @@ def report(result: dict) -> str:
     lines.append('')
     columns = {
         'plant cycles': 'cycles',
-        'late cycles (plant)': 'late(plant)',
+        'late cycles (plant)': 'late',
+        'worst second, late cycles': 'worst 1 s',
         'commands received': 'cmd recv',
         'commands expected': 'cmd expect',
         'command gaps': 'cmd gaps',
@@ -272,11 +283,12 @@ def report(result: dict) -> str:
         cells = [row[key] for key in columns]
         text = [f'{v:12.2f}' if isinstance(v, float) else f'{v:12d}' for v in cells]
         lines.append(f'  {finger:10s} ' + ' '.join(text))
-    lines.append(
-        '  late = a plant step more than 1.5 periods after the previous one; cmd gaps = arrival '
-        'gaps\n  of pressure_command (late controller ticks or losses); lost = DDS "message lost" '
-        'events;\n  superseded = overwritten by the next command before a plant step used it'
-    )
+    lines += [
+        '  late = plant steps more than 1.5 periods after the previous one; worst 1 s = most late',
+        '  steps between two plant reports; cmd gaps = arrival gaps of pressure_command (late',
+        '  controller ticks or losses); lost = DDS "message lost" events; superseded =',
+        '  overwritten by the next command before a plant step used it',
+    ]
     lines.append('')
     lines.append(
         f'end-to-end latency, command publish -> plant state: p50 '
