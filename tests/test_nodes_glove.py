@@ -5,6 +5,7 @@ the whole module in namespace /nodes_glove; the tests watch their topics from th
 """
 
 import math
+from itertools import pairwise
 import signal
 import time
 from pathlib import Path
@@ -128,8 +129,11 @@ def test_joint_states_are_named_and_stamped(glove):
 def test_staircase_joint_states_equal_the_model_solve_of_the_chamber_pressures(glove, model):
     _, inboxes = glove
     assert wait_until(lambda: len(levels(inboxes)) >= 5, 10.0), levels(inboxes)
+    assert wait_until(
+        lambda: len(same_step_pairs(inboxes['joint_states'], inboxes['chamber_pressure'])) > 100,
+        10.0,
+    )
     pairs = same_step_pairs(inboxes['joint_states'], inboxes['chamber_pressure'])
-    assert len(pairs) > 100
     for state, pressure in pairs:
         solution = model.solve(np.array(pressure.data))
         np.testing.assert_allclose(state.position, solution.q, rtol=0, atol=ANGLE_TOLERANCE)
@@ -153,15 +157,16 @@ def test_effort_is_the_finger_joint_torque_of_the_contact_forces(glove, model):
 
 def test_estimated_forces_equal_the_plant_contact_forces_on_noise_free_data(glove):
     _, inboxes = glove
-    simulated = [np.array(m.data) for m in inboxes['contact_forces'].messages()]
-    estimates = inboxes['estimated_contact_forces'].messages()
-    assert len(estimates) > 100
-    matched = 0
-    for estimate in estimates[-200:]:
-        distance = min(np.abs(np.array(estimate.data) - f).max() for f in simulated)
-        assert distance < FORCE_TOLERANCE, estimate.data
-        matched += 1
-    assert matched == min(200, len(estimates))
+    simulated = np.array([m.data for m in inboxes['contact_forces'].messages()])
+    estimates = [tuple(m.data) for m in inboxes['estimated_contact_forces'].messages()]
+    # Steady steps (an estimate equal to the one before) have many plant twins, so a sample the
+    # probe missed in a busy moment cannot hide them.
+    steady = [e for before, e in pairwise(estimates) if e == before]
+    assert len(steady) > 100
+    for estimate in steady:
+        distance = np.abs(simulated - np.array(estimate)).max(axis=1).min()
+        assert distance < FORCE_TOLERANCE, estimate
+    assert len(set(steady)) >= 3  # several stairs, not just the rest state
 
 
 def test_estimated_finger_stiffness_is_the_finger_stiffness_of_the_model(glove):

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.duration import Duration
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -31,7 +32,7 @@ from .controllers import (
     Sine,
     Staircase,
 )
-from .inputs import InvalidInputError, joint_positions, joint_vector
+from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age
 from .messages import (
     ESTIMATED_CONTACT_FORCES,
     JOINT_STATES,
@@ -117,7 +118,8 @@ COMMAND_PARAMETERS = ParamTable(
         ParamSpec(
             'feedback_timeout',
             0.5,
-            'Feedback older than this is missing (closed loops ramp down to zero), s',
+            'Feedback older than this is missing (closed loops ramp down to zero); also the '
+            'largest joint_states stamp age accepted, s',
             0.01,
             60.0,
         ),
@@ -225,13 +227,16 @@ class PressureCommand(GloveNode):
     # -- inputs ----------------------------------------------------------------------------
 
     def on_joint_states(self, message: JointState) -> None:
-        """Keep valid joint angles (rad) with their arrival time."""
+        """Keep valid, recently stamped joint angles (rad) with their arrival time."""
+        now = self.now_seconds()
         try:
             angles = joint_positions(message)
+            stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
+            stamp_age(stamp, now, self.values['feedback_timeout'], JOINT_STATES)
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
             return
-        self.angles = (self.now_seconds(), angles)
+        self.angles = (now, angles)
 
     def on_forces(self, message: Float64MultiArray) -> None:
         """Keep valid estimated contact forces (N) with their arrival time."""
