@@ -5,9 +5,9 @@ the whole module in namespace /nodes_glove; the tests watch their topics from th
 """
 
 import math
-from itertools import pairwise
 import signal
 import time
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
