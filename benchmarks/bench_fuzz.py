@@ -1,13 +1,13 @@
 """Fuzz figures of issue 4: every input topic of the running glove flooded with hostile messages.
 
-Starts the three nodes as processes (on a free ROS domain, loopback discovery) and, topic by
-topic, publishes ``--count`` hostile messages at full speed (wrong lengths, NaN, ±Inf, ±1e308,
-subnormals, negative and huge values, bad joint names, mismatched JointState arrays, zero, future
-and ancient stamps; see tests/reliability_fuzz.py). Prints per topic: messages tried and how
-many were malformed, flood time, crashes, non-finite and out-of-limit outputs, unsafe commands
-(outside [0, max_pressure] or changing faster than max_pressure_rate), rejections each
-consumer counted in /diagnostics, drop warnings it logged; then each node's resident-memory
-growth over the whole run.
+Starts the three nodes as processes (on a free ROS domain, loopback discovery) and, topic by topic,
+publishes ``--count`` hostile messages at full speed (wrong lengths, NaN, ±Inf, ±1e308, subnormals,
+negative and huge values, bad joint names, mismatched JointState arrays, zero, future and ancient
+stamps; see tests/reliability_fuzz.py). Prints per topic: messages tried and how many were
+malformed, flood time, crashes (a node died or logged a traceback), non-finite and out-of-limit
+outputs, unsafe commands (outside [0, max_pressure] or changing faster than max_pressure_rate),
+rejections each consumer counted in /diagnostics, drop warnings it logged; then each node's
+resident-memory growth over the whole run.
 
 Run: ``.venv/bin/python benchmarks/bench_fuzz.py [--count 10000]``. The test suite runs the
 same floods with 2,000 messages per topic (tests/test_reliability_fuzz.py).
@@ -65,7 +65,7 @@ def main(argv=None) -> int:
     ]
     print(' '.join(cells) + '  rejections counted / drop warnings logged')
     for row in rows:
-        crashes = sum(not alive for alive in row.alive.values())
+        crashes = sum(not alive for alive in row.alive.values()) + len(row.tracebacks)
         counted = ', '.join(
             f'{n} {row.rejections[n]} / {row.log_lines[n]} lines' for n in row.rejections
         )

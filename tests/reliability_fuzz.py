@@ -237,6 +237,7 @@ class FloodFigures:
     log_lines: dict[str, int] = field(default_factory=dict)
     levels: dict[str, bytes] = field(default_factory=dict)
     alive: dict[str, bool] = field(default_factory=dict)
+    tracebacks: list[str] = field(default_factory=list)
     outputs: OutputCheck | None = None
     unsafe_commands: list[str] = field(default_factory=list)
 
@@ -315,6 +316,7 @@ class GloveUnderFuzz(GloveSession):
             figures.levels[name] = self.status(name, finished + 1.0).level
             figures.log_lines[name] = drop_log_lines(stderr[name]()) - logs[name]
         figures.alive = {name: self.alive(name) for name in NODES}
+        figures.tracebacks = [n for n in NODES if 'Traceback' in self.processes[n].stderr()]
         figures.outputs = self.check_outputs(target.topic, started)
         if target.topic != 'pressure_command':  # else the probe's own commands are in there
             ours = self.flood_windows.get('pressure_command', [])

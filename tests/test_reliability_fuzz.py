@@ -3,11 +3,11 @@
 The three nodes run as processes (namespace ``/fuzz``); the probe publishes `DEFAULT_COUNT`
 messages per topic (``EXODIGIT_FUZZ_COUNT`` overrides it: 10000 is the full run of issue 4, also
 printed by ``benchmarks/bench_fuzz.py``), with the controller in the mode that reads the topic.
-Afterwards: every node is alive; every output (but the fuzzed topic itself) was finite and inside
-its documented limits, the controller's commands changed no faster than ``max_pressure_rate``;
-each consumer counted rejections in /diagnostics (no more than were sent) at WARN level and
-logged at most a few throttled lines, not one per message; and no node's resident memory grew by
-more than 10%.
+Afterwards: every node is alive and has logged no traceback; every output (but the fuzzed topic
+itself) was finite and inside its documented limits, the controller's commands changed no faster
+than ``max_pressure_rate``; each consumer counted rejections in /diagnostics (no more than were
+sent) at WARN level and logged at most a few throttled lines, not one per message; and no node's
+resident memory grew by more than 10%.
 """
 
 import os
@@ -41,6 +41,7 @@ def test_flood_leaves_every_node_alive_with_bounded_finite_outputs(glove, target
     figures = glove.flood(target, COUNT, seed=len(target.topic))
     assert figures.sent == COUNT
     assert all(figures.alive.values()), figures.alive
+    assert figures.tracebacks == [], 'a node logged a traceback'
     outputs = figures.outputs
     assert outputs.non_finite == 0, outputs.violations
     assert outputs.out_of_bounds == 0, outputs.violations
