@@ -77,6 +77,7 @@ def node_class(module_name: str) -> type:
 @pytest.fixture(scope='module', params=sorted(NODES))
 def node(request, ros_domain):
     made = InProcessNode(node_class(request.param), NODES[request.param], ros_domain)
+    made.reported = {}  # topic -> rejection count in the node's latest diagnostics
     made.fire_timers()
     made.take()
     yield made
@@ -133,7 +134,7 @@ def drive(node: InProcessNode, topic: str, message) -> dict[str, list]:
 
 def counted_rejections(node: InProcessNode, topic: str, message) -> int:
     """How many rejections of ``topic`` the diagnostics add for ``message``."""
-    reported = node.__dict__.setdefault('reported', {})
+    reported = node.reported
     published = drive(node, topic, message)
     now = rejections(published, topic)
     assert now is not None, 'no /diagnostics after a cycle of every timer'
