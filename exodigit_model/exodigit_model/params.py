@@ -55,6 +55,13 @@ def _name(key: str, value: Any) -> str:
     return value
 
 
+def _three(key: str, items: Any, kind: type) -> tuple:
+    items = tuple(items)
+    if len(items) != 3 or not all(isinstance(item, kind) for item in items):
+        raise ParameterError(f'{key} has {len(items)} entries: must be exactly 3 (MCP, PIP, DIP)')
+    return items
+
+
 def _set(obj: object, key: str, value: object) -> None:
     object.__setattr__(obj, key, value)
 
@@ -144,11 +151,7 @@ class ExoDigit:
             'base_block_half_length',
             _positive('base_block_half_length', self.base_block_half_length, 'm'),
         )
-        _set(self, 'segments', tuple(self.segments))
-        if len(self.segments) != 3 or not all(isinstance(s, Segment) for s in self.segments):
-            raise ParameterError(
-                f'segments has {len(self.segments)} entries: must be exactly 3 (MCP, PIP, DIP)'
-            )
+        _set(self, 'segments', _three('segments', self.segments, Segment))
 
 
 @dataclass(frozen=True)
@@ -182,11 +185,7 @@ class Finger:
     joints: tuple[FingerJoint, ...]
 
     def __post_init__(self) -> None:
-        _set(self, 'joints', tuple(self.joints))
-        if len(self.joints) != 3 or not all(isinstance(j, FingerJoint) for j in self.joints):
-            raise ParameterError(
-                f'joints has {len(self.joints)} entries: must be exactly 3 (MCP, PIP, DIP)'
-            )
+        _set(self, 'joints', _three('joints', self.joints, FingerJoint))
 
 
 @dataclass(frozen=True)
