@@ -91,11 +91,14 @@ def summary_angles(stdout):
     return np.array(angles)
 
 
-def commanded_rows(path):
-    """Rows of a run record written so far that carry a positive pressure command."""
+def pressurised_rows(path):
+    """Rows of a run record so far with a positive pressure command and chamber pressure."""
     try:
         with open(path, newline='') as file:
-            return sum(float(r['p_cmd_mcp_kpa'] or 0) > 0 for r in csv.DictReader(file))
+            return sum(
+                float(row['p_cmd_mcp_kpa'] or 0) > 0 and float(row['p_mcp_kpa']) > 0
+                for row in csv.DictReader(file)
+            )
     except (FileNotFoundError, ValueError):
         return 0  # not created yet, or a row being written
 
@@ -180,7 +183,8 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
             text=True,
         )
         try:
-            started = wait_until(lambda: commanded_rows(out / 'signals.csv') >= 50, START_TIMEOUT)
+            record = out / 'signals.csv'
+            started = wait_until(lambda: pressurised_rows(record) >= 50, START_TIMEOUT)
             assert started, (tmp_path / 'stdout.txt').read_text()[-2000:]
             assert len(node_pids(ns)) == 4  # three nodes and the recorder
             glove.send_signal(signal.SIGINT)

@@ -2,6 +2,7 @@
 
 import os
 import signal
+import subprocess
 import sys
 import time
 
@@ -22,6 +23,17 @@ signal.signal(signal.SIGINT, stop)
 print('ready', flush=True)
 while True:
     time.sleep(0.01)
+"""
+# A supervisor of one POLITE child that prints the child's pid and waits to be killed.
+PARENT = """
+import os, sys, time
+from pathlib import Path
+from exodigit_nodes.supervisor import Supervisor
+log_dir, child_code, order_log = sys.argv[1:]
+supervisor = Supervisor(os.environ, log_dir=Path(log_dir))
+supervisor.start('plant', [sys.executable, '-c', child_code, 'plant', order_log])
+print(supervisor.pid('plant'), flush=True)
+time.sleep(600)
 """
 STARTING = """
 import time
@@ -79,6 +91,26 @@ def test_a_process_still_starting_when_sigint_comes_stops_cleanly(tmp_path):
     (exit_,) = supervisor.stop(['plant'])
     assert exit_.returncode == -signal.SIGINT
     assert exit_.clean
+
+
+def test_children_are_interrupted_when_the_supervisor_is_killed(tmp_path):
+    order_log = tmp_path / 'order.log'
+    parent = subprocess.Popen(
+        [sys.executable, '-c', PARENT, str(tmp_path), POLITE, str(order_log)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        child = int(parent.stdout.readline())
+        assert wait_until(lambda: (tmp_path / 'plant.log').exists(), WAIT)
+        assert wait_until(lambda: 'ready' in (tmp_path / 'plant.log').read_text(), WAIT)
+        parent.kill()
+        parent.wait()
+        assert wait_until(lambda: not alive(child), WAIT)
+        assert order_log.read_text().split()[0] == 'plant'  # it stopped through its SIGINT handler
+    finally:
+        parent.kill()
+        parent.stdout.close()
 
 
 def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):

@@ -141,7 +141,7 @@ def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list
 
 
 class StopRequest:
-    """Turns SIGINT and SIGTERM into a flag the main loop checks."""
+    """Turns SIGINT, SIGTERM and SIGHUP into a flag the main loop checks."""
 
     def __init__(self):
         self.requested = False
@@ -149,8 +149,8 @@ class StopRequest:
         self.install()
 
     def install(self) -> None:
-        """Handle SIGINT and SIGTERM here (also when the shell started us ignoring SIGINT)."""
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        """Handle SIGINT, SIGTERM and SIGHUP (terminal closed), also if SIGINT was ignored."""
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, self._handle)
 
     def _handle(self, signum, _frame) -> None:
@@ -244,7 +244,15 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
         record.close()
 
     failed_names = {exit_.name for exit_ in failures}
-    bad = failures + [s for s in stops if not s.clean and s.name not in failed_names]
+    unclean = [s for s in stops if not s.clean and s.name not in failed_names]
+    # A node stopped before it ever reported was still starting (importing): Ctrl-C that
+    # early can end it with any code, and that is no failure of the session.
+    starting = [
+        s for s in unclean if s.name in NODES and signals.health[s.name] is None and not s.forced
+    ]
+    for exit_ in starting:
+        print(f'glove: {exit_.name} was stopped while starting ({exit_.describe()})')
+    bad = failures + [s for s in unclean if s not in starting]
     for exit_ in bad:
         print(f'glove: {exit_.describe()}', file=sys.stderr)
         for line in log_tail(supervisor.log_path(exit_.name)):

@@ -7,9 +7,11 @@ tests can use it for any command line.
 """
 
 import contextlib
+import ctypes
 import os
 import signal
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -19,6 +21,8 @@ from pathlib import Path
 STOP_GRACE = 5.0
 #: Seconds between two checks while waiting for processes to exit.
 POLL_INTERVAL = 0.05
+#: prctl(2) option: the signal a process gets when its parent dies (Linux).
+PR_SET_PDEATHSIG = 1
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,21 @@ class Exit:
         return text + (' (did not stop on SIGINT)' if self.forced else '')
 
 
+def _interrupt_when_parent_dies(parent: int) -> Callable[[], None]:
+    """A pre-exec hook: the child gets SIGINT if ``parent`` dies, even by SIGKILL.
+
+    The children run in their own sessions, so neither a terminal hang-up nor a killed
+    supervisor would otherwise reach them: they would run on with nobody watching.
+    """
+
+    def hook() -> None:
+        ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
+        if os.getppid() != parent:  # the parent died before the hook ran: do not start
+            os._exit(1)
+
+    return hook
+
+
 class Supervisor:
     """A set of named child processes, each in its own session.
 
@@ -67,6 +86,11 @@ class Supervisor:
     log_dir : pathlib.Path or None
         When given, each child's stdout and stderr go to ``log_dir/<name>.log`` instead of the
         terminal (so a live display is not interleaved with node logs).
+
+    Notes
+    -----
+    On Linux each child is sent SIGINT if the supervising process dies. Start the children
+    before this process starts threads (the pre-exec hook is not thread-safe).
     """
 
     def __init__(self, env: Mapping[str, str], log_dir: Path | None = None):
@@ -88,6 +112,7 @@ class Supervisor:
             self._processes[name] = self._spawn(argv, output)
 
     def _spawn(self, argv: Sequence[str], output) -> subprocess.Popen:
+        linux = sys.platform.startswith('linux')
         return subprocess.Popen(
             list(argv),
             env=self._env,
@@ -95,6 +120,7 @@ class Supervisor:
             stdout=output,
             stderr=None if output is None else subprocess.STDOUT,
             start_new_session=True,
+            preexec_fn=_interrupt_when_parent_dies(os.getpid()) if linux else None,
         )
 
     def log_path(self, name: str) -> Path | None:
