@@ -65,7 +65,7 @@ def main(argv=None) -> int:
     ]
     print(' '.join(cells) + '  rejections counted / drop warnings logged')
     for row in rows:
-        crashes = sum(not alive for alive in row.alive.values()) + len(row.tracebacks)
+        crashes = len({n for n, alive in row.alive.items() if not alive} | set(row.tracebacks))
         counted = ', '.join(
             f'{n} {row.rejections[n]} / {row.log_lines[n]} lines' for n in row.rejections
         )
@@ -79,6 +79,10 @@ def main(argv=None) -> int:
         )
     print('\nresident memory (MiB) before -> after all floods:')
     for name, before in rss_before.items():
+        if name in glove.restarted or name not in rss_after:
+            print(f'  {name:18s} crashed during the floods: not comparable')
+            bad += 1
+            continue
         growth = 100.0 * (rss_after[name] / before - 1.0)
         mib = before / 2**20, rss_after[name] / 2**20
         print(f'  {name:18s} {mib[0]:7.1f} -> {mib[1]:7.1f} ({growth:+.1f}%)')

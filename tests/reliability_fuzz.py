@@ -1,12 +1,13 @@
 """Hostile input messages for the glove's subscriptions, and what a node may publish in reply.
 
-`hostile_vectors` and `hostile_joint_states` cycle through the cases of issue 4 (wrong lengths
-0, 1, 2, 4, 1000; NaN, ±Inf, ±1e308, subnormals, negative and huge values; empty, duplicated and
+`hostile_vectors` and `hostile_joint_states` cycle through the cases of issue 4 (wrong lengths 0,
+1, 2, 4, 1000; NaN, ±Inf, ±1e308, subnormals, negative and huge values; empty, duplicated and
 reordered joint names; position/velocity/effort of different lengths; stamps of zero, in the
-future and far in the past), mixed with a few well-formed messages so that the valid path is
-exercised between the bad ones. Each message comes with ``malformed``: True when INTERFACES.md
-says the receiving node must drop it (wrong length or non-finite; for joint states also wrong
-names or mismatched arrays). Stamp checks depend on the node, so stamps do not enter that flag.
+future, far in the past and before 1970), mixed with a few well-formed messages so that the valid
+path is exercised between the bad ones. Each message comes with ``malformed``: True when
+INTERFACES.md says the receiving node must drop it (wrong length or non-finite; for joint states
+also wrong names or mismatched arrays). Stamp checks depend on the node, so stamps do not enter
+that flag.
 
 `OutputCheck` collects every value a node publishes and every bound it breaks.
 """
@@ -20,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from reliability_session import MAX_PRESSURE, MAX_SUPPLY, NODES, GloveSession
+from reliability_session import MAX_PRESSURE, MAX_SUPPLY, NODES, START_TIMEOUT, GloveSession
 from ros_harness import wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -95,13 +96,15 @@ def hostile_vectors(
 
 
 def _stamp(rng: np.random.Generator, case: int, now_ns: int) -> Time:
-    kind = case % 5
+    kind = case % 6
     if kind == 0:
         nanoseconds = 0
     elif kind == 1:
         nanoseconds = now_ns + int(rng.integers(1, 10**6)) * 10**9  # future
     elif kind == 2:
         nanoseconds = int(rng.integers(1, 10**6)) * 10**9  # 1970
+    elif kind == 3:
+        nanoseconds = -int(rng.integers(1, 10**6)) * 10**9  # before 1970 (sec < 0)
     else:
         nanoseconds = now_ns
     return Time(sec=nanoseconds // 10**9, nanosec=nanoseconds % 10**9)
@@ -235,7 +238,7 @@ class FloodFigures:
     seconds: float = 0.0
     rejections: dict[str, int] = field(default_factory=dict)
     log_lines: dict[str, int] = field(default_factory=dict)
-    levels: dict[str, bytes] = field(default_factory=dict)
+    levels: dict[str, bytes | None] = field(default_factory=dict)
     alive: dict[str, bool] = field(default_factory=dict)
     tracebacks: list[str] = field(default_factory=list)
     outputs: OutputCheck | None = None
@@ -256,6 +259,7 @@ class GloveUnderFuzz(GloveSession):
             self.start(node)
         self.publishers = {}
         self.flood_windows: dict[str, list[tuple[int, int]]] = {}
+        self.restarted: set[str] = set()
 
     def wait_running(self, timeout: float) -> bool:
         """Every output flows and every node has reported."""
@@ -278,8 +282,8 @@ class GloveUnderFuzz(GloveSession):
         assert results[0].successful, results[0].reason
 
     def rss(self) -> dict[str, int]:
-        """Resident memory of each node, bytes."""
-        return {name: node.rss_bytes() for name, node in self.processes.items()}
+        """Resident memory of each running node, bytes."""
+        return {name: node.rss_bytes() for name, node in self.processes.items() if node.alive()}
 
     def publisher(self, topic: str):
         """The probe's publisher on ``topic`` (kept: destroying one races its executor)."""
@@ -288,8 +292,18 @@ class GloveUnderFuzz(GloveSession):
             self.publishers[topic] = self.probe.publisher(f'{self.namespace}/{topic}', kind)
         return self.publishers[topic]
 
+    def revive(self, timeout: float) -> None:
+        """Restart any node a previous flood killed, so one crash does not hide the next."""
+        since = time.monotonic()
+        dead = [node for node in NODES if not self.alive(node)]
+        for node in dead:
+            self.start(node)
+            self.restarted.add(node)
+        assert all(self.reported(node, since, timeout) for node in dead), f'{dead} not back'
+
     def flood(self, target: FuzzTarget, count: int, seed: int) -> FloodFigures:
         """Send ``count`` hostile messages on ``target.topic`` at full speed; measure."""
+        self.revive(REPORT_TIMEOUT + START_TIMEOUT)
         figures = FloodFigures(target.topic)
         self.set_mode(target.mode)
         publisher = self.publisher(target.topic)
@@ -313,7 +327,8 @@ class GloveUnderFuzz(GloveSession):
                 lambda n=name: self.rejections(n, target.topic, finished + 1.0), REPORT_TIMEOUT
             )
             figures.rejections[name] = (counted or 0) - before[name]
-            figures.levels[name] = self.status(name, finished + 1.0).level
+            report = self.status(name, finished + 1.0)  # None: the node died
+            figures.levels[name] = None if report is None else report.level
             figures.log_lines[name] = drop_log_lines(stderr[name]()) - logs[name]
         figures.alive = {name: self.alive(name) for name in NODES}
         figures.tracebacks = [n for n in NODES if 'Traceback' in self.processes[n].stderr()]

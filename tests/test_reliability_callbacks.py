@@ -197,3 +197,13 @@ def test_plant_state_after_a_valid_command_is_the_solve_of_the_saturated_pressur
     np.testing.assert_allclose(
         published['joint_states'][-1].position, solution.q, rtol=0, atol=ANGLE_TOLERANCE
     )
+
+
+@pytest.mark.parametrize('seconds', [-1, -(2**31)])
+def test_joint_states_stamped_before_1970_are_dropped_not_fatal(node, seconds):
+    """A stamp with negative seconds is a valid builtin_interfaces/Time on the wire."""
+    if 'joint_states' not in node.subscriptions():
+        return
+    message = JointState(name=list(JOINTS), position=[0.1, 0.1, 0.1])
+    message.header.stamp.sec = seconds
+    assert counted_rejections(node, 'joint_states', message) == 1
