@@ -15,6 +15,7 @@ setup(
         (f'share/{PACKAGE}', ['package.xml']),
         (f'share/{PACKAGE}/launch', glob('launch/*.launch.py')),
         (f'share/{PACKAGE}/config', glob('config/*.yaml')),
+        (f'share/{PACKAGE}/config/hand', glob('config/hand/*.yaml')),
     ],
     install_requires=['setuptools', 'exodigit_model', 'numpy'],
     zip_safe=True,
