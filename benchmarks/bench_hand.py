@@ -9,8 +9,9 @@ core (and its own, so a starved monitor shows), and per finger:
 - late cycles: plant steps that started more than 1.5 periods after the previous one (the
   plant's own count, read from its /diagnostics at the start and end of the window), and the
   worst burst: the most late cycles between two of its reports (one per second);
-- lost messages: "message lost" events of the monitor's reliable subscriptions, and gaps in
-  the command stream;
+- lost messages: gaps in the publication sequence numbers of the commands the monitor received
+  (rclpy's message info, no change to the message type), and "message lost" events of the
+  monitor's reliable subscriptions;
 - end-to-end latency p50/p99, command publish to the plant state that reflects it.
 
 Latency method (no message type changes): the plants run with no chamber lag and no noise, so a
@@ -47,8 +48,6 @@ from ros_harness import NodeLauncher, claim_domain  # noqa: E402
 HAND_DIR = REPO / 'exodigit_nodes' / 'config' / 'hand'
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 NODES = ('plant', 'pressure_command', 'estimator')
-#: A cycle is late when it starts more than this many periods after the previous one.
-LATE_FACTOR = 1.5
 #: Seconds to wait for every plant's first joint_states.
 START_TIMEOUT = 60.0
 
@@ -58,6 +57,7 @@ class FingerRecord:
     """What the monitor saw of one finger (arrival times in s, monotonic clock)."""
 
     commands: list[tuple[float, tuple[float, ...]]] = field(default_factory=list)
+    sequence: list[int] = field(default_factory=list)
     pressures: list[tuple[float, tuple[float, ...]]] = field(default_factory=list)
     lost: int = 0
     diagnostics: dict[str, str] = field(default_factory=dict)
@@ -66,6 +66,7 @@ class FingerRecord:
     def clear(self) -> None:
         """Forget everything before the measurement window (keeps the latest diagnostics)."""
         self.commands.clear()
+        self.sequence.clear()
         self.pressures.clear()
         self.lost = 0
         self.late_counts.clear()
@@ -91,11 +92,10 @@ def worst_second(late_counts: list[int]) -> int:
     return int(np.max(np.diff(late_counts), initial=0)) if len(late_counts) > 1 else 0
 
 
-def command_gaps(record: FingerRecord, period: float) -> int:
-    """Missing commands inferred from arrival gaps longer than LATE_FACTOR periods."""
-    arrivals = np.asarray([t for t, _ in record.commands])
-    gaps = np.diff(arrivals)
-    return int(np.sum(np.maximum(np.round(gaps / period) - 1, 0)[gaps > LATE_FACTOR * period]))
+def sequence_gaps(sequence: list[int]) -> int:
+    """Commands missing from a publisher's sequence numbers as received (lost on the way)."""
+    steps = np.diff(np.asarray(sequence))
+    return int(np.sum(steps[steps > 1] - 1))
 
 
 def node_parameters(finger: str, rate: float) -> dict[str, dict]:
@@ -131,13 +131,21 @@ class HandMonitor:
             prefix = f'/hand/{finger}/'
             self.node.create_subscription(
                 Float64MultiArray, prefix + 'pressure_command',
-                self._values(record.commands), GLOVE_QOS, event_callbacks=events,
+                self._commands(record), GLOVE_QOS, event_callbacks=events,
             )  # fmt: skip
             self.node.create_subscription(
                 Float64MultiArray, prefix + 'chamber_pressure',
                 self._values(record.pressures), GLOVE_QOS, event_callbacks=events,
             )  # fmt: skip
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._diagnostics, 50)
+
+    @staticmethod
+    def _commands(record: FingerRecord):
+        def keep(message, info) -> None:
+            record.commands.append((time.monotonic(), tuple(message.data)))
+            record.sequence.append(info['publication_sequence_number'])
+
+        return keep
 
     @staticmethod
     def _values(store: list):
@@ -236,7 +244,7 @@ def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
             'worst second, late cycles': worst_second(record.late_counts),
             'commands received': len(record.commands),
             'commands expected': round(elapsed / period),
-            'command gaps': command_gaps(record, period),
+            'commands missing (sequence)': sequence_gaps(record.sequence),
             'messages lost': record.lost,
             'superseded commands': superseded,
             'latency p50 (ms)': percentile_ms(latencies, 50),
@@ -271,7 +279,7 @@ def report(result: dict) -> str:
         'worst second, late cycles': 'worst 1 s',
         'commands received': 'cmd recv',
         'commands expected': 'cmd expect',
-        'command gaps': 'cmd gaps',
+        'commands missing (sequence)': 'cmd missing',
         'messages lost': 'lost',
         'superseded commands': 'superseded',
         'latency p50 (ms)': 'p50 ms',
@@ -285,8 +293,8 @@ def report(result: dict) -> str:
         lines.append(f'  {finger:10s} ' + ' '.join(text))
     lines += [
         '  late = plant steps more than 1.5 periods after the previous one; worst 1 s = most late',
-        '  steps between two plant reports; cmd gaps = arrival gaps of pressure_command (late',
-        '  controller ticks or losses); lost = DDS "message lost" events; superseded =',
+        '  steps between two plant reports; cmd missing = gaps in the publication sequence',
+        '  numbers of the commands received; lost = DDS "message lost" events; superseded =',
         '  overwritten by the next command before a plant step used it',
     ]
     lines.append('')

@@ -40,5 +40,6 @@ def test_whole_hand_runs_without_crashes_or_lost_messages(tmp_path):
         assert row['plant cycles'] > 0, finger
         assert row['commands received'] > 0, finger
         assert row['messages lost'] == 0, finger
+        assert row['commands missing (sequence)'] == 0, finger
         assert row['watchdog trips'] == 0, finger
         assert math.isfinite(row['latency p50 (ms)']), f'{finger}: no command reached the plant'
