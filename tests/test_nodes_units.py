@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from builtin_interfaces.msg import Time
 from exodigit_nodes.chambers import Chambers, ChamberSettings
 from exodigit_nodes.controllers import (
     Feedback,
@@ -24,6 +25,7 @@ from exodigit_nodes.inputs import (
     joint_positions,
     joint_vector,
     stamp_age,
+    stamp_seconds,
 )
 from exodigit_nodes.parameters import ParamSpec, ParamTable
 from exodigit_nodes.safety import SafetyLimiter, SafetyLimits
@@ -167,9 +169,11 @@ def test_malformed_joint_states_are_rejected(message):
         joint_positions(message)
 
 
-def test_stale_future_and_zero_stamps_are_rejected():
+def test_stale_future_zero_and_negative_stamps_are_rejected():
     stamp_age(99.95, 100.0, 0.1, 'joint_states')
-    for stamp in (0.0, 99.0, 100.5):
+    negative = stamp_seconds(Time(sec=-(2**31), nanosec=5))
+    assert negative == -(2**31) + 5e-9
+    for stamp in (0.0, 99.0, 100.5, negative):
         with pytest.raises(InvalidInputError, match='max_sample_age'):
             stamp_age(stamp, 100.0, 0.1, 'joint_states')
 

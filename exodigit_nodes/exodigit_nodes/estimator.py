@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from .estimation import Pair, SamplePairer, StiffnessWindow
-from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age
+from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
 from .messages import (
     CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
@@ -122,7 +121,7 @@ class Estimator(GloveNode):
         """Offer valid, recent joint angles (rad) to the pairer, with their sequence number."""
         try:
             angles = joint_positions(message)
-            stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
+            stamp = stamp_seconds(message.header.stamp)
             stamp_age(stamp, self.now_seconds(), self.values['max_sample_age'], JOINT_STATES)
             self.estimate(self.pairer.add_angles(angles, step_number(info)))
         except InvalidInputError as error:

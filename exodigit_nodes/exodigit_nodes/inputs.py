@@ -100,6 +100,11 @@ def joint_positions(message) -> NDArray[np.float64]:
     return joint_vector([position[i] for i in order], 'joint_states position', MAX_ANGLE)
 
 
+def stamp_seconds(stamp) -> float:
+    """A builtin_interfaces/Time as seconds (any sec, including negative ones rclpy refuses)."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
 def stamp_age(stamp_seconds: float, now: float, max_age: float, what: str) -> None:
     """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
     age = now - stamp_seconds

@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.duration import Duration
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -32,7 +31,7 @@ from .controllers import (
     Sine,
     Staircase,
 )
-from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age
+from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
 from .messages import (
     ESTIMATED_CONTACT_FORCES,
     JOINT_STATES,
@@ -231,7 +230,7 @@ class PressureCommand(GloveNode):
         now = self.now_seconds()
         try:
             angles = joint_positions(message)
-            stamp = Time.from_msg(message.header.stamp).nanoseconds * 1e-9
+            stamp = stamp_seconds(message.header.stamp)
             stamp_age(stamp, now, self.values['feedback_timeout'], JOINT_STATES)
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
@@ -276,7 +275,10 @@ class PressureCommand(GloveNode):
     def tick(self) -> None:
         """Compute, limit and publish one command."""
         now = self.now_seconds()
-        dt = self.period if self.last_tick is None else min(now - self.last_tick, self.period)
+        # Never more than one period (the rate limit stays a limit when a tick runs late),
+        # never negative (a clock set back).
+        elapsed = self.period if self.last_tick is None else now - self.last_tick
+        dt = min(max(elapsed, 0.0), self.period)
         self.last_tick = now
         feedback = Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now))
         controller = self.controller
@@ -286,6 +288,7 @@ class PressureCommand(GloveNode):
         )
         if missing:
             desired = np.zeros(3)
+            controller.integral[:] = 0.0  # start afresh when the feedback returns
             self.get_logger().warning(
                 f'{self.values["mode"]} mode: no fresh feedback for over '
                 f'{self.values["feedback_timeout"]:g} s: ramping down to zero',
