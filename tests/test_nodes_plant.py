@@ -158,15 +158,19 @@ def test_a_malformed_command_is_dropped_and_counted(plant, bad):
     send(command, bad)
 
     def counted():
-        found = [
-            sum(int(kv.value) for kv in s.values if kv.key.startswith('rejected'))
+        return [
+            s
             for s in plant_status(inboxes, mark)
+            if sum(int(kv.value) for kv in s.values if kv.key.startswith('rejected'))
+            == counted_before + 1
         ]
-        return found and found[-1] == counted_before + 1
 
-    assert wait_until(counted, 3.0)
-    status = plant_status(inboxes)[-1]
-    assert status.level == DiagnosticStatus.WARN
+    reports = wait_until(counted, 3.0)
+    assert reports
+    assert (
+        reports[0].level == DiagnosticStatus.WARN
+        and '1 input messages dropped' in reports[0].message
+    )
     # Until the watchdog vents, the plant holds the last valid command.
     held = [list(m.data) for m in inboxes['chamber_pressure'].messages(mark)]
     assert all(p in ([20e3] * 3, [0.0] * 3) for p in held[held.index([20e3] * 3) :])

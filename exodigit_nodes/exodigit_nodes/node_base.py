@@ -122,6 +122,7 @@ class GloveNode(Node):
         self.settings = settings
         self._pending: tuple[dict[str, Any], Any] | None = None
         self.rejections = RejectionTally()
+        self.rejections_reported = 0
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS, GLOVE_QOS)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -176,10 +177,15 @@ class GloveNode(Node):
         )
 
     def publish_status(self, level: bytes, text: str, values: dict[str, str]) -> None:
-        """Publish one DiagnosticStatus of this node on /diagnostics, stamped now."""
-        if self.rejections.total and level == DiagnosticStatus.OK:
-            level = DiagnosticStatus.WARN
-            text = f'{text}; {self.rejections.total} input messages dropped'
+        """Publish one DiagnosticStatus of this node on /diagnostics, stamped now.
+
+        WARN (at least) when input messages were dropped since the previous status.
+        """
+        dropped = self.rejections.total - self.rejections_reported
+        self.rejections_reported = self.rejections.total
+        if dropped:
+            level = max(level, DiagnosticStatus.WARN)
+            text = f'{text}; {dropped} input messages dropped since the last report'
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [
