@@ -11,7 +11,8 @@ core (and its own, so a starved monitor shows), and per finger:
   worst burst: the most late cycles between two of its reports (one per second);
 - lost messages: gaps in the publication sequence numbers of the commands the monitor received
   (rclpy's message info, no change to the message type), and "message lost" events of the
-  monitor's reliable subscriptions;
+  monitor's reliable subscriptions. The monitor's subscriptions keep 1000 samples, so a gap is a
+  command the transport lost, not one the monitor was too slow to take;
 - end-to-end latency p50/p99, command publish to the plant state that reflects it.
 
 Latency method (no message type changes): the plants run with no chamber lag and no noise, so a
@@ -43,7 +44,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / 'tests'))
 
-from ros_harness import NodeLauncher, claim_domain  # noqa: E402
+from ros_harness import TEST_QOS, NodeLauncher, claim_domain  # noqa: E402
 
 HAND_DIR = REPO / 'exodigit_nodes' / 'config' / 'hand'
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
@@ -119,7 +120,6 @@ class HandMonitor:
 
     def __init__(self, fingers: list[str]) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
-        from exodigit_nodes.qos import GLOVE_QOS
         from rclpy.event_handler import SubscriptionEventCallbacks
         from rclpy.node import Node
         from std_msgs.msg import Float64MultiArray
@@ -131,11 +131,11 @@ class HandMonitor:
             prefix = f'/hand/{finger}/'
             self.node.create_subscription(
                 Float64MultiArray, prefix + 'pressure_command',
-                self._commands(record), GLOVE_QOS, event_callbacks=events,
+                self._commands(record), TEST_QOS, event_callbacks=events,
             )  # fmt: skip
             self.node.create_subscription(
                 Float64MultiArray, prefix + 'chamber_pressure',
-                self._values(record.pressures), GLOVE_QOS, event_callbacks=events,
+                self._values(record.pressures), TEST_QOS, event_callbacks=events,
             )  # fmt: skip
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._diagnostics, 50)
 
