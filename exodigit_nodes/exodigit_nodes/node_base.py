@@ -11,6 +11,7 @@ from __future__ import annotations
 import gc
 import signal
 import sys
+import time
 from typing import Any
 
 import rclpy
@@ -36,6 +37,8 @@ from .qos import GLOVE_QOS
 
 LOG_THROTTLE = 2.0
 """Shortest time between two repeats of a warning logged from a loop or callback, s."""
+DROP_WARNING = 5.0
+"""How long after the latest dropped input message the diagnostics stay at WARN, s."""
 
 _TYPES = {
     bool: ParameterType.PARAMETER_BOOL,
@@ -122,7 +125,7 @@ class GloveNode(Node):
         self.settings = settings
         self._pending: tuple[dict[str, Any], Any] | None = None
         self.rejections = RejectionTally()
-        self.rejections_reported = 0
+        self.last_rejection: float | None = None
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS, GLOVE_QOS)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -171,6 +174,7 @@ class GloveNode(Node):
     def reject(self, topic: str, error: InvalidInputError) -> None:
         """Count a dropped message and warn (throttled)."""
         self.rejections.add(topic, error)
+        self.last_rejection = time.monotonic()
         self.get_logger().warning(
             f'dropped a message on {topic}: {error} ({self.rejections.total} dropped so far)',
             throttle_duration_sec=LOG_THROTTLE,
@@ -179,13 +183,16 @@ class GloveNode(Node):
     def publish_status(self, level: bytes, text: str, values: dict[str, str]) -> None:
         """Publish one DiagnosticStatus of this node on /diagnostics, stamped now.
 
-        WARN (at least) when input messages were dropped since the previous status.
+        WARN (at least) while the latest dropped input message is under ``DROP_WARNING`` old.
         """
-        dropped = self.rejections.total - self.rejections_reported
-        self.rejections_reported = self.rejections.total
-        if dropped:
-            level = max(level, DiagnosticStatus.WARN)
-            text = f'{text}; {dropped} input messages dropped since the last report'
+        if self.last_rejection is not None:
+            age = time.monotonic() - self.last_rejection
+            if age < DROP_WARNING:
+                level = max(level, DiagnosticStatus.WARN)
+                text = (
+                    f'{text}; {self.rejections.total} input messages dropped so far, '
+                    f'the latest {age:.1f} s ago'
+                )
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [
