@@ -232,6 +232,12 @@ def test_a_bad_parameter_set_is_refused_naming_it_and_the_node_runs_on(
     assert nodes[node].alive()
 
 
+def test_rclpy_own_parameters_stay_settable(glove, probe):
+    for node in ('plant', 'pressure_command', 'estimator'):
+        results = probe.set_parameters(f'{NS}/{node}', {'use_sim_time': False})
+        assert results[0].successful, (node, results[0].reason)
+
+
 def test_a_good_parameter_set_is_applied(glove, probe):
     _, inboxes = glove
     results = probe.set_parameters(f'{NS}/pressure_command', {'max_pressure': 30e3})

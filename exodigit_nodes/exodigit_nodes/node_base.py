@@ -144,9 +144,13 @@ class GloveNode(Node):
 
     # -- parameters ------------------------------------------------------------------------
 
+    def _ours(self, parameters) -> dict[str, Any]:
+        """The node's own parameters among ``parameters`` (rclpy's, e.g. use_sim_time, aside)."""
+        return {p.name: p.value for p in parameters if p.name in self.table.specs}
+
     def _validate_parameters(self, parameters) -> SetParametersResult:
         try:
-            changed = self.table.check({p.name: p.value for p in parameters})
+            changed = self.table.check(self._ours(parameters))
             values = {**self.values, **changed}
             self._pending = (values, self.make_settings(values))
         except ValueError as error:
@@ -155,11 +159,11 @@ class GloveNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, parameters) -> None:
-        if self._pending is None:
+        changed = set(self._ours(parameters))
+        if self._pending is None or not changed:
             return
         self.values, self.settings = self._pending
         self._pending = None
-        changed = {p.name for p in parameters}
         self.apply(self.settings, changed)
         self.get_logger().info(
             'parameters set: ' + ', '.join(f'{name}={self.values[name]!r}' for name in changed)
