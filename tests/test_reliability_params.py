@@ -115,11 +115,6 @@ def test_a_valid_change_of_every_writable_parameter_is_accepted(probe, nodes, no
     assert nodes[node].alive()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason='bug reported to the lead: GloveNode._validate_parameters refuses every name outside '
-    "the node's ParamTable, so use_sim_time := true is refused at runtime",
-)
 @pytest.mark.parametrize('node', NODES)
 def test_use_sim_time_can_be_switched_at_runtime(probe, nodes, node):
     def sim_time(on: bool) -> list:
