@@ -62,6 +62,15 @@ def transpose_solve(lower, rhs):
     return [x0, x1, x2]
 
 
+def transpose_product(lower, v):
+    """Lᵀ v for a lower-triangular 3x3 L."""
+    return [
+        lower[0][0] * v[0] + lower[1][0] * v[1] + lower[2][0] * v[2],
+        lower[1][1] * v[1] + lower[2][1] * v[2],
+        lower[2][2] * v[2],
+    ]
+
+
 def solve3(a, b):
     """X with A x = b for a general 3x3 A, by cofactors (works element-wise on arrays)."""
     c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1]
@@ -103,16 +112,11 @@ class Evaluation:
         self._finger, self._finger_slopes = finger_jacobian(q, ops, geometry.finger_half_lengths)
         stiffness = geometry.stiffness
         self.forces = transpose_solve(self._finger, [stiffness[k] * q[k] for k in range(3)])
-        j_robot, forces = self._robot.matrix, self.forces
-        self.residual = []
-        self._torque_slopes = []
-        for k in range(3):
-            tau, slope = structural_joints[k](q[k])
-            coupling = j_robot[k][k] * forces[k]
-            for i in range(k + 1, 3):
-                coupling = coupling + j_robot[i][k] * forces[i]
-            self.residual.append(tau + geometry.pressure_moments[k] * p[k] - coupling)
-            self._torque_slopes.append(slope)
+        coupling = transpose_product(self._robot.matrix, self.forces)
+        torques = [structural_joints[k](q[k]) for k in range(3)]
+        moments = geometry.pressure_moments
+        self.residual = [torques[k][0] + moments[k] * p[k] - coupling[k] for k in range(3)]
+        self._torque_slopes = [torques[k][1] for k in range(3)]
 
     def at_pressure(self, p) -> Evaluation:
         """The same state under pressures ``p``: F(q, p') = F(q, p) + B_R (p' - p), exactly.
@@ -142,11 +146,7 @@ class Evaluation:
             rhs = [stiffness[k] if k == m else 0.0 for k in range(3)]
             for i, k, slope in self._finger_slopes[m]:
                 rhs[k] = rhs[k] - slope * forces[i]
-            force_slope = transpose_solve(j_finger, rhs)
-            column = [-j_robot[k][k] * force_slope[k] for k in range(3)]
-            for k in range(3):
-                for i in range(k + 1, 3):
-                    column[k] = column[k] - j_robot[i][k] * force_slope[i]
+            column = [-c for c in transpose_product(j_robot, transpose_solve(j_finger, rhs))]
             for i, k, slope in robot_slopes[m]:
                 column[k] = column[k] - slope * forces[i]
             column[m] = column[m] + self._torque_slopes[m]

@@ -21,7 +21,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._backend import ArrayOps, ScalarOps
-from .coupling import Evaluation, Geometry, contact_jacobians, transpose_solve
+from .coupling import (
+    Evaluation,
+    Geometry,
+    contact_jacobians,
+    transpose_product,
+    transpose_solve,
+)
 from .identification import StiffnessFit, fit_stiffness
 from .kinematics import arc_points, chain, chords, finger_chain
 from .params import GloveParams, load_params
@@ -383,9 +389,7 @@ class GloveModel:
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         forces = self.estimate_forces_batch(angles, pressure)
         _, j_finger = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
-        joint_torque = np.column_stack(
-            [sum(j_finger[i][k] * forces[:, i] for i in range(k, 3)) for k in range(3)]
-        )
+        joint_torque = np.column_stack(transpose_product(j_finger, list(forces.T)))
         return fit_stiffness(angles, joint_torque)
 
     def identify_stiffness(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
