@@ -27,6 +27,7 @@ Example::
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import fcntl
 import os
 import random
@@ -148,6 +149,18 @@ def ros_args(
 # -- node processes ------------------------------------------------------------------------
 
 
+_PR_SET_PDEATHSIG = 1
+
+
+def _stop_with_parent() -> None:
+    """In the child before exec: SIGTERM it when the test process dies (even by SIGKILL).
+
+    A node left running by a killed test session would otherwise keep publishing into a domain
+    id that the next session may claim.
+    """
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time process ``pid`` has used so far, s (from /proc)."""
     fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
@@ -199,6 +212,7 @@ class NodeProcess:
                 stdout=out,
                 stderr=err,
                 start_new_session=True,
+                preexec_fn=_stop_with_parent,
             )
         self.pid = self.process.pid
 

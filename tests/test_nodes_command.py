@@ -4,6 +4,7 @@ Position mode with targets from the ``joint_targets`` topic, force mode switched
 the range-of-motion back-off, and what the controller does when the plant goes away.
 """
 
+import os
 import signal
 import time
 
@@ -16,7 +17,7 @@ from std_msgs.msg import Float64MultiArray
 
 from exodigit_model import GloveModel, load_params
 
-NS = '/nodes_command'
+NS = f'/nodes_command_{os.getpid()}'  # unique per session
 #: How close a closed loop must settle, rad and N.
 ANGLE_SETTLED = 1e-3
 FORCE_SETTLED = 1e-3

@@ -2,6 +2,7 @@
 parameters, markers and Ctrl-C. One plant process (no lag, no noise) serves the module."""
 
 import math
+import os
 import signal
 import time
 
@@ -15,7 +16,7 @@ from std_srvs.srv import Trigger
 
 from exodigit_model import GloveModel, load_params
 
-NS = '/nodes_plant'
+NS = f'/nodes_plant_{os.getpid()}'  # unique per session
 RATE_HZ = 100.0
 COMMAND_TIMEOUT = 0.3  # s
 MAX_SUPPLY = 100e3  # Pa

@@ -25,6 +25,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
@@ -107,6 +108,10 @@ class GloveNode(Node):
     """
 
     table: ParamTable
+    events_executor = False
+    """Spin with rclpy's C++ EventsExecutor (about a third less CPU than the Python
+    SingleThreadedExecutor at 100 Hz, measured here). Only for nodes whose callbacks do not take
+    message info: in rclpy 7.1.6 such callbacks crash it ("null argument to internal routine")."""
 
     def __init__(self, name: str, table: ParamTable) -> None:
         super().__init__(name)
@@ -261,7 +266,7 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         # shorter garbage-collection pauses in the loops.
         gc.collect()
         gc.freeze()
-        executor = SingleThreadedExecutor()
+        executor = EventsExecutor() if node_class.events_executor else SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.requested:
             executor.spin_once(timeout_sec=SPIN_PERIOD)

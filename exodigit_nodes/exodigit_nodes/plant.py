@@ -105,6 +105,7 @@ class PlantSettings:
 class Plant(GloveNode):
     """The glove plant node: wires ROS to :class:`.Chambers` and ``GloveModel``."""
 
+    events_executor = True
     executable = 'plant'
     table = PLANT_PARAMETERS
 

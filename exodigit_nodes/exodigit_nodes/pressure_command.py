@@ -137,6 +137,7 @@ class CommandSettings:
 class PressureCommand(GloveNode):
     """The command node: wires ROS to a controller and :class:`.SafetyLimiter`."""
 
+    events_executor = True
     executable = 'pressure_command'
     table = COMMAND_PARAMETERS
 
