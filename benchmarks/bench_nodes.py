@@ -65,18 +65,23 @@ def percentile(values, q):
 # -- echo round trip ------------------------------------------------------------------------
 
 
-def echo_main() -> None:
-    """The bare echo node: republish every JointState from ``ping`` on ``pong``."""
-    rclpy.init()
-    node = rclpy.create_node('bench_echo')
-    pong = node.create_publisher(JointState, 'pong', 10)
-    node.create_subscription(JointState, 'ping', pong.publish, 10)
+def spin_until_stopped(node) -> None:
+    """Spin a helper node (plain rclpy, Python executor) until it is interrupted."""
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
         pass
     finally:
         rclpy.try_shutdown()
+
+
+def echo_main() -> None:
+    """The bare echo node: republish every JointState from ``ping`` on ``pong``."""
+    rclpy.init()
+    node = rclpy.create_node('bench_echo')
+    pong = node.create_publisher(JointState, 'pong', 10)
+    node.create_subscription(JointState, 'ping', pong.publish, 10)
+    spin_until_stopped(node)
 
 
 def bare_main(namespace: str) -> None:
@@ -101,12 +106,7 @@ def bare_main(namespace: str) -> None:
             publisher.publish(kind())
 
     node.create_timer(0.01, publish_all)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        rclpy.try_shutdown()
+    spin_until_stopped(node)
 
 
 def echo_round_trips(domain_id: int, workdir: Path) -> list[float]:
