@@ -123,6 +123,7 @@ class Plant(GloveNode):
         self.angles = np.zeros(3)
         self.forces = np.zeros(3)
         self.solution = None
+        self.last_good = None  # the last converged Solution: the warm start of the next solve
         self.solver_failures = 0
         self.failure_residual = 0.0
         self.failures_reported = 0
@@ -200,6 +201,7 @@ class Plant(GloveNode):
         self.command = np.zeros(3)
         self.angles = np.zeros(3)
         self.forces = np.zeros(3)
+        self.last_good = None
         self.watchdog.clear()
         response.success = True
         response.message = 'pressures and joint angles reset to zero; waiting for a new command'
@@ -235,11 +237,14 @@ class Plant(GloveNode):
                 f'[0, {self.chambers.settings.max_supply_pressure:g}] Pa',
                 throttle_duration_sec=LOG_THROTTLE,
             )
-        solution = self.model.solve(pressure, q0=self.angles)
+        # A previous Solution as the start also reuses its evaluation (exodigit_model docs).
+        start = self.angles if self.last_good is None else self.last_good
+        solution = self.model.solve(pressure, q0=start)
         self.solution = solution
         previous = self.angles
         if solution.converged:
             self.angles, self.forces = solution.q, solution.forces
+            self.last_good = solution
         else:
             self.solver_failures += 1
             self.failure_residual = solution.residual
