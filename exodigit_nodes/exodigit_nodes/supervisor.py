@@ -61,17 +61,24 @@ class Exit:
         return text + (' (did not stop on SIGINT)' if self.forced else '')
 
 
-def _interrupt_when_parent_dies(parent: int) -> Callable[[], None]:
-    """A pre-exec hook: the child gets SIGINT if ``parent`` dies, even by SIGKILL.
+def _child_setup(parent: int) -> Callable[[], None]:
+    """A pre-exec hook: SIGINT acts in the child, and reaches it if ``parent`` dies.
+
+    A shell starts background commands with SIGINT ignored, and an ignored signal stays ignored
+    across exec: a node still starting (before it installs its own handler) would then sit out
+    the supervisor's SIGINT. The disposition is reset to the default here.
 
     The children run in their own sessions, so neither a terminal hang-up nor a killed
-    supervisor would otherwise reach them: they would run on with nobody watching.
+    supervisor would otherwise reach them: on Linux they get SIGINT when ``parent`` dies, even by
+    SIGKILL, instead of running on with nobody watching.
     """
 
     def hook() -> None:
-        ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
-        if os.getppid() != parent:  # the parent died before the hook ran: do not start
-            os._exit(1)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        if sys.platform.startswith('linux'):
+            ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
+            if os.getppid() != parent:  # the parent died before the hook ran: do not start
+                os._exit(1)
 
     return hook
 
@@ -112,7 +119,6 @@ class Supervisor:
             self._processes[name] = self._spawn(argv, output)
 
     def _spawn(self, argv: Sequence[str], output) -> subprocess.Popen:
-        linux = sys.platform.startswith('linux')
         return subprocess.Popen(
             list(argv),
             env=self._env,
@@ -120,7 +126,7 @@ class Supervisor:
             stdout=output,
             stderr=None if output is None else subprocess.STDOUT,
             start_new_session=True,
-            preexec_fn=_interrupt_when_parent_dies(os.getpid()) if linux else None,
+            preexec_fn=_child_setup(os.getpid()),
         )
 
     def log_path(self, name: str) -> Path | None:
