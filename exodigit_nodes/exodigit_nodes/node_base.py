@@ -9,9 +9,11 @@ the post-set callback applies (ros2/demos, ``set_parameters_callback.py``).
 from __future__ import annotations
 
 import gc
+import math
 import signal
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 import rclpy
@@ -251,6 +253,44 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         print(sys.modules[node_class.__module__].__doc__)
         print('parameters:\n' + node_class.table.help())
         return 0
+
+    def make_node() -> GloveNode:
+        node = node_class()
+        # Long-lived start-up objects (model tables, messages) out of the collector's way:
+        # shorter garbage-collection pauses in the loops.
+        gc.collect()
+        gc.freeze()
+        return node
+
+    def last_words(node: GloveNode) -> None:
+        if rclpy.ok():
+            node.on_shutdown()
+
+    return serve(
+        program,
+        args,
+        make_node,
+        last_words,
+        EventsExecutor if node_class.events_executor else SingleThreadedExecutor,
+    )
+
+
+def serve(
+    program: str,
+    args: list[str] | None,
+    make_node: Callable[[], Node],
+    last_words: Callable[[Node], None],
+    executor_class: type = SingleThreadedExecutor,
+    duration: float = math.inf,
+    refused: tuple[type[Exception], ...] = (ConfigurationError,),
+) -> int:
+    """Spin the node ``make_node`` builds until SIGINT / SIGTERM / shutdown / ``duration`` s.
+
+    SIGINT and SIGTERM only set a flag that the spin loop checks every ``SPIN_PERIOD``, so no
+    KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs while the
+    node still exists. Returns the exit status: 0 after a normal stop, 2 when the configuration is
+    refused (an exception of ``refused``: one line on stderr, no traceback).
+    """
     stop = StopRequest()
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
@@ -261,16 +301,13 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except RuntimeError as error:  # rclpy's RCLError: malformed --ros-args
             raise ConfigurationError(' '.join(str(error).split())) from None
-        node = node_class()
-        # Long-lived start-up objects (model tables, messages) out of the collector's way:
-        # shorter garbage-collection pauses in the loops.
-        gc.collect()
-        gc.freeze()
-        executor = EventsExecutor() if node_class.events_executor else SingleThreadedExecutor()
+        node = make_node()
+        executor = executor_class()
         executor.add_node(node)
-        while not stop.requested:
+        deadline = time.monotonic() + duration
+        while not stop.requested and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=SPIN_PERIOD)
-    except ConfigurationError as error:
+    except refused as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
     except ExternalShutdownException:
@@ -278,8 +315,8 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        if node is not None and rclpy.ok():
-            node.on_shutdown()
+        if node is not None:
+            last_words(node)
             node.destroy_node()
         rclpy.try_shutdown()
     return code

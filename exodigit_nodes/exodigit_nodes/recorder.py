@@ -17,23 +17,18 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import sys
-import time
 from pathlib import Path
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
-from .node_base import SPIN_PERIOD, StopRequest
+from .node_base import ConfigurationError, serve
 from .qos import GLOVE_QOS
 
 TOPICS = {
@@ -178,32 +173,18 @@ def main(args: list[str] | None = None) -> int:
         print(f'recorder: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
     options = parse_arguments(own)
-    stop = StopRequest()
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
-    node = None
-    code = 0
-    try:
-        rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-        node = Recorder(Path(options.output))
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        deadline = time.monotonic() + options.duration if options.duration > 0 else math.inf
-        while not stop.requested and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=SPIN_PERIOD)
-    except RecorderError as error:
-        print(f'recorder: error: {error}', file=sys.stderr)
-        code = 2
-    except ExternalShutdownException:
-        pass
-    finally:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        if node is not None:
-            node.close()
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return code
+
+    def last_words(node: Recorder) -> None:
+        node.close()
+
+    return serve(
+        'recorder',
+        argv,
+        lambda: Recorder(Path(options.output)),
+        last_words,
+        duration=options.duration if options.duration > 0 else math.inf,
+        refused=(ConfigurationError, RecorderError),
+    )
 
 
 if __name__ == '__main__':
