@@ -80,7 +80,7 @@ class Estimator(GloveNode):
     table = ESTIMATOR_PARAMETERS
 
     def __init__(self) -> None:
-        super().__init__('estimator', ESTIMATOR_PARAMETERS)
+        super().__init__()
         self.model = load_model(self.values['params_file'])
         self.pairer = SamplePairer()
         self.window = StiffnessWindow(self.model, self.values['identification_window'])

@@ -96,12 +96,8 @@ def load_model(path: str) -> GloveModel:
 class GloveNode(Node):
     """Base of the three nodes: declared parameters, diagnostics and the rejection tally.
 
-    Parameters
-    ----------
-    name : str
-        Default node name.
-    table : ParamTable
-        The node's parameters.
+    A subclass names its executable (also the default node name) and its parameter table as class
+    attributes ``executable`` and ``table``.
 
     Raises
     ------
@@ -109,15 +105,16 @@ class GloveNode(Node):
         If a parameter given at start breaks its rule.
     """
 
+    executable: str
     table: ParamTable
     events_executor = False
     """Spin with rclpy's C++ EventsExecutor (about a third less CPU than the Python
     SingleThreadedExecutor at 100 Hz, measured here). Only for nodes whose callbacks do not take
     message info: in rclpy 7.1.6 such callbacks crash it ("null argument to internal routine")."""
 
-    def __init__(self, name: str, table: ParamTable) -> None:
-        super().__init__(name)
-        self.table = table
+    def __init__(self) -> None:
+        super().__init__(self.executable)
+        table = self.table
         given = {}
         try:
             for spec in table.specs.values():

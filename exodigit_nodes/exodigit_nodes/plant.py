@@ -110,7 +110,7 @@ class Plant(GloveNode):
     table = PLANT_PARAMETERS
 
     def __init__(self) -> None:
-        super().__init__('plant', PLANT_PARAMETERS)
+        super().__init__()
         values, settings = self.values, self.settings
         self.model = load_model(values['params_file'])
         self.stiffness = np.asarray(self.model.geometry.stiffness)

@@ -142,7 +142,7 @@ class PressureCommand(GloveNode):
     table = COMMAND_PARAMETERS
 
     def __init__(self) -> None:
-        super().__init__('pressure_command', COMMAND_PARAMETERS)
+        super().__init__()
         self.model = load_model(self.values['params_file'])
         self.period = 1.0 / self.values['rate_hz']
         self.limiter = SafetyLimiter(self.settings.limits)
