@@ -70,8 +70,3 @@ def stress_slope_of_strain(material: Material, strain: ArrayLike) -> NDArray[np.
 def yeoh_stress(material: Material, stretch: ArrayLike) -> NDArray[np.float64]:
     """Axial Cauchy stress σ(λ) of eqs 21-23 (corrected), Pa; zero at λ = 1."""
     return stress_of_strain(material, np.asarray(stretch, dtype=float) - 1.0)
-
-
-def yeoh_stress_slope(material: Material, stretch: ArrayLike) -> NDArray[np.float64]:
-    """dσ/dλ of :func:`yeoh_stress`, Pa."""
-    return stress_slope_of_strain(material, np.asarray(stretch, dtype=float) - 1.0)
