@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Time
-from exodigit_nodes.chambers import Chambers, ChamberSettings
 from exodigit_nodes.controllers import (
     Feedback,
     ForceController,
@@ -55,67 +54,21 @@ def stiffer_finger_model(factor):
     return GloveModel(params_from_dict(data))
 
 
-# -- chambers ------------------------------------------------------------------------------
-
-
-def test_chamber_lag_matches_the_continuous_step_response():
-    constant, dt, command = 0.05, 0.01, np.array([10e3, 30e3, 50e3])
-    chambers = Chambers(ChamberSettings(time_constant=constant), np.random.default_rng(0))
-    for n in range(1, 41):
-        pressure = chambers.advance(command, dt)
-        expected = command * (1.0 - math.exp(-n * dt / constant))
-        np.testing.assert_allclose(pressure, expected, rtol=EXACT)
-
-
-def test_ideal_chambers_follow_the_command_at_once_and_saturate_reporting_it():
-    chambers = Chambers(ChamberSettings(0.0, 100e3), np.random.default_rng(0))
-    np.testing.assert_array_equal(
-        chambers.advance(np.array([1e3, 2e3, 3e3]), 0.01), [1e3, 2e3, 3e3]
-    )
-    assert not chambers.saturated_now
-    pressure = chambers.advance(np.array([-5.0, 50e3, 2e5]), 0.01)
-    np.testing.assert_array_equal(pressure, [0.0, 50e3, 100e3])
-    assert chambers.saturated_now
-    assert (chambers.saturation.below_zero, chambers.saturation.above_supply) == (1, 1)
-    chambers.reset()
-    np.testing.assert_array_equal(chambers.pressure, np.zeros(3))
-
-
-def test_sensor_noise_is_seeded_and_has_the_requested_spread():
-    def samples(seed):
-        chambers = Chambers(ChamberSettings(noise_std=500.0), np.random.default_rng(seed))
-        return np.array([chambers.measured() for _ in range(4000)])
-
-    first, again = samples(3), samples(3)
-    np.testing.assert_array_equal(first, again)
-    assert abs(first.std() / 500.0 - 1.0) < 0.05
-    assert abs(first.mean()) < 5 * 500.0 / math.sqrt(first.size)
-    quiet = Chambers(ChamberSettings(), np.random.default_rng(0))
-    np.testing.assert_array_equal(quiet.measured(), np.zeros(3))
-
-
-@pytest.mark.parametrize(
-    ('field', 'value'),
-    [('time_constant', -1.0), ('noise_std', math.nan), ('max_supply_pressure', 0.0)],
-)
-def test_chamber_settings_refuse_bad_values_naming_them(field, value):
-    with pytest.raises(ValueError, match=field):
-        ChamberSettings(**{field: value})
-
-
 # -- watchdog ------------------------------------------------------------------------------
 
 
-def test_watchdog_expires_after_its_timeout_and_counts_each_trip_once():
+def test_watchdog_trips_after_its_timeout_and_counts_each_trip_once():
     watchdog = Watchdog(0.5)
-    assert watchdog.expired(0.0) and watchdog.trips == 0  # nothing yet: missing, no trip
-    watchdog.feed(10.0)
-    assert not watchdog.expired(10.5)
-    assert watchdog.expired(10.5001) and watchdog.expired(11.0)
+    assert watchdog.missing(0.0) and not watchdog.update(0.0)  # nothing yet: no trip
+    assert watchdog.trips == 0
+    assert not watchdog.feed(10.0)
+    assert not watchdog.update(10.5) and not watchdog.missing(10.5)
+    assert watchdog.missing(10.5001) and not watchdog.tripped  # a query changes nothing
+    assert watchdog.update(10.5001) and not watchdog.update(11.0)  # the trip is new once
     assert watchdog.trips == 1 and watchdog.tripped
-    watchdog.feed(12.0)
-    assert not watchdog.expired(12.1) and not watchdog.tripped
-    assert watchdog.expired(13.0) and watchdog.trips == 2
+    assert watchdog.feed(12.0)  # ends the trip
+    assert not watchdog.update(12.1) and not watchdog.tripped
+    assert watchdog.update(13.0) and watchdog.trips == 2
     watchdog.clear()
     assert watchdog.age(20.0) == math.inf and not watchdog.tripped
 
@@ -463,7 +416,7 @@ def test_markers_draw_the_finger_links_at_their_length_and_forces_to_scale(model
 
 
 def test_the_plain_logic_imports_no_ros():
-    modules = 'chambers, controllers, estimation, inputs, parameters, safety, watchdog'
+    modules = 'controllers, estimation, inputs, pacing, parameters, safety, watchdog'
     code = (
         'import sys\n'
         f'from exodigit_nodes import {modules}\n'

@@ -2,13 +2,14 @@
 
 A ROS-free package (numpy, scipy, PyYAML) implementing MODEL.md: the kinematics of the exo-digit
 and the finger, the Yeoh material, pressure and structural torques, the coupled quasi-static solve
-and its inverse, and the contact-force estimators.
+and its inverse, the contact-force estimators, and the stepper that advances gloves in time.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())
 >>> solution = model.solve([50e3, 50e3, 50e3])
 """
 
+from .chambers import ChamberSettings
 from .identification import StiffnessFit, fit_stiffness
 from .model import BatchSolution, GloveModel, GlovePose, Solution
 from .params import (
@@ -24,19 +25,24 @@ from .params import (
     load_params,
     params_from_dict,
 )
+from .simulation import GloveSimulation, GloveState, SimulationSettings
 
 __all__ = [
     'JOINT_NAMES',
     'BatchSolution',
+    'ChamberSettings',
     'ExoDigit',
     'Finger',
     'FingerJoint',
     'GloveModel',
     'GloveParams',
     'GlovePose',
+    'GloveSimulation',
+    'GloveState',
     'Material',
     'ParameterError',
     'Segment',
+    'SimulationSettings',
     'Solution',
     'StiffnessFit',
     'dump_params',

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -68,7 +68,6 @@ class Solution:
     iterations: int
     residual: float
     in_valid_range: bool
-    _final: Evaluation | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -209,29 +208,24 @@ class GloveModel:
         j_robot, j_finger = contact_jacobians(angles, ScalarOps, self.geometry)
         return np.array(j_robot), np.array(j_finger)
 
-    def residual(self, q: ArrayLike, p: ArrayLike, free: bool = False) -> NDArray[np.float64]:
+    def residual(self, q: ArrayLike, p: ArrayLike, *, free: bool = False) -> NDArray[np.float64]:
         """F(q, p) of eq 36 (or of free motion), N·m."""
-        return np.array(self._evaluate(q, p, free).residual)
+        return np.array(self._evaluate(q, p, free=free).residual)
 
     def residual_jacobian(
-        self, q: ArrayLike, p: ArrayLike, free: bool = False
+        self, q: ArrayLike, p: ArrayLike, *, free: bool = False
     ) -> NDArray[np.float64]:
         """∂F/∂q of eq 36 (analytic), N·m/rad, shape (3, 3)."""
-        return np.array(self._evaluate(q, p, free).jacobian(), dtype=float)
+        return np.array(self._evaluate(q, p, free=free).jacobian(), dtype=float)
 
-    def _evaluate(self, q, p, free) -> Evaluation:
-        return Evaluation(
-            as_joint_list('q', q),
-            ScalarOps,
-            self._free_geometry if free else self.geometry,
-            self.structural.scalar_joints,
-            as_joint_list('p', p),
-        )
+    def _evaluate(self, q, p, *, free: bool) -> Evaluation:
+        geometry = self._free_geometry if free else self.geometry
+        return self._evaluate_at(as_joint_list('q', q), as_joint_list('p', p), geometry)
 
     # -- forward solves ------------------------------------------------------------------
 
     def solve(
-        self, p: ArrayLike, q0: ArrayLike | Solution | None = None, free: bool = False
+        self, p: ArrayLike, q0: ArrayLike | Solution | None = None, *, free: bool = False
     ) -> Solution:
         """Joint angles and contact forces for chamber pressures ``p`` (eq 36).
 
@@ -240,9 +234,8 @@ class GloveModel:
         p : array_like, shape (3,)
             Gauge pressures, Pa.
         q0 : array_like, shape (3,), or Solution, optional
-            Start of the Newton iteration (warm start); zero when omitted. A previous
-            :class:`Solution` of this model starts from its angles and reuses its final
-            evaluation (F is affine in p), which saves one evaluation per step.
+            Start of the Newton iteration (warm start; a Solution starts from its angles); zero
+            when omitted.
         free : bool
             Solve free motion (no finger, τ_s + B_R p = 0) instead.
 
@@ -253,20 +246,29 @@ class GloveModel:
             the last finite iterate.
         """
         pressure = as_joint_list('p', p)
-        geometry = self._free_geometry if free else self.geometry
-        first = None
         if isinstance(q0, Solution):
-            if q0._final is not None and q0._final.geometry is geometry:
-                first = q0._final.at_pressure(pressure)
             q0 = q0.q
-        start = first.q if first else [0.0, 0.0, 0.0] if q0 is None else as_joint_list('q0', q0)
+        start = [0.0, 0.0, 0.0] if q0 is None else as_joint_list('q0', q0)
+        geometry = self._free_geometry if free else self.geometry
+        return self._solve(pressure, self._evaluate_at(start, pressure, geometry))[0]
+
+    def _evaluate_at(self, q: list, p: list, geometry: Geometry) -> Evaluation:
+        return Evaluation(q, ScalarOps, geometry, self.structural.scalar_joints, p)
+
+    def _solve(self, pressure: list, first: Evaluation) -> tuple[Solution, Evaluation]:
+        """Newton from the evaluation ``first`` at pressures ``pressure``; also the final one.
+
+        The final evaluation is what a stepper keeps to warm-start its next solve
+        (:meth:`.Evaluation.at_pressure` re-prices it exactly, F being affine in p).
+        """
+        geometry = first.geometry
 
         def evaluate(q, p_):
-            return Evaluation(q, ScalarOps, geometry, self.structural.scalar_joints, p_)
+            return self._evaluate_at(q, p_, geometry)
 
-        outcome = newton(start, pressure, evaluate, ScalarOps, self._strain_per_angle, first)
+        outcome = newton(first.q, pressure, evaluate, ScalarOps, self._strain_per_angle, first)
         low, high = VALID_STRETCH
-        return Solution(
+        solution = Solution(
             q=np.array(outcome.q),
             forces=np.array(outcome.forces),
             pressure=np.array(pressure),
@@ -277,8 +279,8 @@ class GloveModel:
                 low <= 1.0 + angle * strain <= high
                 for angle, strain in zip(outcome.q, self._strain_per_angle, strict=True)
             ),
-            _final=outcome.final,
         )
+        return solution, outcome.final
 
     def solve_free(self, p: ArrayLike) -> NDArray[np.float64]:
         """Free bending angles (no finger), rad: τ_s,i(q_i) + (r_pA_p)_i p_i = 0 (paper §3.3).
@@ -295,7 +297,7 @@ class GloveModel:
         return solution.q
 
     def solve_batch(
-        self, P: ArrayLike, Q0: ArrayLike | None = None, free: bool = False
+        self, P: ArrayLike, Q0: ArrayLike | None = None, *, free: bool = False
     ) -> BatchSolution:
         """Vectorised :meth:`solve` over rows of pressures.
 

@@ -5,6 +5,11 @@ Starts ``plant``, ``estimator`` and ``pressure_command`` as separate processes i
 ``signals.csv`` and ``signals.png`` into the run directory and stops everything on Ctrl-C or
 after ``--duration`` seconds: the command node first, so the chambers get zero pressure.
 
+With ``--clock sim`` the plant owns simulated time (``/clock``) and every other node runs with
+``use_sim_time``; ``--real-time-factor`` paces it (0 = as fast as possible) and ``--lockstep``
+keeps one step in flight, so a session gives the same result on a loaded machine as on an idle
+one. ``--duration`` then counts simulated seconds.
+
 This is what ``make run`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
 glove.launch.py`` starts the same nodes without the summary.
 """
@@ -17,9 +22,10 @@ import sys
 import time
 from pathlib import Path
 
+from exodigit_nodes.pacing import CLOCKS, MAX_REAL_TIME_FACTOR
 from exodigit_nodes.ros_env import discovery_settings
 from exodigit_nodes.run_record import RunRecord, new_run_directory
-from exodigit_nodes.summary import GloveSignals, SummaryDisplay
+from exodigit_nodes.summary import SIGNALS, GloveSignals, SummaryDisplay
 from exodigit_nodes.supervisor import Supervisor
 
 #: The glove's node executables, in start order (the plant first, commands last).
@@ -37,6 +43,8 @@ EXAMPLES = """examples:
   python -m exodigit_nodes.glove --duration 20        # 20 s, then stop and exit 0
   python -m exodigit_nodes.glove --mode staircase --record --out runs/stairs
   python -m exodigit_nodes.glove --params-file my_glove.yaml --namespace /left/index
+  python -m exodigit_nodes.glove --clock sim --real-time-factor 0 --lockstep --duration 60
+                                                      # 60 simulated s, as fast as the CPU allows
 
 ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed to
 every node; see the README, "Networking"."""
@@ -60,7 +68,29 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=0.0,
         metavar='S',
-        help='seconds to run, then stop cleanly and exit 0; 0 (default) runs until Ctrl-C',
+        help='seconds to run (simulated seconds with --clock sim), then stop cleanly and exit 0; '
+        '0 (default) runs until Ctrl-C',
+    )
+    parser.add_argument(
+        '--clock',
+        choices=CLOCKS,
+        default='wall',
+        help='wall (default): the system clock; sim: the plant owns simulated time (/clock) and '
+        'the other nodes use it',
+    )
+    parser.add_argument(
+        '--real-time-factor',
+        type=float,
+        default=1.0,
+        metavar='X',
+        help='with --clock sim: simulated seconds per wall second; 0 = as fast as possible '
+        '(default 1)',
+    )
+    parser.add_argument(
+        '--lockstep',
+        action='store_true',
+        help='with --clock sim: one step in flight; the plant waits for pressure_command to '
+        'answer each step (exact and repeatable at any speed)',
     )
     parser.add_argument(
         '--namespace', default='/glove', help='ROS namespace of the glove (default /glove)'
@@ -108,6 +138,13 @@ def check_arguments(args: argparse.Namespace) -> None:
     """
     if not 0.0 <= args.duration < float('inf'):
         raise UsageError(f'--duration {args.duration}: must be a finite number of seconds >= 0')
+    if not 0.0 <= args.real_time_factor <= MAX_REAL_TIME_FACTOR:
+        raise UsageError(
+            f'--real-time-factor {args.real_time_factor}: must lie in [0, '
+            f'{MAX_REAL_TIME_FACTOR:g}] (0 = as fast as possible)'
+        )
+    if args.clock != 'sim' and (args.lockstep or args.real_time_factor != 1.0):
+        raise UsageError('--lockstep and --real-time-factor need --clock sim')
     if not NAMESPACE_PATTERN.match(args.namespace):
         raise UsageError(
             f'--namespace {args.namespace!r}: must be absolute, e.g. /glove or /left/index '
@@ -137,7 +174,28 @@ def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list
         command += ['-p', f'params_file:={Path(args.params_file).resolve()}']
     if node == 'pressure_command':
         command += ['-p', f'mode:={args.mode}']
+    if args.clock == 'sim':
+        command += sim_time_arguments(node, args)
     return command
+
+
+def sim_time_arguments(node: str, args: argparse.Namespace) -> list[str]:
+    """The ``-p`` overrides of one node for simulated time (the plant owns /clock)."""
+    lockstep = 'true' if args.lockstep else 'false'
+    if node == 'plant':
+        # Paused until the summary listens (nothing is missed), and again at the end of the
+        # duration, so that the record ends exactly there however far behind the summary is.
+        return [
+            *('-p', 'clock:=sim'),
+            *('-p', 'start_paused:=true'),
+            *('-p', f'pause_at:={args.duration!r}'),
+            *('-p', f'real_time_factor:={args.real_time_factor!r}'),
+            *('-p', f'lockstep:={lockstep}'),
+        ]
+    overrides = ['-p', 'use_sim_time:=true']
+    if node == 'pressure_command':
+        overrides += ['-p', f'lockstep:={lockstep}']
+    return overrides
 
 
 class StopRequest:
@@ -201,7 +259,8 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
     supervisor = Supervisor(env, log_dir=record.log_dir)
     names = (('recorder',) if args.record else ()) + NODES
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')
-    title = f'exodigit glove {args.namespace} ({args.mode})'
+    clock = '' if args.clock == 'wall' else ', simulated time' + (', lockstep' * args.lockstep)
+    title = f'exodigit glove {args.namespace} ({args.mode}{clock})'
     signals = GloveSignals(NODES)
     executor = monitor = None
     failures, stops = [], []
@@ -218,11 +277,15 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
 
         started = time.monotonic()
         next_refresh = started
+        waiting = args.clock == 'sim'  # the plant starts paused until we listen to every topic
         while not stop.requested:
             spin()
             now = time.monotonic()
+            if waiting and monitor.connected(SIGNALS):
+                waiting = not monitor.resume_plant()
             failures = supervisor.exited()
-            if failures or (args.duration and now - started >= args.duration):
+            elapsed = now - started if args.clock == 'wall' else signals.stamp or 0.0
+            if failures or (args.duration and elapsed >= args.duration):
                 break
             if now >= next_refresh:
                 display.show(signals, now, title)
@@ -230,7 +293,9 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
                 next_refresh = now + REFRESH_PERIOD
         display.show(signals, time.monotonic(), title)
         reason = stop.signal_name or (
-            'a node exited' if failures else f'{args.duration:g} s elapsed'
+            'a node exited'
+            if failures
+            else f'{args.duration:g} {"" if args.clock == "wall" else "simulated "}s elapsed'
         )
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(STOP_ORDER, idle=spin)

@@ -16,7 +16,10 @@ ESTIMATED_FINGER_STIFFNESS = 'estimated_finger_stiffness'
 JOINT_TARGETS = 'joint_targets'
 MARKERS = 'markers'
 DIAGNOSTICS = '/diagnostics'
+CLOCK = '/clock'
 RESET = 'reset'
+SET_PAUSED = 'set_paused'
+STEP = 'step'
 
 JOINT_DIMENSION = 'joint'
 """Label of the one layout dimension of every joint-vector topic."""

@@ -12,9 +12,10 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool
 
-from exodigit_nodes.messages import DIAGNOSTICS
-from exodigit_nodes.qos import GLOVE_QOS
+from exodigit_nodes.messages import DIAGNOSTICS, SET_PAUSED
+from exodigit_nodes.qos import RECORD_QOS
 from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
 
 
@@ -49,13 +50,32 @@ class GloveMonitor(Node):
         super().__init__('glove_monitor', namespace=namespace)
         self._signals = signals
         self._on_sample = on_sample
+        self._inputs = []
         for topic in SIGNALS:
             if topic == 'joint_states':
-                self.create_subscription(JointState, topic, self._on_joint_state, GLOVE_QOS)
+                callback, message_type = self._on_joint_state, JointState
             else:
-                callback = self._array_callback(topic)
-                self.create_subscription(Float64MultiArray, topic, callback, GLOVE_QOS)
-        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, GLOVE_QOS)
+                callback, message_type = self._array_callback(topic), Float64MultiArray
+            self._inputs.append(
+                self.create_subscription(message_type, topic, callback, RECORD_QOS)
+            )
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
+        self._pause_client = self.create_client(SetBool, SET_PAUSED)
+
+    def connected(self, topics) -> bool:
+        """Whether each of ``topics`` (keys of `SIGNALS`) has a publisher matched to us."""
+        return all(
+            subscription.get_publisher_count() > 0
+            for subscription in self._inputs
+            if subscription.topic_name.rsplit('/', 1)[-1] in topics
+        )
+
+    def resume_plant(self) -> bool:
+        """Ask a plant started paused to run (``set_paused`` false); False if not there yet."""
+        if not self._pause_client.service_is_ready():
+            return False
+        self._pause_client.call_async(SetBool.Request(data=False))
+        return True
 
     def _array_callback(self, topic: str) -> Callable[[Float64MultiArray, dict], None]:
         def callback(message: Float64MultiArray, info: dict) -> None:

@@ -188,8 +188,8 @@ class GloveNode(Node):
             throttle_duration_sec=LOG_THROTTLE,
         )
 
-    def publish_status(self, level: bytes, text: str, values: dict[str, str]) -> None:
-        """Publish one DiagnosticStatus of this node on /diagnostics, stamped now.
+    def publish_status(self, level: bytes, text: str, values: dict[str, str], stamp=None) -> None:
+        """Publish one DiagnosticStatus of this node on /diagnostics, stamped ``stamp`` (now).
 
         WARN (at least) while the latest dropped input message is under ``DROP_WARNING`` old.
         """
@@ -202,7 +202,7 @@ class GloveNode(Node):
                     f'the latest {age:.1f} s ago'
                 )
         array = DiagnosticArray()
-        array.header.stamp = self.get_clock().now().to_msg()
+        array.header.stamp = self.get_clock().now().to_msg() if stamp is None else stamp
         array.status = [
             status(
                 self.get_fully_qualified_name(),

@@ -1,12 +1,22 @@
 """``plant``: the simulated glove (INTERFACES.md).
 
-At ``rate_hz`` it advances the chambers toward the latest valid ``pressure_command`` (first-order
-lag, saturation), solves the coupled quasi-statics warm-started from the last state
-(``GloveModel.solve``, MODEL.md §7) and publishes ``joint_states``, ``chamber_pressure`` and
-``contact_forces``; ``markers`` and ``/diagnostics`` at lower rates. ``reset`` (std_srvs/Trigger)
-puts pressures and angles back to zero. With no command for ``command_timeout`` it vents.
+A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (MODEL.md §13: chambers, coupled
+solve, sensors): each step applies the latest valid ``pressure_command`` and publishes
+``joint_states``, ``chamber_pressure`` and ``contact_forces``; ``markers`` and ``/diagnostics`` at
+lower rates. ``reset`` (std_srvs/Trigger) puts pressures and angles back to rest. With no command
+for ``command_timeout`` it vents.
 
-Run: ``python -m exodigit_nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index``.
+Time (INTERFACES.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
+``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
+ns, published on ``/clock`` before that step's outputs, paced at ``real_time_factor`` simulated
+seconds per wall second (0 = as fast as possible). ``lockstep:=true`` keeps one step in flight:
+after publishing a step the plant waits for a ``pressure_command`` (the answer) before the next;
+no answer within ``lockstep_timeout`` wall seconds and it vents and steps on at real time until
+a command comes. Services ``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger,
+one step while paused) control simulated time; ``pause_at`` pauses at a given simulated time.
+
+Run: ``python -m exodigit_nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or, for
+a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
 """
 
 from __future__ import annotations
@@ -16,36 +26,50 @@ from array import array
 from dataclasses import dataclass
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.clock import Clock, ClockType
+from rosgraph_msgs.msg import Clock as ClockMessage
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
-from std_srvs.srv import Trigger
+from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-from exodigit_model import JOINT_NAMES
+from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationSettings
 
-from .chambers import Chambers, ChamberSettings
 from .inputs import InvalidInputError, joint_vector
 from .markers import GloveMarkers
 from .messages import (
     CHAMBER_PRESSURE,
+    CLOCK,
     CONTACT_FORCES,
     JOINT_STATES,
     MARKERS,
     PRESSURE_COMMAND,
     RESET,
+    SET_PAUSED,
+    STEP,
     fill,
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
+from .pacing import CLOCKS, MAX_REAL_TIME_FACTOR, Pacer
 from .parameters import ParamSpec, ParamTable
-from .qos import GLOVE_QOS
+from .qos import CLOCK_QOS, GLOVE_QOS
 from .watchdog import Watchdog
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
 LATE_FACTOR = 1.5
-"""A cycle is late when it starts more than this many periods after the previous one."""
+"""A wall-clock cycle is late when it starts more than this many periods after the previous."""
+POLL_LIMITS = (0.5e-3, 0.01)
+"""Shortest and longest period of the simulated-time loop's wall timer, s."""
+FREE_RUN_BUDGET = 2e-3
+"""Longest burst of unpaced steps before the executor takes new messages, wall s."""
+READER_WAIT = 2.0
+"""Longest wait of the ``step`` service for new subscribers to be matched, wall s."""
+SIM_DEFAULTS = SimulationSettings()
+"""The stepper's defaults, which are the plant's."""
 
 PLANT_PARAMETERS = ParamTable(
     [
@@ -55,38 +79,109 @@ PLANT_PARAMETERS = ParamTable(
             'Model parameter YAML (MODEL.md §10); empty = built-in defaults',
             read_only=True,
         ),
-        ParamSpec('rate_hz', 100.0, 'Simulation and publishing rate, Hz', 1.0, 5000.0, True),
+        ParamSpec(
+            'rate_hz',
+            SIM_DEFAULTS.rate_hz,
+            'Simulation and publishing rate, Hz (simulated steps per simulated second)',
+            low=1.0,
+            high=5000.0,
+            read_only=True,
+        ),
         ParamSpec(
             'pressure_time_constant',
-            0.05,
+            SIM_DEFAULTS.pressure_time_constant,
             'First-order chamber lag T, s (0 = ideal: chambers follow the command at once)',
-            0.0,
-            10.0,
+            low=0.0,
+            high=10.0,
         ),
         ParamSpec(
             'max_supply_pressure',
-            100e3,
+            SIM_DEFAULTS.max_supply_pressure,
             'Supply saturation: commands are clipped to [0, this], Pa (reported)',
-            1e3,
-            1e6,
+            low=1e3,
+            high=1e6,
         ),
         ParamSpec(
             'command_timeout',
             0.5,
-            'No valid pressure_command for this long: the chambers vent to zero, s',
-            0.01,
-            60.0,
+            'No valid pressure_command for this long: the chambers vent to zero, s '
+            '(simulated s with clock sim; lockstep uses lockstep_timeout instead)',
+            low=0.01,
+            high=60.0,
         ),
-        ParamSpec('angle_noise_std', 0.0, 'Joint-angle sensor noise (std), rad', 0.0, 0.1),
-        ParamSpec('pressure_noise_std', 0.0, 'Pressure sensor noise (std), Pa', 0.0, 10e3),
-        ParamSpec('seed', 0, 'Seed of the sensor noise', 0.0, 2.0**31 - 1, True),
+        ParamSpec(
+            'angle_noise_std',
+            SIM_DEFAULTS.angle_noise_std,
+            'Joint-angle sensor noise (std), rad',
+            low=0.0,
+            high=0.1,
+        ),
+        ParamSpec(
+            'pressure_noise_std',
+            SIM_DEFAULTS.pressure_noise_std,
+            'Pressure sensor noise (std), Pa',
+            low=0.0,
+            high=10e3,
+        ),
+        ParamSpec(
+            'seed',
+            SIM_DEFAULTS.seed,
+            'Seed of the sensor noise',
+            low=0.0,
+            high=2.0**31 - 1,
+            read_only=True,
+        ),
         ParamSpec(
             'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True
         ),
         ParamSpec(
             'frame_id', 'exodigit_base', 'Frame of the markers (exo-digit base)', required=True
         ),
-        ParamSpec('marker_rate_hz', 10.0, 'Rate of the markers topic, Hz (0 = off)', 0.0, 100.0),
+        ParamSpec(
+            'marker_rate_hz', 10.0, 'Rate of the markers topic, Hz (0 = off)', low=0.0, high=100.0
+        ),
+        ParamSpec(
+            'clock',
+            'wall',
+            'Time source: wall (system clock) or sim (the plant owns simulated time and '
+            'publishes /clock; run the other nodes with use_sim_time)',
+            choices=CLOCKS,
+            read_only=True,
+        ),
+        ParamSpec(
+            'real_time_factor',
+            1.0,
+            'sim: simulated seconds per wall second (0 = as fast as possible)',
+            low=0.0,
+            high=MAX_REAL_TIME_FACTOR,
+        ),
+        ParamSpec(
+            'lockstep',
+            False,
+            'sim: one step in flight: after each step wait for a pressure_command (the answer)',
+            read_only=True,
+        ),
+        ParamSpec(
+            'lockstep_timeout',
+            1.0,
+            'lockstep: no answer within this many wall seconds: vent and step on at real time '
+            'until a command comes, s (0 = wait forever)',
+            low=0.0,
+            high=3600.0,
+        ),
+        ParamSpec(
+            'start_paused',
+            False,
+            'sim: start paused (set_paused false, or step, to go)',
+            read_only=True,
+        ),
+        ParamSpec(
+            'pause_at',
+            0.0,
+            'sim: pause once simulated time reaches this, s (0 = never)',
+            low=0.0,
+            high=1e9,
+        ),
     ]
 )
 
@@ -95,15 +190,17 @@ PLANT_PARAMETERS = ParamTable(
 class PlantSettings:
     """The plant's run-time settings (SI), from its parameters."""
 
-    chambers: ChamberSettings
+    simulation: SimulationSettings
     command_timeout: float
-    angle_noise_std: float
     frame_id: str
     marker_rate_hz: float
+    real_time_factor: float
+    lockstep_timeout: float
+    pause_at: float
 
 
 class Plant(GloveNode):
-    """The glove plant node: wires ROS to :class:`.Chambers` and ``GloveModel``."""
+    """The glove plant node: wires ROS to :class:`exodigit_model.GloveSimulation`."""
 
     events_executor = True
     executable = 'plant'
@@ -113,18 +210,13 @@ class Plant(GloveNode):
         super().__init__()
         values, settings = self.values, self.settings
         self.model = load_model(values['params_file'])
-        self.stiffness = np.asarray(self.model.geometry.stiffness)
-        self.period = 1.0 / values['rate_hz']
-        noise_streams = np.random.SeedSequence(values['seed']).spawn(2)
-        self.chambers = Chambers(settings.chambers, np.random.default_rng(noise_streams[0]))
-        self.angle_rng = np.random.default_rng(noise_streams[1])
+        self.simulation = GloveSimulation(self.model, settings.simulation)
+        self.state: GloveState = self.simulation.state
+        self.period = self.simulation.period
+        self.sim_clock = values['clock'] == 'sim'
+        self.lockstep = values['lockstep']
         self.watchdog = Watchdog(settings.command_timeout)
         self.command = np.zeros(3)
-        self.angles = np.zeros(3)
-        self.forces = np.zeros(3)
-        self.solution = None
-        self.last_good = None  # the last converged Solution: the warm start of the next solve
-        self.solver_failures = 0
         self.failure_residual = 0.0
         self.failures_reported = 0
         self.cycles = 0
@@ -136,22 +228,56 @@ class Plant(GloveNode):
         self.joint_state.name = [values['joint_prefix'] + name for name in JOINT_NAMES]
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
-        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, GLOVE_QOS)
+        self.clock_message = ClockMessage()
+        # Outputs first, then the input: a controller that sees our command subscription has
+        # seen the outputs announced too.
         self.pressure_publisher = self.create_publisher(
             Float64MultiArray, CHAMBER_PRESSURE, GLOVE_QOS
         )
+        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, GLOVE_QOS)
         self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, GLOVE_QOS)
+        self.outputs = (
+            (self.pressure_publisher, CHAMBER_PRESSURE),
+            (self.joint_publisher, JOINT_STATES),
+            (self.force_publisher, CONTACT_FORCES),
+        )
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, GLOVE_QOS)
-        self.create_subscription(Float64MultiArray, PRESSURE_COMMAND, self.on_command, GLOVE_QOS)
+        self.command_subscription = self.create_subscription(
+            Float64MultiArray, PRESSURE_COMMAND, self.on_command, GLOVE_QOS
+        )
         self.create_service(Trigger, RESET, self.on_reset)
-        self.timer = self.create_timer(self.period, self.step)
         self.create_timer(DIAGNOSTIC_PERIOD, self.report)
         self.marker_timer = None
-        self.apply(settings, {'marker_rate_hz'})
+        self.sim_timer = None
+        if self.sim_clock:
+            self.clock_publisher = self.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
+            self.create_service(SetBool, SET_PAUSED, self.on_set_paused)
+            self.create_service(Trigger, STEP, self.on_step)
+            self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
+            self.pacer = Pacer()
+            self.paused = values['start_paused']
+            self.started = False  # lockstep: the first step is published once a controller is here
+            self.awaiting_answer = False
+            self.unlocked = False
+            self.waiting_since = time.monotonic()
+            self._report_marks = (time.monotonic(), self.state.t)
+        else:
+            self.create_timer(self.period, self.on_wall_timer)
+        self.apply(settings, {'marker_rate_hz', 'real_time_factor'})
+        if self.lockstep and settings.lockstep_timeout > 0.0:
+            timeout = f'{settings.lockstep_timeout:g} s'
+        else:
+            timeout = 'none'
+        time_source = (
+            f'simulated time (real-time factor {settings.real_time_factor:g}, lockstep '
+            f'{"on, answer timeout " + timeout if self.lockstep else "off"})'
+            if self.sim_clock
+            else 'the wall clock'
+        )
         self.get_logger().info(
-            f'plant running at {values["rate_hz"]:g} Hz, model from '
+            f'plant running at {values["rate_hz"]:g} Hz on {time_source}, model from '
             f'{values["params_file"] or "built-in defaults"}, chamber lag '
-            f'{settings.chambers.time_constant:g} s, command timeout '
+            f'{settings.simulation.pressure_time_constant:g} s, command timeout '
             f'{settings.command_timeout:g} s'
         )
 
@@ -159,21 +285,36 @@ class Plant(GloveNode):
 
     def make_settings(self, values) -> PlantSettings:
         """Plant settings from checked parameters (ValueError naming the parameter)."""
+        if values['clock'] != 'sim':
+            for name in ('lockstep', 'start_paused'):
+                if values[name]:
+                    raise ValueError(f'{name} needs clock sim (only simulated time can wait)')
         return PlantSettings(
-            chambers=ChamberSettings(
-                time_constant=values['pressure_time_constant'],
+            simulation=SimulationSettings(
+                rate_hz=values['rate_hz'],
+                pressure_time_constant=values['pressure_time_constant'],
                 max_supply_pressure=values['max_supply_pressure'],
-                noise_std=values['pressure_noise_std'],
+                angle_noise_std=values['angle_noise_std'],
+                pressure_noise_std=values['pressure_noise_std'],
+                seed=values['seed'],
             ),
             command_timeout=values['command_timeout'],
-            angle_noise_std=values['angle_noise_std'],
             frame_id=values['frame_id'],
             marker_rate_hz=values['marker_rate_hz'],
+            real_time_factor=values['real_time_factor'],
+            lockstep_timeout=values['lockstep_timeout'],
+            pause_at=values['pause_at'],
         )
 
     def apply(self, settings: PlantSettings, changed: set[str]) -> None:
         """Use new settings from the next step on."""
-        self.chambers.configure(settings.chambers)
+        simulation = settings.simulation
+        self.simulation.configure(
+            pressure_time_constant=simulation.pressure_time_constant,
+            max_supply_pressure=simulation.max_supply_pressure,
+            angle_noise_std=simulation.angle_noise_std,
+            pressure_noise_std=simulation.pressure_noise_std,
+        )
         self.watchdog.timeout = settings.command_timeout
         if 'marker_rate_hz' in changed:
             if self.marker_timer is not None:
@@ -183,142 +324,322 @@ class Plant(GloveNode):
                 self.marker_timer = self.create_timer(
                     1.0 / settings.marker_rate_hz, self.publish_markers
                 )
+        if self.sim_clock and 'real_time_factor' in changed:
+            self.restart_pacing()
 
     # -- inputs ----------------------------------------------------------------------------
 
     def on_command(self, message: Float64MultiArray) -> None:
-        """Keep a valid command (Pa) and feed the watchdog; drop and count anything else."""
+        """Keep a valid command (Pa) and feed the watchdog; drop and count anything else.
+
+        In lockstep any command, valid or not, is the answer to the latest step.
+        """
         try:
             self.command = joint_vector(message.data, PRESSURE_COMMAND)
         except InvalidInputError as error:
             self.reject(PRESSURE_COMMAND, error)
-            return
-        self.watchdog.feed(self.now_seconds())
+        else:
+            now = self.state.t if self.sim_clock else self.now_seconds()
+            if self.watchdog.feed(now):
+                self.get_logger().info(f'{PRESSURE_COMMAND} again: venting stopped')
+        if self.lockstep:
+            self.on_answer()
+
+    def on_answer(self) -> None:
+        """Lockstep: the latest step has its answer; take the next step if it is due."""
+        if self.unlocked:
+            self.unlocked = False
+            self.get_logger().info(f'{PRESSURE_COMMAND} again: stepping in lockstep again')
+            self.restart_pacing()
+        self.awaiting_answer = False
+        self.try_step(time.monotonic())
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """Pressures, angles and the last command back to zero (until a new command comes)."""
-        self.chambers.reset()
+        """Pressures, angles and the last command back to rest (until a new command comes).
+
+        With clock sim the rest state is published at once as the next step (time goes on).
+        """
+        self.simulation.reset()
         self.command = np.zeros(3)
-        self.angles = np.zeros(3)
-        self.forces = np.zeros(3)
-        self.last_good = None
         self.watchdog.clear()
         response.success = True
-        response.message = 'pressures and joint angles reset to zero; waiting for a new command'
+        response.message = 'pressures and joint angles reset to rest; waiting for a new command'
+        if self.sim_clock:
+            self.wait_for_readers()
+            self.sim_step()
+            response.message += f' (rest state published at t = {self.state.t:.9f} s)'
         self.get_logger().info(response.message)
         return response
 
-    # -- the step --------------------------------------------------------------------------
+    def on_set_paused(
+        self, request: SetBool.Request, response: SetBool.Response
+    ) -> SetBool.Response:
+        """Pause (data true) or resume simulated time; a resumed lockstep waits for an answer."""
+        if request.data != self.paused:
+            self.paused = request.data
+            if not self.paused:
+                self.restart_pacing()
+        response.success = True
+        state = 'paused' if self.paused else 'running'
+        response.message = f'{state} at t = {self.state.t:.9f} s (step {self.state.step})'
+        self.get_logger().info(response.message)
+        if not self.paused:
+            self.try_step(time.monotonic())
+        return response
 
-    def _count_cycle(self) -> None:
+    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """While paused: one step with the latest command; answered after it is published."""
+        if not self.paused:
+            response.success = False
+            response.message = 'not paused: call set_paused (true) first'
+            return response
+        self.wait_for_readers()
+        self.sim_step()
+        response.success = True
+        response.message = f'stepped to t = {self.state.t:.9f} s (step {self.state.step})'
+        return response
+
+    # -- the steps -------------------------------------------------------------------------
+
+    def on_wall_timer(self) -> None:
+        """Wall clock: one step at the node clock's time."""
         wall = time.monotonic()
         if self._last_wall is not None and wall - self._last_wall > LATE_FACTOR * self.period:
             self.late_cycles += 1
         self._last_wall = wall
         self.cycles += 1
-
-    def step(self) -> None:
-        """One cycle: command → chambers → coupled solve → publish."""
-        self._count_cycle()
         stamp = self.get_clock().now()
-        if self.watchdog.expired(stamp.nanoseconds * 1e-9):
-            command = np.zeros(3)
-            if self.watchdog.tripped:
-                self.get_logger().warning(
-                    f'no valid {PRESSURE_COMMAND} for over {self.watchdog.timeout:g} s: venting',
-                    throttle_duration_sec=LOG_THROTTLE,
-                )
-        else:
-            command = self.command
-        pressure = self.chambers.advance(command, self.period)
-        if self.chambers.saturated_now:
-            self.get_logger().warning(
-                f'{PRESSURE_COMMAND} {command.tolist()} Pa saturated to '
-                f'[0, {self.chambers.settings.max_supply_pressure:g}] Pa',
-                throttle_duration_sec=LOG_THROTTLE,
-            )
-        # A previous Solution as the start also reuses its evaluation (exodigit_model docs).
-        start = self.angles if self.last_good is None else self.last_good
-        solution = self.model.solve(pressure, q0=start)
-        self.solution = solution
-        previous = self.angles
-        if solution.converged:
-            self.angles, self.forces = solution.q, solution.forces
-            self.last_good = solution
-        else:
-            self.solver_failures += 1
-            self.failure_residual = solution.residual
-            self.get_logger().warning(
-                f'coupled solve did not converge at p = {pressure.tolist()} Pa (residual '
-                f'{solution.residual:.3g} N·m): keeping the last good state',
-                throttle_duration_sec=LOG_THROTTLE,
-            )
-        self.publish_state(stamp.to_msg(), previous)
+        vent = self.check_watchdog(stamp.nanoseconds * 1e-9)
+        self.advance(stamp.to_msg(), vent=vent)
 
-    def publish_state(self, stamp, previous: np.ndarray) -> None:
-        """Publish joint_states, chamber_pressure and contact_forces of the current state."""
-        angles = self.angles
-        std = self.settings.angle_noise_std
-        measured = angles + self.angle_rng.normal(0.0, std, 3) if std > 0.0 else angles
-        state = self.joint_state
-        state.header.stamp = stamp
-        state.position = array('d', measured)
-        state.velocity = array('d', (angles - previous) / self.period)
-        state.effort = array('d', self.stiffness * angles)
-        fill(self.pressure_message, self.chambers.measured())
-        fill(self.force_message, self.forces)
+    def on_sim_timer(self) -> None:
+        """Simulated time: take the steps that are due (and watch the lockstep timeout)."""
+        wall = time.monotonic()
+        if self.paused:
+            return
+        if self.lockstep and self.awaiting_answer and not self.unlocked:
+            timeout = self.settings.lockstep_timeout
+            if timeout == 0.0 or wall - self.waiting_since <= timeout:
+                return
+            self.unlocked = True
+            self.get_logger().warning(
+                f'no {PRESSURE_COMMAND} within lockstep_timeout {timeout:g} s: venting and '
+                'stepping on at real time until a command comes'
+            )
+            self.restart_pacing()
+        budget = wall + FREE_RUN_BUDGET
+        while self.try_step(wall) and wall < budget and not self.awaiting_answer:
+            wall = time.monotonic()
+
+    def try_step(self, wall: float) -> bool:
+        """Take the next simulated step if nothing holds it back; whether it was taken."""
+        if self.paused or not self.sim_clock:
+            return False
+        locked = self.lockstep and not self.unlocked
+        if locked and (self.awaiting_answer or not (self.started or self.controller_present())):
+            return False
+        next_t = self.state.t + self.period
+        if not self.pacer.due(wall, next_t, self.pacing_factor()):
+            return False
+        self.sim_step()
+        return True
+
+    def sim_step(self) -> None:
+        """One simulated step: /clock, then the step's outputs stamped with its time."""
+        if self.lockstep:
+            venting = self.unlocked
+        else:
+            venting = self.check_watchdog(self.state.t + self.period)
+        state = self.advance(None, vent=venting)
+        self.cycles += 1
+        self.clock_message.clock = Time(sec=state.time_ns // 10**9, nanosec=state.time_ns % 10**9)
+        self.clock_publisher.publish(self.clock_message)
+        self.publish_state(state, self.clock_message.clock)
+        if self.lockstep:
+            self.started = True
+            self.awaiting_answer = True
+            self.waiting_since = time.monotonic()
+        # Pause on crossing pause_at (to the nearest step), not again on every later step.
+        mark = self.settings.pause_at - 0.5 * self.period
+        if self.settings.pause_at > 0.0 and state.t - self.period < mark <= state.t:
+            self.paused = True
+            self.get_logger().info(f'paused at t = {state.t:.9f} s (pause_at)')
+
+    def check_watchdog(self, now: float) -> bool:
+        """Whether the plant vents at ``now`` (s, node or simulated time); says so once."""
+        if self.watchdog.update(now):
+            self.get_logger().warning(
+                f'no valid {PRESSURE_COMMAND} for over {self.watchdog.timeout:g} s: venting'
+            )
+        return self.watchdog.tripped or self.watchdog.last_feed is None
+
+    def advance(self, stamp, *, vent: bool) -> GloveState:
+        """Step the simulation with the latest command (zero when venting); publish if stamped."""
+        state = self.simulation.step(np.zeros(3) if vent else self.command)
+        self.state = state
+        if state.saturated:
+            self.get_logger().warning(
+                f'{PRESSURE_COMMAND} {self.command.tolist()} Pa saturated to '
+                f'[0, {self.simulation.settings.max_supply_pressure:g}] Pa',
+                throttle_duration_sec=LOG_THROTTLE,
+            )
+        if not state.converged:
+            self.failure_residual = state.residual
+            self.get_logger().warning(
+                f'coupled solve did not converge at p = {state.pressure.tolist()} Pa (residual '
+                f'{state.residual:.3g} N·m): keeping the last good state',
+                throttle_duration_sec=LOG_THROTTLE,
+            )
+        if stamp is not None:
+            self.publish_state(state, stamp)
+        return state
+
+    def publish_state(self, state: GloveState, stamp) -> None:
+        """Publish joint_states, chamber_pressure and contact_forces of ``state``."""
+        message = self.joint_state
+        message.header.stamp = stamp
+        message.position = array('d', state.q_measured)
+        message.velocity = array('d', state.qdot)
+        message.effort = array('d', state.finger_torque)
+        fill(self.pressure_message, state.pressure_measured)
+        fill(self.force_message, state.forces)
         # Back to back: the estimator pairs these two by their publication times.
         self.pressure_publisher.publish(self.pressure_message)
-        self.joint_publisher.publish(state)
+        self.joint_publisher.publish(message)
         self.force_publisher.publish(self.force_message)
+
+    # -- simulated time helpers ------------------------------------------------------------
+
+    def pacing_factor(self) -> float:
+        """Simulated seconds per wall second now: never faster than real time when unlocked."""
+        factor = self.settings.real_time_factor
+        if self.unlocked:
+            return 1.0 if factor == 0.0 else min(factor, 1.0)
+        return factor
+
+    def restart_pacing(self) -> None:
+        """Re-anchor the schedule at now and size the loop's wall timer to the pace."""
+        wall = time.monotonic()
+        self.pacer.restart(wall, self.state.t)
+        self.waiting_since = wall
+        factor = self.pacing_factor()
+        low, high = POLL_LIMITS
+        poll = high if factor == 0.0 and self.lockstep and not self.unlocked else low
+        if factor > 0.0:
+            poll = min(max(self.period / factor / 4.0, low), high)
+        if self.sim_timer is not None:
+            if self.sim_timer.timer_period_ns == round(poll * 1e9):
+                return
+            self.destroy_timer(self.sim_timer)
+        self.sim_timer = self.create_timer(poll, self.on_sim_timer, clock=self.wall_clock)
+
+    def controller_present(self) -> bool:
+        """Lockstep start: a node publishes commands and every output reader is matched.
+
+        Until then the first step waits, so that the controller cannot miss the state it must
+        answer.
+        """
+        if self.command_subscription.get_publisher_count() == 0:
+            return False
+        return self.joint_publisher.get_subscription_count() > 0 and self.readers_matched()
+
+    def readers_matched(self) -> bool:
+        """Whether each output has matched every subscriber the graph knows of its topic."""
+        return all(
+            publisher.get_subscription_count() >= self.count_subscribers(topic)
+            for publisher, topic in self.outputs
+        )
+
+    def wait_for_readers(self) -> None:
+        """Before a step asked for by a service: let just-started subscribers be matched."""
+        deadline = time.monotonic() + READER_WAIT
+        while not self.readers_matched() and time.monotonic() < deadline:
+            time.sleep(1e-3)
+
+    def stamp(self):
+        """The stamp of what the plant publishes now: simulated time, or the node clock."""
+        if self.sim_clock:
+            return self.clock_message.clock
+        return self.get_clock().now().to_msg()
 
     def publish_markers(self) -> None:
         """Publish the glove's markers at the current state (only when someone listens)."""
         if self.marker_publisher.get_subscription_count() == 0:
             return
-        stamp = self.get_clock().now().to_msg()
         self.marker_publisher.publish(
-            self.markers.update(self.angles, self.forces, stamp, self.settings.frame_id)
+            self.markers.update(
+                self.state.q, self.state.forces, self.stamp(), self.settings.frame_id
+            )
         )
 
     # -- diagnostics -----------------------------------------------------------------------
 
+    def time_status(self) -> tuple[list[str], dict[str, str]]:
+        """Problems and key/values of simulated time (none with the wall clock)."""
+        if not self.sim_clock:
+            return [], {'clock': 'wall'}
+        wall, sim = time.monotonic(), self.state.t
+        last_wall, last_sim = self._report_marks
+        self._report_marks = (wall, sim)
+        measured = (sim - last_sim) / (wall - last_wall) if wall > last_wall else 0.0
+        if not self.lockstep:
+            lockstep = 'off'
+        elif self.unlocked:
+            lockstep = 'unlocked: no answer within lockstep_timeout, vented'
+        elif not self.started:
+            lockstep = 'waiting for a controller'
+        else:
+            lockstep = 'waiting for the answer' if self.awaiting_answer else 'locked'
+        problems = ['lockstep: no answer, vented, stepping at real time'] if self.unlocked else []
+        return problems, {
+            'clock': 'sim',
+            'simulated time (s)': f'{sim:.9f}',
+            'paused': str(self.paused),
+            'real time factor (set)': f'{self.settings.real_time_factor:g}',
+            'real time factor (measured)': f'{measured:.3g}',
+            'lockstep': lockstep,
+            'schedule restarts (late)': str(self.pacer.late_restarts),
+        }
+
     def report(self) -> None:
         """One /diagnostics status: solver, validity, watchdog, saturation, timing."""
-        now = self.now_seconds()
-        solution = self.solution
-        problems = []
+        now = self.state.t if self.sim_clock else self.now_seconds()
+        state = self.state
+        problems, time_values = self.time_status()
         if self.watchdog.tripped:
             problems.append(f'watchdog: no command for {self.watchdog.age(now):.2f} s, vented')
-        if self.solver_failures > self.failures_reported:
+        failures = self.simulation.solver_failures
+        if failures > self.failures_reported:
             problems.append(
-                f'solver did not converge {self.solver_failures - self.failures_reported} times '
+                f'solver did not converge {failures - self.failures_reported} times '
                 f'(last residual {self.failure_residual:.3g} N·m), kept the last good state'
             )
-            self.failures_reported = self.solver_failures
-        if solution is not None and not solution.in_valid_range:
+            self.failures_reported = failures
+        if not state.in_valid_range:
             problems.append('outside the validated stretch range 1 <= lambda <= 1.5')
-        if self.chambers.saturated_now:
+        if state.saturated:
             problems.append('command saturated to the supply range')
+        saturation = self.simulation.chambers.saturation
         values = {
-            'joint angles (rad)': str(self.angles.tolist()),
-            'chamber pressure (Pa)': str(self.chambers.pressure.tolist()),
-            'solver iterations': str(solution.iterations if solution else 0),
-            'solver residual (N·m)': f'{solution.residual if solution else 0.0:.3g}',
-            'solver failures': str(self.solver_failures),
-            'in valid range': str(bool(solution.in_valid_range) if solution else True),
+            'joint angles (rad)': str(state.q.tolist()),
+            'chamber pressure (Pa)': str(state.pressure.tolist()),
+            'solver iterations': str(state.iterations),
+            'solver residual (N·m)': f'{state.residual:.3g}',
+            'solver failures': str(failures),
+            'in valid range': str(bool(state.in_valid_range)),
             'watchdog': 'venting'
             if self.watchdog.tripped
             else ('waiting for a command' if self.watchdog.last_feed is None else 'ok'),
             'command age (s)': f'{self.watchdog.age(now):.3f}',
             'watchdog trips': str(self.watchdog.trips),
-            'saturated below 0': str(self.chambers.saturation.below_zero),
-            'saturated above supply': str(self.chambers.saturation.above_supply),
+            'saturated below 0': str(saturation.below_zero),
+            'saturated above supply': str(saturation.above_supply),
             'cycles': str(self.cycles),
             'late cycles': str(self.late_cycles),
+            **time_values,
         }
         level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
-        self.publish_status(level, '; '.join(problems) or 'running', values)
+        self.publish_status(level, '; '.join(problems) or 'running', values, self.stamp())
 
 
 def main(args: list[str] | None = None) -> int:

@@ -8,6 +8,11 @@ parameter or topic) and ``force`` (target contact forces with PI on
 no faster than max_pressure_rate, ramping down when a joint leaves its range of motion or a
 contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes zero pressure.
 
+It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
+simulated time, INTERFACES.md Part II), answers each ``joint_states`` with one command computed
+from that state and its stamp (in ``force`` mode: from that state and the estimate of the same
+step).
+
 Run: ``python -m exodigit_nodes.pressure_command --ros-args -p mode:=staircase``.
 """
 
@@ -73,7 +78,14 @@ COMMAND_PARAMETERS = ParamTable(
             read_only=True,
         ),
         ParamSpec('mode', 'sine', 'Command session', choices=MODES),
-        ParamSpec('rate_hz', 100.0, 'Command rate, Hz', 1.0, 1000.0, True),
+        ParamSpec('rate_hz', 100.0, 'Command rate, Hz', low=1.0, high=1000.0, read_only=True),
+        ParamSpec(
+            'lockstep',
+            False,
+            'Answer each joint_states with one command instead of commanding on a timer '
+            '(the plant in lockstep, clock sim)',
+            read_only=True,
+        ),
         ParamSpec('staircase_step', 10e3, 'staircase: pressure step, Pa', 100.0, 1e6),
         ParamSpec('staircase_peak', 50e3, 'staircase: highest level, Pa', 100.0, 1e6),
         ParamSpec('step_duration', 2.0, 'staircase: time on each level, s', 0.01, 3600.0),
@@ -156,18 +168,24 @@ class PressureCommand(GloveNode):
         self.controller = self.make_controller()
         self.started = self.now_seconds()
         self.last_tick: float | None = None
+        self.lockstep = self.values['lockstep']
+        self.pending: dict[str, tuple[float, np.ndarray] | None] = {'angles': None, 'forces': None}
 
         self.command_message = joint_vector_message()
-        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        # Subscriptions before the publisher: when the plant sees our commands' publisher, it
+        # has (practically always) seen our joint_states subscription announced first.
         self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
         self.create_subscription(
             Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, GLOVE_QOS
         )
         self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, GLOVE_QOS)
-        self.create_timer(self.period, self.tick)
+        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        if not self.lockstep:
+            self.create_timer(self.period, self.tick)
         self.create_timer(DIAGNOSTIC_PERIOD, self.report)
+        pace = 'in lockstep with joint_states' if self.lockstep else f'at {self.period**-1:g} Hz'
         self.get_logger().info(
-            f'pressure_command: mode {self.values["mode"]} at {self.values["rate_hz"]:g} Hz, '
+            f'pressure_command: mode {self.values["mode"]} {pace}, '
             f'max {self.values["max_pressure"]:g} Pa, {self.values["max_pressure_rate"]:g} Pa/s'
         )
 
@@ -227,16 +245,24 @@ class PressureCommand(GloveNode):
     # -- inputs ----------------------------------------------------------------------------
 
     def on_joint_states(self, message: JointState) -> None:
-        """Keep valid, recently stamped joint angles (rad) with their arrival time."""
+        """Keep valid, recently stamped joint angles (rad) with their arrival time.
+
+        In lockstep the state's stamp is the time itself (a node that has just started has not
+        heard ``/clock`` yet), so it is not compared with the node clock.
+        """
         now = self.now_seconds()
         try:
             angles = joint_positions(message)
             stamp = stamp_seconds(message.header.stamp)
-            stamp_age(stamp, now, self.values['feedback_timeout'], JOINT_STATES)
+            if not self.lockstep:
+                stamp_age(stamp, now, self.values['feedback_timeout'], JOINT_STATES)
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
             return
         self.angles = (now, angles)
+        if self.lockstep:
+            self.pending['angles'] = (stamp, angles)
+            self.answer()
 
     def on_forces(self, message: Float64MultiArray) -> None:
         """Keep valid estimated contact forces (N) with their arrival time."""
@@ -246,6 +272,9 @@ class PressureCommand(GloveNode):
             self.reject(ESTIMATED_CONTACT_FORCES, error)
             return
         self.forces = (self.now_seconds(), forces)
+        if self.lockstep:
+            self.pending['forces'] = (self.now_seconds(), forces)
+            self.answer()
 
     def on_targets(self, message: Float64MultiArray) -> None:
         """New position targets (rad), accepted only inside the range of motion."""
@@ -274,14 +303,32 @@ class PressureCommand(GloveNode):
     # -- the loop --------------------------------------------------------------------------
 
     def tick(self) -> None:
-        """Compute, limit and publish one command."""
+        """Timer: compute, limit and publish one command from the freshest feedback."""
         now = self.now_seconds()
         # Never more than one period (the rate limit stays a limit when a tick runs late),
         # never negative (a clock set back).
         elapsed = self.period if self.last_tick is None else now - self.last_tick
         dt = min(max(elapsed, 0.0), self.period)
         self.last_tick = now
-        feedback = Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now))
+        self.command(now, dt, Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now)))
+
+    def answer(self) -> None:
+        """Lockstep: one command for the pending state (and, in force mode, its estimate).
+
+        The state's stamp is the controller's time; dt is the step between two stamps.
+        """
+        state, forces = self.pending['angles'], self.pending['forces']
+        force_mode = isinstance(self.controller, ForceController)
+        if state is None or (force_mode and forces is None):
+            return
+        self.pending = {'angles': None, 'forces': None}
+        stamp, angles = state
+        dt = self.period if self.last_tick is None else max(stamp - self.last_tick, 0.0)
+        self.last_tick = stamp
+        self.command(stamp, dt, Feedback(angles, None if forces is None else forces[1]))
+
+    def command(self, now: float, dt: float, feedback: Feedback) -> None:
+        """Compute, limit and publish the command at ``now`` (s) after ``dt`` (s)."""
         controller = self.controller
         missing = controller.closed_loop and (
             feedback.angles is None

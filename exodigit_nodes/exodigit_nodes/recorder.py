@@ -6,11 +6,12 @@ Usage::
 
 Subscribes, in its namespace, to every glove topic of INTERFACES.md (``joint_states``,
 ``chamber_pressure``, ``pressure_command``, ``contact_forces``, ``estimated_contact_forces``,
-``estimated_finger_stiffness``, ``joint_targets``, ``markers``) and to ``/diagnostics``, and writes
-the serialized (CDR) messages as they arrive, stamped with the node clock, to the bag folder
-``DIR`` with the ``rosbags`` library. The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and
-``exodigit plot DIR`` draws it. Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes
-the bag cleanly (metadata.yaml written); a topic nobody publishes is listed with 0 messages.
+``estimated_finger_stiffness``, ``joint_targets``, ``markers``) and to ``/diagnostics`` and
+``/clock``, and writes the serialized (CDR) messages as they arrive, stamped with the node clock
+(simulated time under ``use_sim_time``), to the bag folder ``DIR`` with the ``rosbags`` library.
+The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
+Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
+written); a topic nobody publishes is listed with 0 messages.
 """
 
 from __future__ import annotations
@@ -23,13 +24,14 @@ from pathlib import Path
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
 from .node_base import ConfigurationError, serve
-from .qos import GLOVE_QOS
+from .qos import RECORD_QOS
 
 TOPICS = {
     messages.JOINT_STATES: JointState,
@@ -41,6 +43,7 @@ TOPICS = {
     messages.JOINT_TARGETS: Float64MultiArray,
     messages.MARKERS: MarkerArray,
     messages.DIAGNOSTICS: DiagnosticArray,
+    messages.CLOCK: Clock,
 }
 """Recorded topics (relative names resolve in the node's namespace) and their message types."""
 
@@ -113,7 +116,7 @@ class Recorder(Node):
                 message_class,
                 topic,
                 self._callback_for(topic),
-                GLOVE_QOS,
+                RECORD_QOS,
                 raw=True,
             )
             resolved[topic] = subscription.topic_name

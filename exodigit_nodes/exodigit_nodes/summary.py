@@ -118,9 +118,10 @@ class GloveSignals:
         self.latest: dict[str, np.ndarray | None] = dict.fromkeys(SIGNALS)
         self.health: dict[str, Health | None] = dict.fromkeys(nodes)
         self.time: float | None = None
+        self.stamp: float | None = None
+        """Latest plant-step stamp, s (simulated time with clock sim)."""
         self._first_stamp: float | None = None
         self._waiting = {topic: deque(maxlen=JOIN_BUFFER) for topic in STEP_ORDER}
-        self._stream: deque = deque()  # known messages in publication order, not yet joined
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -155,32 +156,28 @@ class GloveSignals:
     def _join(self) -> list[Sample]:
         """The plant steps now complete, oldest first.
 
-        Each topic arrives in publication order, so once every topic has delivered a message
-        published after time ``h``, all messages up to ``h`` are known. Merged by publication
-        time they read ``chamber_pressure, joint_states, contact_forces`` step after step
-        (`STEP_ORDER`); a step is three consecutive messages in that order. A step that lost a
-        message (a full history) breaks the pattern and is skipped, never mixed with another.
+        Each topic arrives in publication order, so the head of each topic's queue is its oldest
+        message not yet joined. When the three heads, ordered by publication time, read
+        ``chamber_pressure, joint_states, contact_forces`` (`STEP_ORDER`) they are one step;
+        otherwise the earliest head's partners were lost (a later message of their topic is
+        already here) and it is skipped, never mixed with another step.
         """
-        if all(self._waiting.values()):
-            horizon = min(queue[-1][0] for queue in self._waiting.values())
-            known = []
-            for topic, queue in self._waiting.items():
-                while queue and queue[0][0] <= horizon:
-                    known.append((queue.popleft(), topic))
-            self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
         samples = []
-        while len(self._stream) >= len(STEP_ORDER):
-            step = [self._stream[i] for i in range(len(STEP_ORDER))]
-            if tuple(topic for _, topic in step) != STEP_ORDER:
-                self._stream.popleft()
+        while all(self._waiting.values()):
+            heads = sorted(
+                (queue[0][0], STEP_ORDER.index(topic), topic)
+                for topic, queue in self._waiting.items()
+            )
+            if tuple(topic for _, _, topic in heads) != STEP_ORDER:
+                self._waiting[heads[0][2]].popleft()
                 continue
-            for _ in step:
-                self._stream.popleft()
-            stamp = step[STEP_ORDER.index('joint_states')][0][2]
+            step = {topic: queue.popleft() for topic, queue in self._waiting.items()}
+            stamp = step['joint_states'][2]
             if self._first_stamp is None:
                 self._first_stamp = stamp
+            self.stamp = stamp
             self.time = stamp - self._first_stamp
-            values = {topic: message[1] for message, topic in step}
+            values = {topic: message[1] for topic, message in step.items()}
             samples.append(Sample(self.time, {**self.latest, **values}))
         return samples
 

@@ -1,0 +1,332 @@
+"""Stepping the glove in time (MODEL.md §13): the one stepper behind every simulation.
+
+The model is quasi-static; time enters through the chambers' lag and the sensors. One step of
+length Δt = 1/``rate_hz`` from the state at t_{k−1}:
+
+1. chambers: exact zero-order-hold lag toward the command clipped to the supply range
+   (:mod:`.chambers`);
+2. the coupled solve (eq 36) at the new pressures, warm-started from the last converged
+   solution; a solve that does not converge keeps the last good state and says so;
+3. q̇ = (q − q_prev)/Δt, and the measured angles and pressures with seeded Gaussian noise (the
+   true state is never noisy).
+
+:class:`GloveSimulation` steps one glove, or ``count`` independent gloves in one vectorised solve
+per step. The ROS plant, the in-process API and the Gymnasium environment all use it, so they
+cannot disagree.
+
+>>> from exodigit_model import GloveSimulation
+>>> simulation = GloveSimulation(settings=SimulationSettings(pressure_time_constant=0.0))
+>>> state = simulation.step([30e3, 30e3, 30e3])
+>>> round(state.t, 3), bool(state.q[0] > 0.2)
+(0.01, True)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .chambers import Chambers, ChamberSettings
+from .model import BatchSolution, GloveModel, Solution, as_joint_rows, as_joint_vector
+
+NANOSECONDS = 10**9
+
+
+def step_time_ns(step: int, rate_hz: float) -> int:
+    """t_k = round(k·10⁹/rate_hz) ns: the time of step k, without drift at any rate."""
+    return round(step * 1e9 / rate_hz)
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """How the glove is stepped and sensed (SI). The defaults are the ROS plant's.
+
+    Attributes
+    ----------
+    rate_hz : float
+        Steps per simulated second, Hz (Δt = 1/rate_hz).
+    pressure_time_constant : float
+        T of the chambers' first-order lag, s; 0 = ideal.
+    max_supply_pressure : float
+        Supply saturation: commands are clipped to [0, this], Pa.
+    angle_noise_std : float
+        Standard deviation of the joint-angle sensor noise, rad.
+    pressure_noise_std : float
+        Standard deviation of the chamber-pressure sensor noise, Pa.
+    seed : int
+        Seed of the sensor noise (the same seed gives the same noise, bit for bit).
+    """
+
+    rate_hz: float = 100.0
+    pressure_time_constant: float = 0.05
+    max_supply_pressure: float = 100e3
+    angle_noise_std: float = 0.0
+    pressure_noise_std: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        """Refuse values that break a rule, naming the field, the value and the rule."""
+        for item in fields(self):
+            value = getattr(self, item.name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f'{item.name} = {value!r}: must be a number')
+            if not math.isfinite(value) or value < 0:
+                raise ValueError(f'{item.name} = {value!r}: must be finite and >= 0')
+        if self.rate_hz <= 0.0:
+            raise ValueError(f'rate_hz = {self.rate_hz!r}: must be > 0')
+        if not isinstance(self.seed, int):
+            raise ValueError(f'seed = {self.seed!r}: must be an integer')
+        ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
+
+    @property
+    def period(self) -> float:
+        """Δt, s."""
+        return 1.0 / self.rate_hz
+
+    @property
+    def chambers(self) -> ChamberSettings:
+        """The chamber part of these settings."""
+        return ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
+
+
+FIXED_SETTINGS = ('rate_hz', 'seed')
+"""Settings a running simulation cannot change (they define its time grid and noise streams)."""
+
+
+@dataclass(frozen=True)
+class GloveState:
+    """The glove (or N gloves) at the end of a step; arrays (3,) or (N, 3), SI units.
+
+    Attributes
+    ----------
+    step : int
+        k: steps taken since the simulation was made (``reset`` does not rewind it).
+    t : float
+        Simulated time t_k, s (``time_ns`` · 1e-9).
+    time_ns : int
+        t_k, ns.
+    command : ndarray
+        The pressure command the step applied, after saturation, Pa.
+    pressure : ndarray
+        True chamber pressures, Pa.
+    pressure_measured : ndarray
+        Chamber pressures as the sensors report them, Pa.
+    q : ndarray
+        True joint angles, rad (the last good ones where the solve failed).
+    q_measured : ndarray
+        Joint angles as the sensors report them, rad.
+    qdot : ndarray
+        (q − q_prev)/Δt, rad/s.
+    forces : ndarray
+        Contact forces f (MODEL.md §6), N.
+    finger_torque : ndarray
+        Torque the exo-digit applies to each finger joint, (J_H*)ᵀ f = K_H q, N·m.
+    converged : bool or ndarray of bool
+        Whether this step's solve converged (per glove for a batch).
+    iterations : int or ndarray
+        Newton steps of this step's solve.
+    residual : float or ndarray
+        Residual norm of this step's solve, N·m.
+    in_valid_range : bool or ndarray of bool
+        Whether every fibre's stretch lies in the model's validated range.
+    saturated : bool
+        Whether the command had to be clipped to [0, max_supply_pressure] in this step.
+    """
+
+    step: int
+    t: float
+    time_ns: int
+    command: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    pressure_measured: NDArray[np.float64]
+    q: NDArray[np.float64]
+    q_measured: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    finger_torque: NDArray[np.float64]
+    converged: bool | NDArray[np.bool_]
+    iterations: int | NDArray[np.int_]
+    residual: float | NDArray[np.float64]
+    in_valid_range: bool | NDArray[np.bool_]
+    saturated: bool
+
+
+class GloveSimulation:
+    """The glove stepped in time (MODEL.md §13): one glove, or ``count`` gloves in one batch.
+
+    Parameters
+    ----------
+    model : GloveModel, optional
+        The glove and finger; the defaults of MODEL.md §10 when omitted.
+    settings : SimulationSettings, optional
+        Rate, chamber lag, supply, sensor noise and seed; the ROS plant's defaults when omitted.
+    count : int, optional
+        Number of independent gloves stepped together; omitted = one glove, whose arrays have
+        shape (3,) (with ``count`` they have shape (count, 3), also for ``count=1``).
+
+    Notes
+    -----
+    Every glove of a batch starts at rest and receives its own row of the command. The noise
+    streams come from ``seed`` (numpy's SeedSequence): angles and pressures draw from two
+    independent streams, in that order, every step.
+    """
+
+    def __init__(
+        self,
+        model: GloveModel | None = None,
+        settings: SimulationSettings | None = None,
+        *,
+        count: int | None = None,
+    ) -> None:
+        if count is not None and (
+            isinstance(count, bool) or not isinstance(count, int) or count < 1
+        ):
+            raise ValueError(f'count = {count!r}: must be a positive integer (or None)')
+        self.model = GloveModel() if model is None else model
+        self.settings = SimulationSettings() if settings is None else settings
+        self.count = count
+        self.shape = (3,) if count is None else (count, 3)
+        self.period = self.settings.period
+        self.chambers = Chambers(self.settings.chambers, self.period, self.shape)
+        angle_stream, pressure_stream = np.random.SeedSequence(self.settings.seed).spawn(2)
+        self._angle_noise = np.random.default_rng(angle_stream)
+        self._pressure_noise = np.random.default_rng(pressure_stream)
+        self._stiffness = np.asarray(self.model.geometry.stiffness)
+        self.step_count = 0
+        self.solver_failures = 0
+        """Steps whose solve did not converge (the last good state was kept)."""
+        self.state = self._rest_state()
+
+    # -- configuration ---------------------------------------------------------------------
+
+    def configure(self, **changes: float) -> None:
+        """Change settings from the next step on (not ``rate_hz`` or ``seed``).
+
+        Raises
+        ------
+        ValueError
+            For an unknown or fixed setting, or a value that breaks its rule.
+        """
+        fixed = sorted(set(changes) & set(FIXED_SETTINGS))
+        if fixed:
+            raise ValueError(f'{fixed[0]} is fixed once the simulation exists')
+        self.settings = replace(self.settings, **changes)
+        self.chambers.configure(self.settings.chambers)
+
+    # -- stepping --------------------------------------------------------------------------
+
+    def reset(self) -> GloveState:
+        """Vent the chambers and return every glove to rest; time goes on (not rewound).
+
+        Returns the state at rest, at the current time (no step is taken).
+        """
+        self.chambers.reset()
+        self.state = self._rest_state()
+        return self.state
+
+    def step(self, command: ArrayLike) -> GloveState:
+        """Advance one step of Δt under the pressure ``command`` (Pa, shape (3,) or (N, 3)).
+
+        Returns
+        -------
+        GloveState
+            The state at t_{k+1}. Never raises for a solve that fails to converge: that glove
+            keeps its last good state, and ``converged`` says so.
+
+        Raises
+        ------
+        ValueError
+            If ``command`` has the wrong shape or a non-finite value.
+        """
+        if self.count is None:
+            command = as_joint_vector('command', command)
+        else:
+            command = as_joint_rows('command', command)
+            if command.shape != self.shape:
+                raise ValueError(f'command must have shape {self.shape}, got {command.shape}')
+        previous = self.state.q
+        pressure = self.chambers.advance(command)
+        if self.count is None:
+            q, forces, solution = self._solve_one(pressure)
+        else:
+            q, forces, solution = self._solve_batch(pressure)
+        self.step_count += 1
+        time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
+        self.state = GloveState(
+            step=self.step_count,
+            t=time_ns / NANOSECONDS,
+            time_ns=time_ns,
+            command=self.chambers.command,
+            pressure=pressure,
+            pressure_measured=self._measured(pressure, self._pressure_noise, 'pressure'),
+            q=q,
+            q_measured=self._measured(q, self._angle_noise, 'angle'),
+            qdot=(q - previous) / self.period,
+            forces=forces,
+            finger_torque=self._stiffness * q,
+            converged=solution.converged,
+            iterations=solution.iterations,
+            residual=solution.residual,
+            in_valid_range=solution.in_valid_range,
+            saturated=self.chambers.saturated_now,
+        )
+        return self.state
+
+    def _solve_one(self, pressure: NDArray[np.float64]) -> tuple:
+        p = pressure.tolist()
+        # F is affine in p: the last good evaluation, re-priced, is the first Newton iterate.
+        solution, final = self.model._solve(p, self._warm.at_pressure(p))
+        if solution.converged:
+            self._warm = final
+            return solution.q, solution.forces, solution
+        self.solver_failures += 1
+        return self.state.q, self.state.forces, solution
+
+    def _solve_batch(self, pressure: NDArray[np.float64]) -> tuple:
+        solution: BatchSolution = self.model.solve_batch(pressure, Q0=self.state.q)
+        good = solution.converged[:, None]
+        self.solver_failures += int(np.count_nonzero(~solution.converged))
+        q = np.where(good, solution.q, self.state.q)
+        forces = np.where(good, solution.forces, self.state.forces)
+        return q, forces, solution
+
+    def _measured(self, true: NDArray[np.float64], rng: np.random.Generator, sensor: str):
+        """``true`` plus Gaussian noise of the ``<sensor>_noise_std`` setting from ``rng``.
+
+        A quiet sensor (std 0) draws nothing, so turning one sensor's noise on leaves the
+        other's stream untouched.
+        """
+        std = getattr(self.settings, f'{sensor}_noise_std')
+        if std == 0.0:
+            return true
+        return true + rng.normal(0.0, std, self.shape)
+
+    def _rest_state(self) -> GloveState:
+        zeros = np.zeros(self.shape)
+        rest: Solution = self.model.solve(np.zeros(3))
+        self._warm = self.model._evaluate(rest.q, np.zeros(3), free=False)
+        q = np.broadcast_to(rest.q, self.shape).copy()
+        forces = np.broadcast_to(rest.forces, self.shape).copy()
+        batch = self.count is not None
+        time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
+        return GloveState(
+            step=self.step_count,
+            t=time_ns / NANOSECONDS,
+            time_ns=time_ns,
+            command=zeros,
+            pressure=zeros,
+            pressure_measured=zeros,
+            q=q,
+            q_measured=q,
+            qdot=zeros,
+            forces=forces,
+            finger_torque=self._stiffness * q,
+            converged=np.ones(self.count, bool) if batch else True,
+            iterations=np.zeros(self.count, int) if batch else 0,
+            residual=np.zeros(self.count) if batch else 0.0,
+            in_valid_range=np.ones(self.count, bool) if batch else True,
+            saturated=False,
+        )

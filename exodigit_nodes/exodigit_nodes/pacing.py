@@ -1,0 +1,58 @@
+"""When the next simulated step is due in wall time, at a real-time factor (INTERFACES.md II).
+
+Plain Python (no ROS), so the schedule is unit-testable. The schedule is anchored: step times
+are measured from the wall and simulated times of the latest :meth:`Pacer.restart`, so rounding
+never accumulates and simulated time keeps pace with wall time over long runs. A plant that
+falls more than ``MAX_CATCH_UP`` behind its schedule (a loaded machine, a slow controller in
+lockstep) is re-anchored instead of publishing a burst of steps to catch up.
+"""
+
+from __future__ import annotations
+
+CLOCKS = ('wall', 'sim')
+"""Time sources of the plant: the system clock, or its own simulated time."""
+MAX_REAL_TIME_FACTOR = 1000.0
+"""Highest real-time factor a plant accepts."""
+MAX_CATCH_UP = 0.1
+"""Largest lag behind the schedule that is caught up with back-to-back steps, wall s."""
+
+
+class Pacer:
+    """Wall-clock schedule of simulated steps.
+
+    Attributes
+    ----------
+    late_restarts : int
+        How often the plant fell more than ``MAX_CATCH_UP`` behind and the schedule was
+        re-anchored.
+    """
+
+    def __init__(self) -> None:
+        self._wall = 0.0
+        self._sim = 0.0
+        self.late_restarts = 0
+
+    def restart(self, wall: float, sim: float) -> None:
+        """Anchor the schedule: simulated time ``sim`` (s) is due at wall time ``wall`` (s)."""
+        self._wall, self._sim = wall, sim
+
+    def due(self, wall: float, next_sim: float, factor: float) -> bool:
+        """Whether the step to simulated time ``next_sim`` may start at wall time ``wall``.
+
+        Parameters
+        ----------
+        wall : float
+            Now, monotonic wall seconds.
+        next_sim : float
+            Simulated time of the step to take, s.
+        factor : float
+            Simulated seconds per wall second; 0 = no pacing (always due).
+        """
+        if factor == 0.0:
+            return True
+        target = self._wall + (next_sim - self._sim) / factor
+        if wall - target > MAX_CATCH_UP:
+            self.late_restarts += 1
+            self.restart(wall, next_sim)  # this step now, the next ones on time from here
+            return True
+        return wall >= target
