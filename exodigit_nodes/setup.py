@@ -31,5 +31,7 @@ setup(
             f'glove = {PACKAGE}.glove:main',
             f'recorder = {PACKAGE}.recorder:main',
         ],
+        # The testing kit's glove_sim fixture, for every pytest run where the package is installed.
+        'pytest11': [f'exodigit_glove_sim = {PACKAGE}.testing.plugin'],
     },
 )

@@ -27,13 +27,8 @@ Example::
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import fcntl
 import os
-import random
 import signal
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -41,19 +36,24 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
+    STOP_TIMEOUT,
+    DomainLease,
+    NodeProcess,
+    claim_domain,
+    cpu_seconds,
+    format_value,
+    ros_args,
+    ros_environment,
+)
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
-"""Domain ids tests may use (37 is the Makefile's ``make run`` domain)."""
-LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
 DISCOVERY_TIMEOUT = 10.0
 """Longest wait for two processes to discover each other, s (median here is 0.45 s)."""
-STOP_TIMEOUT = 2.0
-"""How long a node may take to exit after SIGINT, s (INTERFACES.md)."""
 TEST_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 """Probe subscriptions: reliable like the glove's topics, deep so a busy test loses nothing."""
 
@@ -69,202 +69,6 @@ def wait_until(condition: Callable[[], Any], timeout: float, interval: float = 0
         if value or time.monotonic() > deadline:
             return value
         time.sleep(interval)
-
-
-# -- domains and environment ---------------------------------------------------------------
-
-
-class DomainLease:
-    """An exclusive hold on one ROS_DOMAIN_ID for this process; release it when done."""
-
-    def __init__(self, domain_id: int, handle) -> None:
-        self.domain_id = domain_id
-        self._handle = handle
-
-    def release(self) -> None:
-        """Give the domain id back."""
-        if self._handle is not None:
-            fcntl.flock(self._handle, fcntl.LOCK_UN)
-            self._handle.close()
-            self._handle = None
-
-
-def claim_domain(candidates=DOMAIN_IDS) -> DomainLease:
-    """Lock a domain id nobody else on this machine holds (tried in random order)."""
-    order = list(candidates)
-    random.shuffle(order)
-    for domain_id in order:
-        handle = open(LOCK_PATTERN.format(domain_id), 'a')  # noqa: SIM115 (held until release)
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
-            continue
-        return DomainLease(domain_id, handle)
-    raise RuntimeError(f'every test ROS domain id in {order[0]}..{order[-1]} is in use')
-
-
-def ros_environment(domain_id: int) -> dict[str, str]:
-    """This process's environment for a ROS child: own domain, loopback-only discovery."""
-    env = dict(os.environ)
-    env['ROS_DOMAIN_ID'] = str(domain_id)
-    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    env.pop('ROS_LOCALHOST_ONLY', None)
-    env['PYTHONUNBUFFERED'] = '1'
-    return env
-
-
-def format_value(value: Any) -> str:
-    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, str):
-        return "'" + value.replace("'", "''") + "'"
-    if isinstance(value, list | tuple):
-        return '[' + ','.join(format_value(v) for v in value) + ']'
-    return repr(value)
-
-
-def ros_args(
-    parameters: Mapping[str, Any] | None = None,
-    namespace: str | None = None,
-    name: str | None = None,
-    extra: list[str] | None = None,
-) -> list[str]:
-    """The ``--ros-args`` tail: ``extra``, then overrides, namespace and node-name remaps.
-
-    ``extra`` comes first so that the ``-p`` overrides win over a ``--params-file`` in it (the
-    last setting of a parameter wins).
-    """
-    args = ['--ros-args', *(extra or [])]
-    for key, value in (parameters or {}).items():
-        args += ['-p', f'{key}:={format_value(value)}']
-    if namespace:
-        args += ['-r', f'__ns:={namespace}']
-    if name:
-        args += ['-r', f'__node:={name}']
-    return args
-
-
-# -- node processes ------------------------------------------------------------------------
-
-
-_PR_SET_PDEATHSIG = 1
-
-
-def _stop_with_parent() -> None:
-    """In the child before exec: SIGTERM it when the test process dies (even by SIGKILL).
-
-    A node left running by a killed test session would otherwise keep publishing into a domain
-    id that the next session may claim.
-    """
-    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
-
-
-def cpu_seconds(pid: int) -> float:
-    """User + system CPU time process ``pid`` has used so far, s (from /proc)."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
-
-
-class NodeProcess:
-    """One node run as a user would: ``python -m exodigit_nodes.<module> --ros-args ...``.
-
-    Parameters
-    ----------
-    module : str
-        ``plant``, ``pressure_command``, ``estimator`` (any module of exodigit_nodes).
-    parameters : mapping, optional
-        ``-p`` overrides.
-    domain_id : int
-        ROS_DOMAIN_ID for the process.
-    workdir : path
-        Scratch directory: the working directory and where ``<label>.out/.err`` logs go.
-    namespace, name : str, optional
-        ``__ns`` and ``__node`` remaps.
-    extra : list of str, optional
-        More ROS arguments, placed before the overrides (e.g. ``['--params-file', path]``).
-    """
-
-    def __init__(
-        self,
-        module: str,
-        parameters: Mapping[str, Any] | None,
-        domain_id: int,
-        workdir: Path,
-        namespace: str | None = None,
-        name: str | None = None,
-        extra: list[str] | None = None,
-    ) -> None:
-        self.module = module
-        workdir = Path(workdir)
-        label = f'{module}{(namespace or "").replace("/", "_")}-{time.monotonic_ns()}'
-        self.stdout_path = workdir / f'{label}.out'
-        self.stderr_path = workdir / f'{label}.err'
-        command = [sys.executable, '-m', f'exodigit_nodes.{module}']
-        command += ros_args(parameters, namespace, name, extra)
-        with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
-            self.process = subprocess.Popen(
-                command,
-                cwd=workdir,
-                env=ros_environment(domain_id),
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=err,
-                start_new_session=True,
-                preexec_fn=_stop_with_parent,
-            )
-        self.pid = self.process.pid
-
-    def alive(self) -> bool:
-        """Whether the process is still running."""
-        return self.process.poll() is None
-
-    def signal(self, signum: int) -> None:
-        """Send a signal to the node's process group (if still running)."""
-        if self.alive():
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.pid, signum)
-
-    def wait(self, timeout: float) -> int | None:
-        """Exit status, or None if still running after ``timeout`` s."""
-        try:
-            return self.process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            return None
-
-    def stop(self, timeout: float = STOP_TIMEOUT) -> int:
-        """SIGINT, wait ``timeout`` s, then SIGKILL if needed; returns the exit status."""
-        self.signal(signal.SIGINT)
-        code = self.wait(timeout)
-        if code is None:
-            self.signal(signal.SIGKILL)
-            code = self.process.wait()
-        return code
-
-    def kill(self) -> int:
-        """SIGKILL at once (fault tests); returns the exit status."""
-        self.signal(signal.SIGKILL)
-        return self.process.wait()
-
-    def stderr(self) -> str:
-        """What the node wrote on stderr so far."""
-        return self.stderr_path.read_text(errors='replace')
-
-    def stdout(self) -> str:
-        """What the node wrote on stdout so far."""
-        return self.stdout_path.read_text(errors='replace')
-
-    def cpu_seconds(self) -> float:
-        """User + system CPU time used so far, s (from /proc)."""
-        return cpu_seconds(self.pid)
-
-    def rss_bytes(self) -> int:
-        """Resident memory now, bytes (from /proc)."""
-        for line in Path(f'/proc/{self.pid}/status').read_text().splitlines():
-            if line.startswith('VmRSS:'):
-                return int(line.split()[1]) * 1024
-        raise RuntimeError(f'no VmRSS for pid {self.pid}')
 
 
 class NodeLauncher:

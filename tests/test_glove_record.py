@@ -227,3 +227,14 @@ def test_discovery_defaults_to_localhost_and_keeps_what_the_user_set():
 def test_discovery_refuses_unknown_values(environ, message):
     with pytest.raises(ValueError, match=message):
         discovery_settings(environ)
+
+
+def test_flush_joins_the_last_step_once_nothing_more_will_come():
+    signals = GloveSignals(NODES)
+    messages = [m for i in range(3) for m in step_messages(i, 1000.0 * (i + 1))]
+    assert len(feed(signals, messages)) == 2  # the last step waits for a later message
+    assert signals.received_stamp == pytest.approx(100.0 + 2 * PERIOD)
+    last = signals.flush()
+    assert [s.values['chamber_pressure'][0] for s in last] == [3000.0]
+    assert_one_step(last[0])
+    assert signals.flush() == []

@@ -284,7 +284,7 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
             if waiting and monitor.connected(SIGNALS):
                 waiting = not monitor.resume_plant()
             failures = supervisor.exited()
-            elapsed = now - started if args.clock == 'wall' else signals.stamp or 0.0
+            elapsed = now - started if args.clock == 'wall' else signals.received_stamp or 0.0
             if failures or (args.duration and elapsed >= args.duration):
                 break
             if now >= next_refresh:
@@ -299,6 +299,8 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
         )
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(STOP_ORDER, idle=spin)
+        for sample in signals.flush():  # the nodes are gone: the last step is complete
+            record.write(sample)
     finally:
         supervisor.stop(STOP_ORDER)  # after an error above: no node is left behind
         if executor is not None:

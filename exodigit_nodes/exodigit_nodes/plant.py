@@ -246,7 +246,6 @@ class Plant(GloveNode):
             Float64MultiArray, PRESSURE_COMMAND, self.on_command, GLOVE_QOS
         )
         self.create_service(Trigger, RESET, self.on_reset)
-        self.create_timer(DIAGNOSTIC_PERIOD, self.report)
         self.marker_timer = None
         self.sim_timer = None
         if self.sim_clock:
@@ -264,6 +263,7 @@ class Plant(GloveNode):
         else:
             self.create_timer(self.period, self.on_wall_timer)
         self.apply(settings, {'marker_rate_hz', 'real_time_factor'})
+        self.create_timer(DIAGNOSTIC_PERIOD, self.report)  # after the step's timer: it reports it
         if self.lockstep and settings.lockstep_timeout > 0.0:
             timeout = f'{settings.lockstep_timeout:g} s'
         else:

@@ -119,9 +119,12 @@ class GloveSignals:
         self.health: dict[str, Health | None] = dict.fromkeys(nodes)
         self.time: float | None = None
         self.stamp: float | None = None
-        """Latest plant-step stamp, s (simulated time with clock sim)."""
+        """Stamp of the latest joined plant step, s (simulated time with clock sim)."""
+        self.received_stamp: float | None = None
+        """Stamp of the latest joint_states received (its step may not be joined yet), s."""
         self._first_stamp: float | None = None
         self._waiting = {topic: deque(maxlen=JOIN_BUFFER) for topic in STEP_ORDER}
+        self._stream: deque = deque()  # known messages in publication order, not yet joined
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -151,35 +154,50 @@ class GloveSignals:
         if signal not in STEP_ORDER:
             return []
         self._waiting[signal].append((published, values, stamp))
+        if signal == 'joint_states':
+            self.received_stamp = stamp
         return self._join()
 
-    def _join(self) -> list[Sample]:
-        """The plant steps now complete, oldest first.
+    def _join(self, *, final: bool = False) -> list[Sample]:
+        """The plant steps now complete, oldest first (``final``: all that can be joined).
 
-        Each topic arrives in publication order, so the head of each topic's queue is its oldest
-        message not yet joined. When the three heads, ordered by publication time, read
-        ``chamber_pressure, joint_states, contact_forces`` (`STEP_ORDER`) they are one step;
-        otherwise the earliest head's partners were lost (a later message of their topic is
-        already here) and it is skipped, never mixed with another step.
+        Each topic arrives in publication order, so once every topic has delivered a message
+        published after time ``h``, all messages up to ``h`` are known (``final``: nothing is in
+        flight any more, every message is known). Merged by publication time they read
+        ``chamber_pressure, joint_states, contact_forces`` step after step (`STEP_ORDER`); a step
+        is three consecutive messages in that order. A step that lost a message (a full history)
+        breaks the pattern and is skipped, never mixed with another.
         """
+        if final or all(self._waiting.values()):
+            horizon = math.inf if final else min(queue[-1][0] for queue in self._waiting.values())
+            known = []
+            for topic, queue in self._waiting.items():
+                while queue and queue[0][0] <= horizon:
+                    known.append((queue.popleft(), topic))
+            self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
         samples = []
-        while all(self._waiting.values()):
-            heads = sorted(
-                (queue[0][0], STEP_ORDER.index(topic), topic)
-                for topic, queue in self._waiting.items()
-            )
-            if tuple(topic for _, _, topic in heads) != STEP_ORDER:
-                self._waiting[heads[0][2]].popleft()
+        while len(self._stream) >= len(STEP_ORDER):
+            step = [self._stream[i] for i in range(len(STEP_ORDER))]
+            if tuple(topic for _, topic in step) != STEP_ORDER:
+                self._stream.popleft()
                 continue
-            step = {topic: queue.popleft() for topic, queue in self._waiting.items()}
-            stamp = step['joint_states'][2]
+            for _ in step:
+                self._stream.popleft()
+            stamp = step[STEP_ORDER.index('joint_states')][0][2]
             if self._first_stamp is None:
                 self._first_stamp = stamp
             self.stamp = stamp
             self.time = stamp - self._first_stamp
-            values = {topic: message[1] for topic, message in step.items()}
+            values = {topic: message[1] for message, topic in step}
             samples.append(Sample(self.time, {**self.latest, **values}))
         return samples
+
+    def flush(self) -> list[Sample]:
+        """Join what has arrived when no more plant messages will come (the end of a run).
+
+        The latest step is otherwise only completed by the first message of the next one.
+        """
+        return self._join(final=True)
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""

@@ -1,0 +1,21 @@
+"""A testing kit for glove controllers: a simulated glove in lockstep simulated time.
+
+``GloveSim`` starts a plant (and optionally the estimator) in a private ROS domain and namespace
+and drives it: ``step(command)`` for a controller in the test itself, ``run(seconds)`` for a
+controller that is its own ROS node. Installed with ``exodigit_nodes``, the pytest plugin
+:mod:`exodigit_nodes.testing.plugin` gives every test a ``glove_sim`` fixture (INTERFACES.md
+Part II, "A testing kit for users' own controllers").
+"""
+
+from .client import GloveSim, GloveSimError, SimRecord, SimState
+from .processes import DomainLease, claim_domain, ros_environment
+
+__all__ = [
+    'DomainLease',
+    'GloveSim',
+    'GloveSimError',
+    'SimRecord',
+    'SimState',
+    'claim_domain',
+    'ros_environment',
+]

@@ -1,0 +1,377 @@
+"""``GloveSim``: a simulated glove in lockstep simulated time, driven from a test.
+
+It starts a ``plant`` (and, if asked, an ``estimator``) as processes in a private ROS domain and a
+fresh namespace, with ``clock:=sim``, ``lockstep:=true``, ``lockstep_timeout:=0`` (the plant waits
+for the test however long it takes) and ``real_time_factor:=0``, and talks to them from an rclpy
+node of its own (its own context, so it never touches the caller's ``rclpy.init``). Two ways to
+drive the glove:
+
+* the test is the controller: :meth:`GloveSim.step` sends one ``pressure_command`` and returns the
+  state of the step it caused (INTERFACES.md Part II: one command in, the next state out);
+* the controller is a ROS node of the user's, started with :attr:`GloveSim.env` in
+  :attr:`GloveSim.namespace`: :meth:`GloveSim.run` lets the plant step in lockstep with it for
+  exactly that many simulated seconds and returns the record. Between runs the plant is paused, so
+  a slow-starting node costs nothing.
+
+Lockstep makes every result exact and repeatable: the same commands give the same states bit for
+bit, however loaded the machine is.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import tempfile
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
+
+DEFAULT_TIMEOUT = 60.0
+"""Longest wall-clock wait for the glove (start-up, a step, a run) before an error, s."""
+POLL = 0.05
+"""Longest single wait of the client's executor, s."""
+PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
+"""Plant parameters the kit changes from the node's defaults: no chamber lag, no markers."""
+FIXED_PLANT = {
+    'clock': 'sim',
+    'lockstep': True,
+    'lockstep_timeout': 0.0,
+    'real_time_factor': 0.0,
+    'start_paused': True,
+}
+"""Plant parameters the kit sets itself (they define how it drives the plant)."""
+_NAMESPACES = itertools.count(1)
+
+
+class GloveSimError(RuntimeError):
+    """The simulated glove did not answer as the lockstep protocol says; the text says what."""
+
+
+@dataclass(frozen=True)
+class SimState:
+    """One plant step as published (SI units; joint order MCP, PIP, DIP).
+
+    Attributes
+    ----------
+    t : float
+        Simulated time of the step, s (the stamp of ``joint_states``).
+    q : ndarray, shape (3,)
+        Joint angles (``joint_states`` position, with the plant's sensor noise), rad.
+    qdot : ndarray, shape (3,)
+        Joint velocities, rad/s.
+    effort : ndarray, shape (3,)
+        Finger joint torque from the exo-digit, N·m.
+    pressure : ndarray, shape (3,)
+        Chamber pressures (``chamber_pressure``), Pa.
+    forces : ndarray, shape (3,)
+        Simulated contact forces (``contact_forces``), N.
+    estimated_forces : ndarray, shape (3,), or None
+        The estimator's robot-side estimate of this step, N (None without the estimator).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    effort: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    estimated_forces: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class SimRecord:
+    """The states of a :meth:`GloveSim.run` and the commands that answered them, as arrays.
+
+    Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
+    plant applies in the next step). Shapes (n,) for ``t`` and (n, 3) for the others.
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    command: NDArray[np.float64]
+
+
+class GloveSim:
+    """A plant in lockstep simulated time, and the client that drives it.
+
+    Parameters
+    ----------
+    params_file : str or Path, optional
+        The plant's model / patient parameter file (MODEL.md §10); the built-in defaults when
+        omitted.
+    estimator : bool
+        Also start the ``estimator`` node (its estimate of each step is in
+        :attr:`SimState.estimated_forces`).
+    plant : mapping, optional
+        More plant parameters (e.g. ``{'pressure_time_constant': 0.05, 'angle_noise_std':
+        1e-3, 'seed': 3, 'rate_hz': 200.0}``). The kit's own (clock, lockstep, pacing) cannot be
+        changed.
+    namespace : str, optional
+        Absolute namespace of the glove; a fresh ``/glove_sim_<n>`` when omitted.
+    domain_id : int, optional
+        ROS_DOMAIN_ID; a free one is claimed (and held until :meth:`close`) when omitted.
+    log_dir : str or Path, optional
+        Where the nodes' output goes (``<node>.out``/``.err``); a temporary folder by default.
+    timeout : float
+        Longest wall-clock wait for any answer from the glove, s.
+
+    Examples
+    --------
+    >>> with GloveSim() as glove:                           # doctest: +SKIP
+    ...     state = glove.reset()
+    ...     for _ in range(100):
+    ...         state = glove.step([30e3, 30e3, 30e3])
+    """
+
+    def __init__(
+        self,
+        params_file: str | os.PathLike | None = None,
+        *,
+        estimator: bool = False,
+        plant: Mapping[str, Any] | None = None,
+        namespace: str | None = None,
+        domain_id: int | None = None,
+        log_dir: str | os.PathLike | None = None,
+        timeout: float = DEFAULT_TIMEOUT,
+    ) -> None:
+        fixed = sorted(set(plant or {}) & set(FIXED_PLANT))
+        if fixed:
+            raise ValueError(f'plant parameter {fixed[0]} is set by the testing kit itself')
+        if not timeout > 0.0:
+            raise ValueError(f'timeout = {timeout!r}: must be > 0 s')
+        self.timeout = timeout
+        self.namespace = namespace or f'/glove_sim_{os.getpid()}_{next(_NAMESPACES)}'
+        if not self.namespace.startswith('/'):
+            raise ValueError(f'namespace {self.namespace!r} must be absolute (start with /)')
+        self._lease: DomainLease | None = None
+        if domain_id is None:
+            self._lease = claim_domain()
+            domain_id = self._lease.domain_id
+        self.domain_id = domain_id
+        self.env = ros_environment(domain_id)
+        """The environment for a controller process of yours: this process's, with the glove's
+        ROS_DOMAIN_ID and loopback-only discovery."""
+        self._temporary = None
+        if log_dir is None:
+            self._temporary = tempfile.TemporaryDirectory(prefix='glove_sim_')
+            log_dir = self._temporary.name
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        parameters = {**PLANT_DEFAULTS, **(plant or {}), **FIXED_PLANT}
+        if params_file is not None:
+            parameters['params_file'] = str(Path(params_file).resolve())
+        self.rate_hz = float(parameters.get('rate_hz', 100.0))
+        self._processes: list[NodeProcess] = []
+        self._node = None
+        try:
+            self._start('plant', parameters)
+            if estimator:
+                # Lockstep time is exact: a backlog is no reason to refuse a sample as stale.
+                estimator_parameters = {'use_sim_time': True, 'max_sample_age': 10.0}
+                if params_file is not None:
+                    estimator_parameters['params_file'] = parameters['params_file']
+                self._start('estimator', estimator_parameters)
+            self._connect(estimator)
+            self.state = self.reset()
+        except BaseException:
+            self.close()
+            raise
+
+    # -- life cycle ------------------------------------------------------------------------
+
+    def _start(self, module: str, parameters: Mapping[str, Any]) -> None:
+        self._processes.append(
+            NodeProcess(module, parameters, self.domain_id, self.log_dir, self.namespace)
+        )
+
+    def _connect(self, estimator: bool) -> None:
+        import rclpy
+        from rclpy.experimental import EventsExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        from .ros_client import GloveClient
+
+        self._context = rclpy.Context()
+        rclpy.init(
+            context=self._context,
+            domain_id=self.domain_id,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
+        self._node = GloveClient(self.namespace, self._context, estimator=estimator)
+        self._executor = EventsExecutor(context=self._context)
+        self._executor.add_node(self._node)
+        self._wait(self._node.connected, 'the plant to start and connect')
+
+    def close(self) -> None:
+        """Stop every process the kit started and release the domain (idempotent)."""
+        if self._node is not None:
+            self._executor.shutdown()
+            self._node.destroy_node()
+            import rclpy
+
+            rclpy.try_shutdown(context=self._context)
+            self._node = None
+        for process in self._processes:
+            process.stop()
+        self._processes = []
+        if self._lease is not None:
+            self._lease.release()
+            self._lease = None
+        if self._temporary is not None:
+            self._temporary.cleanup()
+            self._temporary = None
+
+    def __enter__(self) -> GloveSim:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    # -- driving the glove from the test ---------------------------------------------------
+
+    def reset(self) -> SimState:
+        """Zero pressure and rest angles (the plant's ``reset``); returns that state.
+
+        Simulated time goes on: the rest state is published as the next step.
+        """
+        self._node.clear_commands()
+        self._call(self._node.reset_client, self._node.trigger(), 'reset')
+        self.state = self._next_state()
+        self._external_synced = False
+        return self.state
+
+    def step(self, command: ArrayLike) -> SimState:
+        """Send one pressure command (Pa, MCP, PIP, DIP); return the state of the step it causes.
+
+        Raises
+        ------
+        ValueError
+            If ``command`` is not three finite numbers.
+        GloveSimError
+            If another node publishes ``pressure_command`` (use :meth:`run` for that), or the
+            glove does not answer within ``timeout``.
+        """
+        values = np.asarray(command, dtype=float)
+        if values.shape != (3,) or not np.isfinite(values).all():
+            raise ValueError(f'command must be three finite pressures in Pa, got {command!r}')
+        if self._node.other_controllers():
+            raise GloveSimError(
+                f'another node publishes {self.namespace}/pressure_command: a test cannot '
+                'step the glove beside it; use run() for an external controller'
+            )
+        self._set_paused(False)
+        self._node.send(values)
+        self.state = self._next_state()
+        self._node.clear_commands()  # our own command, heard back
+        self._external_synced = False
+        return self.state
+
+    # -- an external controller node -------------------------------------------------------
+
+    def run(self, seconds: float) -> SimRecord:
+        """Step in lockstep with your controller node for exactly ``seconds`` simulated seconds.
+
+        The controller must answer every ``joint_states`` with one ``pressure_command``. The
+        first run after :meth:`reset` or :meth:`step` starts with a fresh state (one step with
+        the latest command) so that a node started since sees a state to answer; later runs go
+        on exactly where the last one stopped. Start your node after ``reset()``.
+
+        Returns
+        -------
+        SimRecord
+            The ``round(seconds · rate_hz)`` steps of the run and the controller's answers.
+        """
+        steps = round(seconds * self.rate_hz)
+        if not (math.isfinite(seconds) and steps >= 1):
+            raise ValueError(f'seconds = {seconds!r}: must give at least one step')
+        self._wait(self._node.other_controllers, 'your controller to publish pressure_command')
+        self._set_paused(True)
+        end_ns = self._node.time_ns(self.state.t) + round(steps * 1e9 / self.rate_hz)
+        self._call(
+            self._node.parameter_client,
+            self._node.pause_at_request(end_ns * 1e-9),
+            'set pause_at',
+        )
+        states = []
+        self._node.clear_commands()
+        if not self._external_synced:
+            self._call(self._node.step_client, self._node.trigger(), 'step')
+            states.append(self._next_state(with_estimate=False))
+        self._set_paused(False)
+        while len(states) < steps:
+            states.append(self._next_state(with_estimate=False))
+        self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
+        commands = self._node.take_commands(steps)
+        self._node.clear_estimates()
+        self._external_synced = True
+        self._paused = True  # pause_at stopped the plant at the last state
+        self.state = states[-1]
+        return SimRecord(
+            t=np.array([s.t for s in states]),
+            q=np.array([s.q for s in states]),
+            qdot=np.array([s.qdot for s in states]),
+            pressure=np.array([s.pressure for s in states]),
+            forces=np.array([s.forces for s in states]),
+            command=np.array(commands),
+        )
+
+    # -- helpers ---------------------------------------------------------------------------
+
+    _paused = True
+    _external_synced = False
+
+    def _set_paused(self, paused: bool) -> None:
+        if paused != self._paused:
+            self._call(self._node.pause_client, self._node.pause_request(paused), 'set_paused')
+            self._paused = paused
+
+    def _next_state(self, *, with_estimate: bool = True) -> SimState:
+        return self._wait(
+            lambda: self._node.take_state(with_estimate=with_estimate), 'the next state'
+        )
+
+    def _call(self, client, request, what: str):
+        future = client.call_async(request)
+        response = self._wait(lambda: future.result() if future.done() else None, what)
+        if hasattr(response, 'successful'):
+            ok = all(result.successful for result in response.results)
+            reason = '; '.join(result.reason for result in response.results)
+        else:
+            ok, reason = response.success, response.message
+        if not ok:
+            raise GloveSimError(f'{what} refused by the plant: {reason}')
+        return response
+
+    def _wait(self, condition, what: str):
+        deadline = time.monotonic() + self.timeout
+        while True:
+            value = condition()
+            if value:
+                return value
+            self._check_alive(what)
+            if time.monotonic() > deadline:
+                raise GloveSimError(
+                    f'waited {self.timeout:g} s for {what} in {self.namespace}; node logs in '
+                    f'{self.log_dir}'
+                )
+            self._executor.spin_once(timeout_sec=POLL)
+
+    def _check_alive(self, what: str) -> None:
+        for process in self._processes:
+            if not process.alive():
+                tail = process.stderr().strip().splitlines()[-5:]
+                raise GloveSimError(
+                    f'{process.module} exited (code {process.process.returncode}) while waiting '
+                    f'for {what}: ' + ' | '.join(tail)
+                )

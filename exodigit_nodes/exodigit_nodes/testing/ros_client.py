@@ -1,0 +1,179 @@
+"""The rclpy node behind :class:`~.client.GloveSim`: topics and services of one glove, as queues.
+
+Kept apart from :mod:`.client` so that importing the testing kit (and its pytest plugin) does not
+import rclpy until a glove is started.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
+
+from ..messages import (
+    CHAMBER_PRESSURE,
+    CONTACT_FORCES,
+    ESTIMATED_CONTACT_FORCES,
+    JOINT_STATES,
+    PRESSURE_COMMAND,
+    RESET,
+    SET_PAUSED,
+    STEP,
+    fill,
+    joint_vector_message,
+)
+from ..qos import GLOVE_QOS, RECORD_QOS
+from .client import SimState
+
+
+class GloveClient(Node):
+    """Queues of the glove's outputs, a command publisher and the plant's service clients.
+
+    Parameters
+    ----------
+    namespace : str
+        The glove's namespace (absolute).
+    context : rclpy.Context
+        The kit's own context.
+    estimator : bool
+        Whether an estimator runs (its estimates are part of each state).
+    """
+
+    def __init__(self, namespace: str, context, *, estimator: bool) -> None:
+        super().__init__('glove_sim_client', namespace=namespace, context=context)
+        self.queues: dict[str, deque] = {
+            JOINT_STATES: deque(),
+            CHAMBER_PRESSURE: deque(),
+            CONTACT_FORCES: deque(),
+        }
+        if estimator:
+            self.queues[ESTIMATED_CONTACT_FORCES] = deque()
+        self.commands: deque = deque()
+        self.inputs = [
+            self.create_subscription(JointState, JOINT_STATES, self._joint_queue, RECORD_QOS),
+            *(
+                self.create_subscription(
+                    Float64MultiArray, topic, self._vector_queue(topic), RECORD_QOS
+                )
+                for topic in self.queues
+                if topic != JOINT_STATES
+            ),
+        ]
+        self.create_subscription(
+            Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_QOS
+        )
+        self.command_message = joint_vector_message()
+        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        plant = f'{namespace.rstrip("/")}/plant'
+        self.reset_client = self.create_client(Trigger, RESET)
+        self.step_client = self.create_client(Trigger, STEP)
+        self.pause_client = self.create_client(SetBool, SET_PAUSED)
+        self.parameter_client = self.create_client(SetParameters, f'{plant}/set_parameters')
+        self.plant_services = (
+            self.reset_client,
+            self.step_client,
+            self.pause_client,
+            self.parameter_client,
+        )
+
+    def _joint_queue(self, message: JointState) -> None:
+        self.queues[JOINT_STATES].append(message)
+
+    def _vector_queue(self, topic: str | None):
+        queue = self.commands if topic is None else self.queues[topic]
+
+        def callback(message: Float64MultiArray) -> None:
+            queue.append(np.array(message.data))
+
+        return callback
+
+    # -- connection ------------------------------------------------------------------------
+
+    def connected(self) -> bool:
+        """Whether every glove output reaches us, our commands reach the plant, services are up."""
+        return (
+            all(subscription.get_publisher_count() > 0 for subscription in self.inputs)
+            and self.publisher.get_subscription_count() > 0
+            and all(client.service_is_ready() for client in self.plant_services)
+        )
+
+    def other_controllers(self) -> list[str]:
+        """Names of the other nodes that publish this glove's ``pressure_command``."""
+        me = (self.get_name(), self.get_namespace())
+        return [
+            f'{info.node_namespace.rstrip("/")}/{info.node_name}'
+            for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
+            if (info.node_name, info.node_namespace) != me
+        ]
+
+    # -- states and commands ---------------------------------------------------------------
+
+    def take_state(self, *, with_estimate: bool = True) -> SimState | None:
+        """The oldest complete step (one message of each output), or None if it is not here."""
+        wanted = [t for t in self.queues if with_estimate or t != ESTIMATED_CONTACT_FORCES]
+        if not all(self.queues[topic] for topic in wanted):
+            return None
+        joint = self.queues[JOINT_STATES].popleft()
+        estimate = (
+            self.queues[ESTIMATED_CONTACT_FORCES].popleft()
+            if ESTIMATED_CONTACT_FORCES in wanted
+            else None
+        )
+        return SimState(
+            t=(joint.header.stamp.sec * 10**9 + joint.header.stamp.nanosec) / 1e9,
+            q=np.array(joint.position),
+            qdot=np.array(joint.velocity),
+            effort=np.array(joint.effort),
+            pressure=self.queues[CHAMBER_PRESSURE].popleft(),
+            forces=self.queues[CONTACT_FORCES].popleft(),
+            estimated_forces=estimate,
+        )
+
+    def send(self, command: np.ndarray) -> None:
+        """Publish one pressure command, Pa."""
+        self.publisher.publish(fill(self.command_message, command))
+
+    def clear_commands(self) -> None:
+        """Forget the commands heard so far."""
+        self.commands.clear()
+
+    def command_count(self) -> int:
+        """Commands heard since the last :meth:`clear_commands`."""
+        return len(self.commands)
+
+    def take_commands(self, count: int) -> list[np.ndarray]:
+        """The oldest ``count`` commands heard, removed."""
+        return [self.commands.popleft() for _ in range(count)]
+
+    def clear_estimates(self) -> None:
+        """Forget queued estimates (a run does not pair them with its states)."""
+        self.queues.get(ESTIMATED_CONTACT_FORCES, deque()).clear()
+
+    # -- requests --------------------------------------------------------------------------
+
+    @staticmethod
+    def trigger() -> Trigger.Request:
+        """A std_srvs/Trigger request."""
+        return Trigger.Request()
+
+    @staticmethod
+    def pause_request(paused: bool) -> SetBool.Request:
+        """A ``set_paused`` request."""
+        return SetBool.Request(data=paused)
+
+    @staticmethod
+    def pause_at_request(seconds: float) -> SetParameters.Request:
+        """Set the plant's ``pause_at`` to ``seconds`` of simulated time."""
+        value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=seconds)
+        return SetParameters.Request(parameters=[Parameter(name='pause_at', value=value)])
+
+    @staticmethod
+    def time_ns(seconds: float) -> int:
+        """A stamp in seconds back in nanoseconds (stamps are whole nanoseconds)."""
+        return round(seconds * 1e9)
