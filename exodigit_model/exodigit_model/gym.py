@@ -1,0 +1,388 @@
+"""A Gymnasium environment of the simulated glove: :class:`GloveEnv` (MODEL.md §13).
+
+The optional ``gym`` extra (``pip install "./exodigit_model[gym]"``) provides Gymnasium; only this
+module imports it, never the core package. :class:`GloveEnv` steps one glove in-process (no
+ROS, no DDS) with the same :class:`~exodigit_model.simulation.GloveSimulation` as the ROS plant,
+so an agent trained here meets the same physics on the ROS graph.
+
+Importing the module registers the environment as ``exodigit/Glove-v0``:
+
+>>> import gymnasium
+>>> import exodigit_model.gym
+>>> env = gymnasium.make('exodigit/Glove-v0', episode_steps=100)
+>>> observation, info = env.reset(seed=1)
+>>> observation.shape, env.action_space.high.tolist()
+((12,), [100000.0, 100000.0, 100000.0])
+>>> observation, reward, terminated, truncated, info = env.step([30e3, 30e3, 30e3])
+>>> bool(reward < 0.0), terminated, truncated
+(True, False, False)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import ArrayLike, NDArray
+
+from .model import GloveModel, as_joint_vector
+from .params import GloveParams, load_params
+from .simulation import NANOSECONDS, GloveSimulation, GloveState, SimulationSettings, step_time_ns
+
+ENV_ID = 'exodigit/Glove-v0'
+"""The id under which importing this module registers :class:`GloveEnv` with Gymnasium."""
+
+DEFAULT_EPISODE_STEPS = 400
+"""Steps per episode: 4 s at the default 100 Hz, one period of the default target."""
+
+DEFAULT_TARGET_PERIOD = 4.0
+"""Period of the default flex-extend target, s."""
+
+DEFAULT_PEAK_FRACTION = 0.5
+"""The default target peaks at the angles of this fraction of the supply in every chamber."""
+
+ANGLE_BOUND = math.pi
+"""|q| bound of the observed angles, rad (beyond any bend the model is validated for)."""
+
+NOISE_MARGIN = 10.0
+"""Standard deviations of sensor noise added to the bounds of the measured observations."""
+
+SEED_BOUND = 2**63
+"""Noise seeds drawn for an unseeded reset lie in [0, this)."""
+
+Target = Callable[[float], ArrayLike]
+"""target(t) -> desired joint angles (MCP, PIP, DIP) at time t (s), rad."""
+
+Reward = Callable[[GloveState, NDArray[np.float64], NDArray[np.float64]], float]
+"""reward(state, target, action) -> float; ``state`` after the step, ``target`` at ``state.t``."""
+
+
+@dataclass(frozen=True)
+class FlexExtendTarget:
+    r"""A slow flex-extend: q*(t) = peak · (1 − cos(2πt / period)) / 2, rad.
+
+    Starts at rest (q* = 0 at t = 0), reaches ``peak`` at t = period/2 and returns to rest at
+    t = period. Every point lies on the straight line from 0 to ``peak``; for the default
+    target (:meth:`for_model`), whose peak the model reaches with equal pressures, every point
+    of that line is held by pressures inside the supply range (a test checks it with the exact
+    inverse, :meth:`GloveModel.pressure_for`).
+
+    Attributes
+    ----------
+    peak : tuple of float
+        Joint angles at the top of the flexion, MCP, PIP, DIP, rad.
+    period : float
+        Duration of one flex-extend cycle, s (> 0).
+    """
+
+    peak: tuple[float, float, float]
+    period: float = DEFAULT_TARGET_PERIOD
+
+    def __post_init__(self) -> None:
+        """Refuse a peak that is not three finite angles or a period that is not > 0."""
+        object.__setattr__(self, 'peak', tuple(as_joint_vector('peak', self.peak).tolist()))
+        if isinstance(self.period, bool) or not isinstance(self.period, int | float):
+            raise ValueError(f'period = {self.period!r}: must be a number of seconds')
+        if not (math.isfinite(self.period) and self.period > 0.0):
+            raise ValueError(f'period = {self.period!r}: must be finite and > 0 s')
+
+    @classmethod
+    def for_model(
+        cls, model: GloveModel, pressure: float, period: float = DEFAULT_TARGET_PERIOD
+    ) -> FlexExtendTarget:
+        """The flex-extend whose peak is the model's solve at ``pressure`` Pa in every chamber.
+
+        Raises
+        ------
+        ValueError
+            If the coupled solve (MODEL.md §7) at that pressure does not converge.
+        """
+        solution = model.solve([pressure, pressure, pressure])
+        if not solution.converged:
+            raise ValueError(
+                f'model: the solve at {pressure:g} Pa in every chamber does not converge '
+                f'(residual {solution.residual:.3g} N·m), so there is no default target; '
+                'pass target='
+            )
+        return cls(tuple(solution.q.tolist()), period)
+
+    def __call__(self, t: float) -> NDArray[np.float64]:
+        """q*(t), rad, shape (3,)."""
+        return np.array(self.peak) * (0.5 * (1.0 - math.cos(2.0 * math.pi * t / self.period)))
+
+
+def tracking_reward(
+    state: GloveState, target: NDArray[np.float64], action: NDArray[np.float64]
+) -> float:
+    r"""The default reward: r = −Σ_j (q_j − q*_j)², rad².
+
+    ``q`` is the true joint angle after the step (``state.q``, not the noisy measurement: the
+    reward scores the finger, not the sensor), q* the target at the same time ``state.t``. The
+    action is not used; a reward with an effort or a rate term can use it.
+    """
+    error = state.q - target
+    return -float(error @ error)
+
+
+class GloveEnv(gymnasium.Env):
+    r"""One simulated glove as a Gymnasium environment (MODEL.md §13), tracking a target.
+
+    Each step applies the action as the chamber pressure command for Δt = 1/``rate_hz``:
+    the chambers lag toward it (clipped to the supply range), the coupled quasi-static
+    equations are solved at the new pressures, and the sensors are read with seeded noise.
+
+    Parameters
+    ----------
+    model : GloveModel, optional
+        The glove and finger. Give this or ``params``, not both; neither = the defaults of
+        MODEL.md §10.
+    params : str, PathLike or GloveParams, optional
+        A parameter file (YAML, SI, merged over the defaults, MODEL.md §10) or loaded
+        parameters, instead of ``model``.
+    settings : SimulationSettings, optional
+        Rate, chamber lag, supply, sensor noise; the ROS plant's defaults when omitted
+        (100 Hz, T = 0.05 s, 100 kPa supply, no noise). Its ``seed`` is not used: the noise
+        seed follows :meth:`reset`'s ``seed``.
+    episode_steps : int, optional
+        Steps per episode (≥ 1); the step that completes them returns ``truncated=True``.
+    target : callable, optional
+        ``target(t) -> (3,)``: desired joint angles at time t (s, from the reset), rad. Default:
+        :meth:`FlexExtendTarget.for_model` at ``DEFAULT_PEAK_FRACTION`` of the supply, period
+        4 s (peak ≈ 28.9, 26.0, 17.1° with the default model and supply).
+    reward : callable, optional
+        ``reward(state, target, action) -> float`` with the :class:`GloveState` after the
+        step, the target at ``state.t`` (rad, (3,)) and the action as given (Pa, (3,)).
+        Default: :func:`tracking_reward`, −Σ(q − q*)² in rad².
+    observe_target : bool, optional
+        Whether the observation ends with the target of the next step (default True: without
+        it the agent cannot know where the target is going).
+
+    Notes
+    -----
+    **Action**, Box(0, ``max_supply_pressure``, (3,), float32): chamber pressure commands,
+    MCP, PIP, DIP segment, Pa. Commands outside the box are clipped by the chambers
+    (``info['saturated']``), as the plant clips them.
+
+    **Observation**, float32, shape (12,) (or (9,) without the target), at t_k:
+
+    - 0:3, measured joint angles q̃ (MCP, PIP, DIP), rad, bounds ±(π + 10 σ_q);
+    - 3:6, joint velocities q̇ = (q_k − q_{k−1})/Δt, rad/s, bounds ±2π·rate_hz;
+    - 6:9, measured chamber pressures p̃, Pa, bounds [−10 σ_p, p_max + 10 σ_p];
+    - 9:12, the target q*(t_{k+1}) of the next step, rad, bounds ±π;
+
+    with σ_q, σ_p the settings' noise standard deviations and p_max the supply.
+    These are ``GloveState.q_measured``, ``.qdot`` and ``.pressure_measured`` cast to float32
+    and clipped to the bounds, which only a state far outside the validated range or a noise
+    draw of 10 σ reaches (``info['observation_clipped']`` says when).
+
+    **Reward** at t_k = round(k·10⁹/rate_hz)·10⁻⁹ s: ``reward(state_k, target(t_k), action)``.
+
+    **Episode**: starts at rest (vented chambers, q at rest, t = 0). ``terminated`` when the
+    step's coupled solve did not converge (the stepper kept the last good state, so the
+    physics of the episode ends there); ``truncated`` after ``episode_steps`` steps. Leaving
+    the model's validated stretch range (1 ≤ λ ≤ 1.5, MODEL.md §8) does not end the episode;
+    ``info['in_valid_range']`` reports it.
+
+    **Seeding**: ``reset(seed=s)`` runs the stepper with noise seed ``s``, so an episode equals
+    ``GloveSimulation(model, replace(settings, seed=s))`` fed the same actions, bit for bit.
+    ``reset()`` without a seed draws the noise seed from :attr:`np_random` (seeded by the last
+    seed given): equal seeds give equal sequences of episodes.
+
+    **Info** (new arrays every call): ``t`` (s), ``target`` (the target the reward used, rad),
+    ``q`` (true angles, rad), ``pressure`` (true chamber pressures, Pa), ``command`` (the
+    command applied, after saturation, Pa), ``converged``, ``in_valid_range``, ``saturated``,
+    ``observation_clipped`` and ``noise_seed``.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
+
+    def __init__(
+        self,
+        model: GloveModel | None = None,
+        *,
+        params: str | os.PathLike | GloveParams | None = None,
+        settings: SimulationSettings | None = None,
+        episode_steps: int = DEFAULT_EPISODE_STEPS,
+        target: Target | None = None,
+        reward: Reward | None = None,
+        observe_target: bool = True,
+    ) -> None:
+        self.model = _model(model, params)
+        if settings is None:
+            settings = SimulationSettings()
+        elif not isinstance(settings, SimulationSettings):
+            raise ValueError(f'settings = {settings!r}: must be a SimulationSettings (or None)')
+        self.settings = settings
+        if isinstance(episode_steps, bool) or not isinstance(episode_steps, int):
+            raise ValueError(f'episode_steps = {episode_steps!r}: must be an integer')
+        if episode_steps < 1:
+            raise ValueError(f'episode_steps = {episode_steps!r}: must be >= 1')
+        self.episode_steps = episode_steps
+        for name, function in (('target', target), ('reward', reward)):
+            if function is not None and not callable(function):
+                raise ValueError(f'{name} = {function!r}: must be callable (or None)')
+        if not isinstance(observe_target, bool):
+            raise ValueError(f'observe_target = {observe_target!r}: must be True or False')
+        if target is None:
+            target = FlexExtendTarget.for_model(
+                self.model, DEFAULT_PEAK_FRACTION * settings.max_supply_pressure
+            )
+        self.target = target
+        self.reward = tracking_reward if reward is None else reward
+        self.observe_target = observe_target
+
+        supply = settings.max_supply_pressure
+        self.action_space = spaces.Box(
+            np.zeros(3, np.float32), np.full(3, supply, np.float32), dtype=np.float32
+        )
+        angle = ANGLE_BOUND + NOISE_MARGIN * settings.angle_noise_std
+        velocity = 2.0 * ANGLE_BOUND * settings.rate_hz
+        noise = NOISE_MARGIN * settings.pressure_noise_std
+        high = [angle] * 3 + [velocity] * 3 + [supply + noise] * 3
+        low = [-angle] * 3 + [-velocity] * 3 + [-noise] * 3
+        if observe_target:
+            high += [ANGLE_BOUND] * 3
+            low += [-ANGLE_BOUND] * 3
+        self.observation_space = spaces.Box(
+            np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32
+        )
+
+        self.simulation: GloveSimulation | None = None
+        """The stepper of the current episode (a new one each reset); None before the first."""
+        self.noise_seed: int | None = None
+        """The sensor-noise seed of the current episode."""
+        self._next_target = np.zeros(3)
+
+    @property
+    def state(self) -> GloveState | None:
+        """The glove after the last step or reset (true and measured, float64), or None."""
+        return None if self.simulation is None else self.simulation.state
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        """Start an episode at rest at t = 0, with noise seed ``seed`` (or one drawn).
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds :attr:`np_random` and is the stepper's noise seed; omitted, the noise seed
+            is drawn from :attr:`np_random`.
+        options : dict, optional
+            No options exist; an empty dict or None.
+
+        Returns
+        -------
+        observation : ndarray of float32
+        info : dict
+        """
+        super().reset(seed=seed)
+        if options:
+            raise ValueError(f'options = {options!r}: GloveEnv takes no reset options')
+        if seed is None:
+            seed = int(self.np_random.integers(SEED_BOUND))
+        self.noise_seed = seed
+        self.simulation = GloveSimulation(self.model, replace(self.settings, seed=seed))
+        state = self.simulation.state
+        target = self._target_at(state.t)
+        self._next_target = self._target_at(self._time_of(state.step + 1))
+        observation, clipped = self._observe(state)
+        return observation, self._info(state, target, clipped)
+
+    def step(
+        self, action: ArrayLike
+    ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        """Apply ``action`` (chamber pressure commands, Pa, (3,)) for one step of Δt.
+
+        Returns
+        -------
+        observation : ndarray of float32
+        reward : float
+        terminated : bool
+            The coupled solve of this step did not converge.
+        truncated : bool
+            This step completed ``episode_steps``.
+        info : dict
+
+        Raises
+        ------
+        ValueError
+            If ``action`` is not three finite numbers, or ``target``/``reward`` return
+            something that is not three finite angles / a finite number.
+        gymnasium.error.ResetNeeded
+            Before the first :meth:`reset`.
+        """
+        if self.simulation is None:
+            raise gymnasium.error.ResetNeeded('GloveEnv: call reset() before step()')
+        action = as_joint_vector('action', action)
+        state = self.simulation.step(action)
+        target = self._next_target
+        reward = self.reward(state, target.copy(), action.copy())
+        try:
+            reward = float(reward)
+        except (TypeError, ValueError):
+            reward = math.nan
+        if not math.isfinite(reward):
+            raise ValueError(f'reward returned {reward!r} at t = {state.t} s: must be finite')
+        self._next_target = self._target_at(self._time_of(state.step + 1))
+        observation, clipped = self._observe(state)
+        terminated = not bool(state.converged)
+        truncated = state.step >= self.episode_steps
+        return observation, reward, terminated, truncated, self._info(state, target, clipped)
+
+    # -- helpers ---------------------------------------------------------------------------
+
+    def _time_of(self, step: int) -> float:
+        """t_k, s, exactly as the stepper reports it."""
+        return step_time_ns(step, self.settings.rate_hz) / NANOSECONDS
+
+    def _target_at(self, t: float) -> NDArray[np.float64]:
+        return as_joint_vector(f'target({t})', self.target(t))
+
+    def _observe(self, state: GloveState) -> tuple[NDArray[np.float32], bool]:
+        """The observation (a new float32 array) and whether clipping to the bounds changed it."""
+        parts = [state.q_measured, state.qdot, state.pressure_measured]
+        if self.observe_target:
+            parts.append(self._next_target)
+        raw = np.concatenate(parts).astype(np.float32)  # beyond float32's range: ±inf, clipped
+        observation = np.clip(raw, self.observation_space.low, self.observation_space.high)
+        return observation, not np.array_equal(raw, observation)
+
+    def _info(self, state: GloveState, target: NDArray[np.float64], clipped: bool) -> dict:
+        return {
+            't': state.t,
+            'target': target.copy(),
+            'q': state.q.copy(),
+            'pressure': state.pressure.copy(),
+            'command': state.command.copy(),
+            'converged': bool(state.converged),
+            'in_valid_range': bool(state.in_valid_range),
+            'saturated': bool(state.saturated),
+            'observation_clipped': clipped,
+            'noise_seed': self.noise_seed,
+        }
+
+
+def _model(model: GloveModel | None, params: str | os.PathLike | GloveParams | None):
+    """The GloveModel from ``model`` or ``params`` (at most one given), or a ValueError."""
+    if model is not None and params is not None:
+        raise ValueError('model and params: give one of them, not both')
+    if model is not None:
+        if not isinstance(model, GloveModel):
+            raise ValueError(f'model = {model!r}: must be a GloveModel (or None)')
+        return model
+    if params is None or isinstance(params, GloveParams):
+        return GloveModel(params)
+    if isinstance(params, str | os.PathLike):
+        return GloveModel(load_params(params))
+    raise ValueError(f'params = {params!r}: must be a parameter file path or GloveParams')
+
+
+if ENV_ID not in gymnasium.registry:
+    gymnasium.register(id=ENV_ID, entry_point='exodigit_model.gym:GloveEnv')
