@@ -53,7 +53,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import CLOCKS, MAX_REAL_TIME_FACTOR, Pacer
+from .pacing import CLOCKS, CONTROLLERS_LABEL, MAX_REAL_TIME_FACTOR, Pacer
 from .parameters import ParamSpec, ParamTable
 from .qos import CLOCK_QOS, GLOVE_QOS
 from .watchdog import Watchdog
@@ -250,6 +250,7 @@ class Plant(GloveNode):
         self.sim_timer = None
         if self.sim_clock:
             self.clock_publisher = self.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
+            self.outputs += ((self.clock_publisher, CLOCK),)
             self.create_service(SetBool, SET_PAUSED, self.on_set_paused)
             self.create_service(Trigger, STEP, self.on_step)
             self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
@@ -381,7 +382,10 @@ class Plant(GloveNode):
                 self.restart_pacing()
         response.success = True
         state = 'paused' if self.paused else 'running'
-        response.message = f'{state} at t = {self.state.t:.9f} s (step {self.state.step})'
+        response.message = (
+            f'{state} at t = {self.state.t:.9f} s (step {self.state.step}); '
+            f'{CONTROLLERS_LABEL}{", ".join(self.lockstep_controllers()) or "none"}'
+        )
         self.get_logger().info(response.message)
         if not self.paused:
             self.try_step(time.monotonic())
@@ -548,6 +552,27 @@ class Plant(GloveNode):
         return all(
             publisher.get_subscription_count() >= self.count_subscribers(topic)
             for publisher, topic in self.outputs
+        )
+
+    def lockstep_controllers(self) -> list[str]:
+        """Nodes that publish our commands and subscribe our states, both matched with us.
+
+        What a test harness asks (the ``set_paused`` response lists them) before it publishes a
+        state that a controller it has just started must not miss.
+        """
+        if not (
+            self.readers_matched()
+            and self.command_subscription.get_publisher_count()
+            >= self.count_publishers(PRESSURE_COMMAND)
+        ):
+            return []
+        publishers = self.get_publishers_info_by_topic(self.command_subscription.topic_name)
+        readers = self.get_subscriptions_info_by_topic(self.joint_publisher.topic_name)
+        listening = {(info.node_namespace, info.node_name) for info in readers}
+        return sorted(
+            f'{namespace.rstrip("/")}/{name}'
+            for namespace, name in {(i.node_namespace, i.node_name) for i in publishers}
+            if (namespace, name) in listening
         )
 
     def wait_for_readers(self) -> None:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..pacing import CONTROLLERS_LABEL
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 
 DEFAULT_TIMEOUT = 60.0
@@ -295,8 +296,16 @@ class GloveSim:
         steps = round(seconds * self.rate_hz)
         if not (math.isfinite(seconds) and steps >= 1):
             raise ValueError(f'seconds = {seconds!r}: must give at least one step')
-        self._wait(self._node.other_controllers, 'your controller to publish pressure_command')
+        controllers = self._wait(
+            self._node.other_controllers, 'your controller to publish pressure_command'
+        )
         self._set_paused(True)
+        if not self._external_synced:
+            # The plant must have matched the controller before the state it is to answer.
+            self._wait(
+                lambda: set(controllers) <= self._plant_controllers(),
+                f'the plant to match {", ".join(controllers)}',
+            )
         end_ns = self._node.time_ns(self.state.t) + round(steps * 1e9 / self.rate_hz)
         self._call(
             self._node.parameter_client,
@@ -336,6 +345,14 @@ class GloveSim:
             self._call(self._node.pause_client, self._node.pause_request(paused), 'set_paused')
             self._paused = paused
 
+    def _plant_controllers(self) -> set[str]:
+        """The controllers the plant has matched (its ``set_paused`` answer lists them)."""
+        response = self._call(
+            self._node.pause_client, self._node.pause_request(self._paused), 'set_paused'
+        )
+        listed = response.message.partition(CONTROLLERS_LABEL)[2]
+        return {name.strip() for name in listed.split(',')}
+
     def _next_state(self, *, with_estimate: bool = True) -> SimState:
         return self._wait(
             lambda: self._node.take_state(with_estimate=with_estimate), 'the next state'
@@ -344,7 +361,7 @@ class GloveSim:
     def _call(self, client, request, what: str):
         future = client.call_async(request)
         response = self._wait(lambda: future.result() if future.done() else None, what)
-        if hasattr(response, 'successful'):
+        if hasattr(response, 'results'):
             ok = all(result.successful for result in response.results)
             reason = '; '.join(result.reason for result in response.results)
         else:

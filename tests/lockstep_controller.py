@@ -1,0 +1,60 @@
+"""A controller node for the lockstep tests: answers each joint_states with one command.
+
+The command is a function of the state's stamp only, p(t) = PEAK·(1 − cos 2πt/PERIOD)/2 on all
+chambers, so a test can replay the session in process. With ``--delay S`` it sleeps S wall
+seconds before each answer (a slow controller).
+
+Run: ``python lockstep_controller.py [--delay S] --ros-args -r __ns:=/ns``.
+"""
+
+import argparse
+import math
+import sys
+import time
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+PEAK = 40e3  # Pa
+PERIOD = 1.0  # s
+
+
+def command_at(t: float) -> list[float]:
+    """The command answering a state stamped ``t`` (s), Pa."""
+    return [PEAK * 0.5 * (1.0 - math.cos(2.0 * math.pi * t / PERIOD))] * 3
+
+
+class Controller(Node):
+    def __init__(self, delay: float) -> None:
+        super().__init__('lockstep_controller')
+        self.delay = delay
+        self.create_subscription(JointState, 'joint_states', self.answer, 1000)
+        self.publisher = self.create_publisher(Float64MultiArray, 'pressure_command', 10)
+
+    def answer(self, state: JointState) -> None:
+        if self.delay:
+            time.sleep(self.delay)
+        t = (state.header.stamp.sec * 10**9 + state.header.stamp.nanosec) / 1e9
+        self.publisher.publish(Float64MultiArray(data=command_at(t)))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument('--delay', type=float, default=0.0)
+    args, ros_args = parser.parse_known_args()
+    rclpy.init(args=[sys.argv[0], *ros_args])
+    node = Controller(args.delay)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

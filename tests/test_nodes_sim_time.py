@@ -1,0 +1,289 @@
+"""The plant in simulated time over DDS: /clock, lockstep, pause/step, reset, and the testing kit.
+
+Every expectation is exact (lockstep), none is a timing assert: states are compared bit for bit
+with ``GloveSimulation`` stepped in this process with the same commands, time with the grid
+t_k = round(k·10⁹/rate_hz) ns.
+"""
+
+import itertools
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_nodes.testing import GloveSim, GloveSimError
+from lockstep_controller import command_at
+from ros_harness import RosProbe, wait_until
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
+
+from exodigit_model import GloveSimulation, SimulationSettings
+
+CONTROLLER = Path(__file__).with_name('lockstep_controller.py')
+#: How long a negative check (nothing happens) watches, wall s.
+QUIET = 0.3
+
+
+def kit_replay(settings: SimulationSettings) -> GloveSimulation:
+    """An in-process stepper in the state a fresh GloveSim leaves its plant in (one reset)."""
+    simulation = GloveSimulation(settings=settings)
+    simulation.reset()
+    simulation.step(np.zeros(3))
+    return simulation
+
+
+def assert_same(state, reference):
+    """A published state equals the in-process one bit for bit."""
+    assert state.t == reference.t
+    np.testing.assert_array_equal(state.q, reference.q_measured)
+    np.testing.assert_array_equal(state.qdot, reference.qdot)
+    np.testing.assert_array_equal(state.effort, reference.finger_torque)
+    np.testing.assert_array_equal(state.pressure, reference.pressure_measured)
+    np.testing.assert_array_equal(state.forces, reference.forces)
+
+
+def sine(k, peak=40e3):
+    return np.array([1.0, 0.7, 0.4]) * peak * 0.5 * (1.0 - math.cos(2 * math.pi * k / 150))
+
+
+@pytest.fixture
+def probe_for():
+    probes = []
+
+    def make(domain_id):
+        probes.append(RosProbe(domain_id, name='sim_time_probe'))
+        return probes[-1]
+
+    yield make
+    for probe in probes:
+        probe.close()
+
+
+def start_controller(glove, *extra):
+    return subprocess.Popen(
+        [sys.executable, str(CONTROLLER), *extra, '--ros-args', '-r', f'__ns:={glove.namespace}'],
+        env=glove.env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+
+
+def stop(process):
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(5)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+# -- the plant through the testing kit ------------------------------------------------------
+
+
+@pytest.mark.glove_sim(
+    plant={
+        'pressure_time_constant': 0.05,
+        'angle_noise_std': 2e-3,
+        'pressure_noise_std': 300.0,
+        'seed': 11,
+    }
+)
+def test_the_node_and_the_stepper_give_identical_states_for_the_same_commands(glove_sim):
+    settings = SimulationSettings(
+        pressure_time_constant=0.05, angle_noise_std=2e-3, pressure_noise_std=300.0, seed=11
+    )
+    reference = kit_replay(settings)
+    assert_same(glove_sim.state, reference.state)
+    for k in range(300):
+        command = sine(k)
+        assert_same(glove_sim.step(command), reference.step(command))
+    glove_sim.reset()
+    reference.reset()
+    reference_state = reference.step(np.zeros(3))  # the plant publishes its rest state as a step
+    assert_same(glove_sim.state, reference_state)
+    assert_same(glove_sim.step([5e3, 5e3, 5e3]), reference.step([5e3, 5e3, 5e3]))
+
+
+@pytest.mark.glove_sim(plant={'rate_hz': 250.0})
+def test_clock_is_monotone_and_advances_one_period_per_step(glove_sim, probe_for):
+    probe = probe_for(glove_sim.domain_id)
+    clocks = probe.subscribe('/clock', Clock)
+    states = probe.subscribe(f'{glove_sim.namespace}/joint_states', JointState)
+    for _ in range(50):  # until the plant has matched the probe's readers (a bounded retry)
+        first = glove_sim.reset()
+        if wait_until(lambda: clocks.count() and states.count(), 0.2):
+            break
+    states.clear()
+    stamps = [glove_sim.step([20e3, 20e3, 20e3]).t for _ in range(200)]
+    assert wait_until(lambda: states.count() >= 200, 10.0)
+    ticks = [c.clock.sec * 10**9 + c.clock.nanosec for c in clocks.messages()]
+    start = round(first.t * 250.0)
+    assert ticks[-201:] == [round(k * 1e9 / 250.0) for k in range(start, start + 201)]
+    assert all(b > a for a, b in itertools.pairwise(ticks))
+    assert [round(t * 1e9) for t in stamps] == ticks[-200:]
+
+
+def test_reset_rests_the_glove_but_never_rewinds_time(glove_sim):
+    for k in range(50):
+        before = glove_sim.step(sine(k))
+    assert before.q.max() > 0.05
+    rest = glove_sim.reset()
+    assert rest.t == pytest.approx(before.t + 0.01, abs=1e-12)
+    np.testing.assert_array_equal(rest.pressure, np.zeros(3))
+    np.testing.assert_array_equal(rest.q, np.zeros(3))
+    after = glove_sim.step(np.zeros(3))
+    assert after.t > rest.t
+
+
+def test_a_bad_command_is_refused_before_it_is_sent(glove_sim):
+    with pytest.raises(ValueError, match='three finite'):
+        glove_sim.step([1.0, math.nan, 0.0])
+    assert glove_sim.step([1e3, 1e3, 1e3]).pressure[0] == 1e3
+
+
+def test_kit_parameters_cannot_be_overridden():
+    with pytest.raises(ValueError, match='lockstep'):
+        GloveSim(plant={'lockstep': False})
+
+
+def test_pause_and_step_advance_exactly_one_step_each(glove_sim, probe_for):
+    probe = probe_for(glove_sim.domain_id)
+    ns = glove_sim.namespace
+    states = probe.subscribe(f'{ns}/joint_states', JointState)
+    glove_sim.step([10e3, 10e3, 10e3])
+    paused = probe.call(f'{ns}/set_paused', SetBool, SetBool.Request(data=True))
+    assert paused.success and 'paused' in paused.message
+    mark = glove_sim.state.t
+    probe_pub = probe.publisher(f'{ns}/pressure_command', Float64MultiArray)
+    probe_pub.publish(Float64MultiArray(data=[30e3, 30e3, 30e3]))  # an answer, but paused
+    time.sleep(QUIET)
+    assert not [m for m in states.messages() if _t(m) > mark], 'stepped while paused'
+    for k in range(1, 4):
+        response = probe.call(f'{ns}/step', Trigger, Trigger.Request())
+        assert response.success, response.message
+        newest = wait_until(lambda: max(_t(m) for m in states.messages()), 5.0)
+        assert newest == pytest.approx(mark + 0.01 * k, abs=1e-12)
+    resumed = probe.call(f'{ns}/set_paused', SetBool, SetBool.Request(data=False))
+    assert resumed.success
+    running = probe.call(f'{ns}/step', Trigger, Trigger.Request())
+    assert not running.success and 'not paused' in running.message
+
+
+def _t(joint_state):
+    return (joint_state.header.stamp.sec * 10**9 + joint_state.header.stamp.nanosec) / 1e9
+
+
+# -- an external controller in lockstep ----------------------------------------------------
+
+
+def replay_external(steps, run_lengths):
+    """States and commands of runs with the lockstep controller, stepped in process."""
+    simulation = kit_replay(SimulationSettings(pressure_time_constant=0.0))
+    state = simulation.step(np.zeros(3))  # the first run's fresh state (latest command: 0)
+    records = []
+    for length in run_lengths:
+        run = []
+        while len(run) < length:
+            run.append((state, command_at(state.t)))
+            state = simulation.step(command_at(state.t))
+        records.append(run)
+    assert sum(len(r) for r in records) == steps
+    return records
+
+
+@pytest.mark.parametrize('delay', [0.0, 0.02], ids=['fast', 'slow'])
+def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove_sim, delay):
+    controller = start_controller(glove_sim, '--delay', str(delay))
+    try:
+        records = [glove_sim.run(0.5), glove_sim.run(0.3)]
+    finally:
+        stop(controller)
+    expected = replay_external(80, [50, 30])
+    for record, runs in zip(records, expected, strict=True):
+        assert len(record.t) == len(runs)
+        for i, (state, command) in enumerate(runs):
+            assert record.t[i] == state.t
+            np.testing.assert_array_equal(record.q[i], state.q_measured)
+            np.testing.assert_array_equal(record.pressure[i], state.pressure_measured)
+            np.testing.assert_array_equal(record.forces[i], state.forces)
+            np.testing.assert_array_equal(record.command[i], command)
+
+
+def test_the_test_cannot_step_beside_an_external_controller(glove_sim):
+    controller = start_controller(glove_sim)
+    try:
+        assert wait_until(glove_sim._node.other_controllers, 10.0)
+        with pytest.raises(GloveSimError, match='run'):
+            glove_sim.step([1e3, 1e3, 1e3])
+    finally:
+        stop(controller)
+
+
+# -- lockstep timeout: a controller that dies ------------------------------------------------
+
+
+def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_again(
+    launcher, tmp_path
+):
+    probe = RosProbe(launcher.domain_id, name='lockstep_timeout_probe')
+    ns = f'/lockstep_timeout_{time.monotonic_ns()}'
+    try:
+        pressures = probe.subscribe(f'{ns}/chamber_pressure', Float64MultiArray)
+        diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+        plant = {
+            'clock': 'sim',
+            'lockstep': True,
+            'lockstep_timeout': 0.3,
+            'real_time_factor': 0.0,
+            'pressure_time_constant': 0.0,
+        }
+        launcher.start('plant', plant, namespace=ns)
+        controller_parameters = {
+            'mode': 'hold',
+            'lockstep': True,
+            'use_sim_time': True,
+            'max_pressure_rate': 1e8,
+        }
+        controller = launcher.start('pressure_command', controller_parameters, namespace=ns)
+        held = pressures.wait_for(lambda m: m.data[0] == 20e3, 30.0)
+        assert held is not None, controller.stderr()
+        controller.kill()  # kill -9: no zero command on the way out
+        mark = time.monotonic()
+        vented = pressures.wait_for(lambda m: m.data[0] == 0.0, 10.0, since=mark)
+        assert vented is not None
+        data = [m.data[0] for m in pressures.messages()]
+        last_held = max(i for i, p in enumerate(data) if p == 20e3)
+        assert data[last_held + 1] == 0.0  # the first step after the timeout is vented
+        unlocked = wait_until(lambda: _lockstep_status(diagnostics, ns, 'unlocked'), 10.0)
+        assert unlocked, 'diagnostics do not say the plant vented on the lockstep timeout'
+        # It keeps stepping (unlocked, at real time) and locks step again with a new controller.
+        count = pressures.count()
+        assert wait_until(lambda: pressures.count() > count + 5, 10.0)
+        launcher.start('pressure_command', controller_parameters, namespace=ns)
+        assert pressures.wait_for(lambda m: m.data[0] == 20e3, 30.0, since=time.monotonic())
+        assert wait_until(lambda: _lockstep_status(diagnostics, ns, 'locked', 'waiting'), 10.0)
+    finally:
+        probe.close()
+
+
+def _lockstep_status(diagnostics, ns, *words):
+    for array in reversed(diagnostics.messages()):
+        for status in array.status:
+            if status.name == f'{ns}/plant':
+                value = next((kv.value for kv in status.values if kv.key == 'lockstep'), '')
+                return any(value.startswith(word) for word in words)
+    return False
+
+
+def test_lockstep_needs_simulated_time(launcher):
+    code, _, err = launcher.run('plant', {'lockstep': True}, timeout=30.0)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and 'lockstep needs clock sim' in lines[0]
