@@ -1,0 +1,1 @@
+"""An example of a user's glove controller package, tested with exodigit's testing kit."""

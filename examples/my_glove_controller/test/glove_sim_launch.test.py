@@ -1,0 +1,90 @@
+"""A launch_testing example for ROS 2 installs: the flex controller in lockstep with the glove.
+
+The launch description starts exodigit's ``plant`` in lockstep simulated time (as fast as the
+CPU allows) and this package's ``flex_controller`` with ``use_sim_time``; the test listens to
+``joint_states`` until 3 simulated seconds have passed and checks the angles. Run it in a
+sourced workspace with::
+
+    launch_test test/glove_sim_launch.test.py
+
+(It is named ``*.test.py`` so that plain pytest does not collect it: on a ROS 2 install
+launch_testing's own pytest plugin does not load with pytest >= 8.1.)
+"""
+
+import math
+import time
+import unittest
+
+import launch
+import launch_ros.actions
+import launch_testing.actions
+import launch_testing.asserts
+import launch_testing.markers
+import pytest
+import rclpy
+from sensor_msgs.msg import JointState
+
+NAMESPACE = '/launch_test_glove'
+TARGETS = [0.3, 0.3, 0.2]  # rad
+TOLERANCE = math.radians(1.0)
+SIMULATED_SECONDS = 3.0
+TIMEOUT = 60.0  # wall s
+
+
+@pytest.mark.launch_test
+@launch_testing.markers.keep_alive
+def generate_test_description():
+    plant = launch_ros.actions.Node(
+        package='exodigit_nodes',
+        executable='plant',
+        namespace=NAMESPACE,
+        parameters=[
+            {
+                'clock': 'sim',
+                'lockstep': True,
+                'real_time_factor': 0.0,
+                'pressure_time_constant': 0.0,
+            }
+        ],
+    )
+    controller = launch_ros.actions.Node(
+        package='my_glove_controller',
+        executable='flex_controller',
+        namespace=NAMESPACE,
+        parameters=[{'use_sim_time': True, 'targets': TARGETS}],
+    )
+    description = launch.LaunchDescription(
+        [plant, controller, launch_testing.actions.ReadyToTest()]
+    )
+    return description, {'plant': plant, 'controller': controller}
+
+
+class TestTheControllerReachesItsTargets(unittest.TestCase):
+    def test_angles_after_three_simulated_seconds(self):
+        rclpy.init()
+        node = rclpy.create_node('launch_test_listener')
+        states = []
+        node.create_subscription(JointState, f'{NAMESPACE}/joint_states', states.append, 1000)
+        try:
+            deadline = time.monotonic() + TIMEOUT
+            while time.monotonic() < deadline:
+                rclpy.spin_once(node, timeout_sec=0.1)
+                if states and stamp(states[-1]) >= SIMULATED_SECONDS:
+                    break
+            self.assertTrue(states, 'no joint_states received')
+            self.assertGreaterEqual(stamp(states[-1]), SIMULATED_SECONDS)
+            for angle, target in zip(states[-1].position, TARGETS, strict=True):
+                self.assertAlmostEqual(angle, target, delta=TOLERANCE)
+        finally:
+            node.destroy_node()
+            rclpy.shutdown()
+
+
+@launch_testing.post_shutdown_test()
+class TestTheNodesExitCleanly(unittest.TestCase):
+    def test_exit_codes(self, proc_info):
+        launch_testing.asserts.assertExitCodes(proc_info)
+
+
+def stamp(state):
+    return state.header.stamp.sec + state.header.stamp.nanosec * 1e-9
