@@ -311,3 +311,45 @@ def test_a_node_that_dies_is_named_with_its_exit_code_and_the_glove_fails(ros_en
 def ros_env(ros_domain):
     """The environment a user's shell would have: the session's domain, loopback discovery."""
     return ros_environment(ros_domain)
+
+
+def test_a_lockstep_session_records_each_step_of_its_simulated_duration_the_same_every_time(
+    ros_env, tmp_path
+):
+    tables = []
+    for run in ('first', 'second'):
+        out = tmp_path / run
+        args = ['--clock', 'sim', '--lockstep', '--real-time-factor', '0', '--duration', '3']
+        result = subprocess.run(
+            [*GLOVE, *args, '--namespace', namespace(f'sim_{run}'), '--out', str(out)],
+            env=ros_env,
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=START_TIMEOUT + 3 * STOP_TIMEOUT,
+        )
+        assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+        assert 'stopping (3 simulated s elapsed)' in result.stdout
+        tables.append(read_record(out / 'signals.csv'))
+    for table in tables:
+        # steps 1..300: t_k = k * 10 ms, the first row at 0 (time since the first step)
+        np.testing.assert_allclose(table['time_s'], 0.01 * np.arange(300), atol=1e-9)
+    for stem, unit in (('p', 'kpa'), ('q', 'deg'), ('f', 'n')):
+        np.testing.assert_array_equal(
+            joint_columns(tables[0], stem, unit), joint_columns(tables[1], stem, unit)
+        )
+    pressure = 1e3 * joint_columns(tables[0], 'p', 'kpa')
+    assert np.ptp(pressure[:, 0]) > 5e3, 'the sine session did not move the chambers'
+
+
+def test_lockstep_without_simulated_time_is_refused_before_anything_starts(ros_env, tmp_path):
+    result = subprocess.run(
+        [*GLOVE, '--lockstep', '--namespace', namespace('refused')],
+        env=ros_env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip() == 'glove: --lockstep and --real-time-factor need --clock sim'

@@ -287,3 +287,26 @@ def test_lockstep_needs_simulated_time(launcher):
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and 'lockstep needs clock sim' in lines[0]
+
+
+@pytest.mark.glove_sim(estimator=True)
+def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_step(glove_sim):
+    controller = subprocess.Popen(
+        [
+            sys.executable,
+            '-m',
+            'exodigit_nodes.pressure_command',
+            '--ros-args',
+            *('-p', 'mode:=force', '-p', 'lockstep:=true', '-p', 'use_sim_time:=true'),
+            *('-r', f'__ns:={glove_sim.namespace}'),
+        ],
+        env=glove_sim.env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        record = glove_sim.run(3.0)  # waits for one answer per state: none missing, none extra
+    finally:
+        stop(controller)
+    assert len(record.t) == len(record.command) == 300
+    np.testing.assert_allclose(record.forces[-1], [0.1, 0.1, 0.1], atol=0.01)

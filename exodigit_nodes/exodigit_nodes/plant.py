@@ -248,12 +248,13 @@ class Plant(GloveNode):
         self.create_service(Trigger, RESET, self.on_reset)
         self.marker_timer = None
         self.sim_timer = None
+        self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
+        self.report_clock = self.wall_clock if self.sim_clock else self.get_clock()
         if self.sim_clock:
             self.clock_publisher = self.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
             self.outputs += ((self.clock_publisher, CLOCK),)
             self.create_service(SetBool, SET_PAUSED, self.on_set_paused)
             self.create_service(Trigger, STEP, self.on_step)
-            self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
             self.pacer = Pacer()
             self.paused = values['start_paused']
             self.started = False  # lockstep: the first step is published once a controller is here
@@ -264,7 +265,9 @@ class Plant(GloveNode):
         else:
             self.create_timer(self.period, self.on_wall_timer)
         self.apply(settings, {'marker_rate_hz', 'real_time_factor'})
-        self.create_timer(DIAGNOSTIC_PERIOD, self.report)  # after the step's timer: it reports it
+        # After the step's timer (fired together, the report shows that step). With clock sim on
+        # the wall clock: a paused plant still reports, whatever its use_sim_time.
+        self.create_timer(DIAGNOSTIC_PERIOD, self.report, clock=self.report_clock)
         if self.lockstep and settings.lockstep_timeout > 0.0:
             timeout = f'{settings.lockstep_timeout:g} s'
         else:
@@ -323,7 +326,7 @@ class Plant(GloveNode):
                 self.marker_timer = None
             if settings.marker_rate_hz > 0.0:
                 self.marker_timer = self.create_timer(
-                    1.0 / settings.marker_rate_hz, self.publish_markers
+                    1.0 / settings.marker_rate_hz, self.publish_markers, clock=self.report_clock
                 )
         if self.sim_clock and 'real_time_factor' in changed:
             self.restart_pacing()
