@@ -59,6 +59,19 @@ def test_entrypoint_sources_both_setups_then_execs_the_command():
     assert ros < overlay < lines.index('exec "$@"')
 
 
+def test_docker_stop_sends_sigint_so_the_nodes_stop_cleanly():
+    # On SIGTERM (docker stop's default) ros2 launch exits and leaves its nodes to be killed with
+    # the container; on SIGINT it stops them, and pressure_command sends zero pressure.
+    steps = instructions()
+    keywords = [k for k, _ in steps]
+    assert [args for k, args in steps if k == 'STOPSIGNAL'] == ['SIGINT']
+    last_from = len(keywords) - 1 - keywords[::-1].index('FROM')
+    assert keywords.index('STOPSIGNAL') > last_from, 'STOPSIGNAL is not in the final stage'
+    compose = yaml.safe_load((DOCKER / 'compose.yaml').read_text())
+    for name, service in compose['services'].items():
+        assert service.get('stop_signal', 'SIGINT') == 'SIGINT', name
+
+
 def test_compose_keeps_the_container_off_the_host_network():
     compose = yaml.safe_load((DOCKER / 'compose.yaml').read_text())
     for name, service in compose['services'].items():

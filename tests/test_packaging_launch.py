@@ -1,6 +1,9 @@
 """The launch file: it compiles, names the package's executables and existing config files, and
-evaluated against a recording stand-in of the launch API it declares every argument it uses."""
+evaluated against recording stand-ins of the launch API it declares every argument it uses, passes
+the simulated-time arguments to the nodes the venv runner passes them to, and ends the whole launch
+when any node exits (failing it when the node failed)."""
 
+import argparse
 import ast
 import fnmatch
 import py_compile
@@ -10,11 +13,15 @@ import types
 from pathlib import Path
 
 import pytest
-from exodigit_nodes.glove import MODES
+import yaml
+from exodigit_nodes.glove import MODES, sim_time_arguments
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'
 LAUNCH_FILE = PACKAGE_DIR / 'launch' / 'glove.launch.py'
 NODE_EXECUTABLES = {'plant', 'pressure_command', 'estimator'}
+SIM_TIME_ARGUMENTS = {'clock', 'real_time_factor', 'lockstep', 'use_sim_time'}
+RUNNER_ONLY = {'start_paused', 'pause_at'}
+"""Plant parameters the runner sets for its live summary and duration, not the launch file."""
 
 
 def setup_call() -> ast.Call:
@@ -83,19 +90,27 @@ class Recorded:
         self.kwargs = kwargs
 
 
+LAUNCH_API = {
+    'launch': ['LaunchDescription'],
+    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.event_handlers': ['OnProcessExit'],
+    'launch.substitutions': [
+        'AndSubstitution',
+        'EqualsSubstitution',
+        'LaunchConfiguration',
+        'NotEqualsSubstitution',
+    ],
+    'launch_ros': [],
+    'launch_ros.actions': ['Node'],
+    'launch_ros.parameter_descriptions': ['ParameterValue'],
+}
+
+
 @pytest.fixture
 def launch_api(monkeypatch):
     """Minimal recording replacements for launch, launch_ros and ament_index_python."""
-    kinds = {
-        'launch': ['LaunchDescription'],
-        'launch.actions': ['DeclareLaunchArgument'],
-        'launch.substitutions': ['LaunchConfiguration'],
-        'launch_ros': [],
-        'launch_ros.actions': ['Node'],
-        'launch_ros.parameter_descriptions': ['ParameterValue'],
-    }
     classes = {}
-    for module_name, names in kinds.items():
+    for module_name, names in LAUNCH_API.items():
         module = types.ModuleType(module_name)
         for name in names:
             classes[name] = type(name, (Recorded,), {})
@@ -106,38 +121,112 @@ def launch_api(monkeypatch):
         PACKAGE_DIR if package == 'exodigit_nodes' else Path('/nonexistent')
     )
     monkeypatch.setitem(sys.modules, 'ament_index_python.packages', ament)
-    return classes
+    return types.SimpleNamespace(**classes)
 
 
-def test_launch_description_declares_every_argument_it_uses(launch_api):
-    description = runpy.run_path(str(LAUNCH_FILE))['generate_launch_description']()
-    entities = description.args[0]
-    declared = {
-        e.args[0]: e.kwargs for e in entities if isinstance(e, launch_api['DeclareLaunchArgument'])
-    }
-    assert set(declared) >= {'namespace', 'mode', 'params_file', 'joint_prefix', 'use_sim_time'}
+@pytest.fixture
+def launch_file(launch_api):
+    """The launch file's module globals, run against the stand-ins."""
+    return runpy.run_path(str(LAUNCH_FILE))
+
+
+@pytest.fixture
+def entities(launch_file, launch_api):
+    """The entities of the launch description, in order."""
+    description = launch_file['generate_launch_description']()
+    assert isinstance(description, launch_api.LaunchDescription)
+    return description.args[0]
+
+
+def of_kind(entities, kind) -> list:
+    return [e for e in entities if isinstance(e, kind)]
+
+
+def declared_arguments(entities, api) -> dict[str, dict]:
+    return {e.args[0]: e.kwargs for e in of_kind(entities, api.DeclareLaunchArgument)}
+
+
+def nodes_by_executable(entities, api) -> dict[str, Recorded]:
+    return {n.kwargs['executable']: n for n in of_kind(entities, api.Node)}
+
+
+def used_configurations(value, api):
+    """Names of every LaunchConfiguration inside a (nested) stand-in value."""
+    if isinstance(value, api.LaunchConfiguration):
+        yield value.args[0]
+    elif isinstance(value, Recorded):
+        for item in list(value.args) + list(value.kwargs.values()):
+            yield from used_configurations(item, api)
+    elif isinstance(value, list | tuple):
+        for item in value:
+            yield from used_configurations(item, api)
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from used_configurations(item, api)
+
+
+def truth(text: str) -> bool:
+    assert text in ('true', 'false'), text
+    return text == 'true'
+
+
+def resolve(value, configurations: dict[str, str], api):
+    """What launch makes of a stand-in substitution or parameter value (the subset used)."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, list | tuple):
+        return ''.join(resolve(item, configurations, api) for item in value)
+    if isinstance(value, api.LaunchConfiguration):
+        return configurations[value.args[0]]
+    if isinstance(value, api.EqualsSubstitution | api.NotEqualsSubstitution):
+        left, right = (resolve(side, configurations, api) for side in value.args)
+        equal = left == right
+        return str(equal if isinstance(value, api.EqualsSubstitution) else not equal).lower()
+    if isinstance(value, api.AndSubstitution):
+        left, right = (truth(resolve(side, configurations, api)) for side in value.args)
+        return str(left and right).lower()
+    if isinstance(value, api.ParameterValue):
+        text = resolve(value.args[0], configurations, api)
+        kind = value.kwargs['value_type']
+        return truth(text) if kind is bool else kind(text)
+    raise AssertionError(f'no stand-in evaluation for {value!r}')
+
+
+def node_parameters(entities, api, **arguments) -> dict[str, dict]:
+    """Each node's parameter overrides for the launch arguments ``arguments`` (name:=value)."""
+    configurations = {}
+    for name, kwargs in declared_arguments(entities, api).items():
+        value = arguments.pop(name, None)
+        if value is None:
+            value = resolve(kwargs['default_value'], configurations, api)
+        assert value in kwargs.get('choices', [value]), (name, value)
+        configurations[name] = value
+    assert not arguments, f'undeclared arguments {sorted(arguments)}'
+    result = {}
+    for executable, node in nodes_by_executable(entities, api).items():
+        overrides = {}
+        for item in node.kwargs['parameters']:
+            if isinstance(item, dict):
+                overrides.update({k: resolve(v, configurations, api) for k, v in item.items()})
+        result[executable] = overrides
+    return result
+
+
+def test_launch_description_declares_every_argument_it_uses(entities, launch_api):
+    declared = declared_arguments(entities, launch_api)
+    assert set(declared) >= {'namespace', 'mode', 'params_file', 'joint_prefix'}
+    assert set(declared) >= SIM_TIME_ARGUMENTS
+    order = list(declared)
     for name, kwargs in declared.items():
         assert kwargs.get('description', '').strip(), f'argument {name} has no description'
         assert 'default_value' in kwargs, f'argument {name} has no default'
+        for used in used_configurations(kwargs['default_value'], launch_api):
+            assert order.index(used) < order.index(name), f'{name} defaults to a later {used}'
 
-    nodes = [e for e in entities if isinstance(e, launch_api['Node'])]
+    nodes = of_kind(entities, launch_api.Node)
     assert {n.kwargs['executable'] for n in nodes} == NODE_EXECUTABLES
-
-    def used_configurations(value):
-        if isinstance(value, launch_api['LaunchConfiguration']):
-            yield value.args[0]
-        elif isinstance(value, Recorded):
-            for item in list(value.args) + list(value.kwargs.values()):
-                yield from used_configurations(item)
-        elif isinstance(value, list | tuple):
-            for item in value:
-                yield from used_configurations(item)
-        elif isinstance(value, dict):
-            for item in value.values():
-                yield from used_configurations(item)
-
     for node in nodes:
-        assert set(used_configurations(node)) <= set(declared)
+        assert set(used_configurations(node, launch_api)) <= set(declared)
         files = [p for p in node.kwargs['parameters'] if isinstance(p, str)]
         assert files, f'{node.kwargs["executable"]} loads no config file'
         for path in files:
@@ -145,3 +234,115 @@ def test_launch_description_declares_every_argument_it_uses(launch_api):
             assert Path(path).parent == PACKAGE_DIR / 'config'
     assert declared['mode']['choices'] == list(MODES)
     assert declared['mode']['default_value'] == 'sine'
+
+
+def test_sim_time_arguments_have_the_documented_defaults_and_choices(entities, launch_api):
+    declared = declared_arguments(entities, launch_api)
+    assert declared['clock']['choices'] == ['wall', 'sim']
+    assert declared['clock']['default_value'] == 'wall'
+    assert float(declared['real_time_factor']['default_value']) == 1.0
+    for name in ('lockstep', 'use_sim_time'):
+        assert sorted(declared[name]['choices']) == ['false', 'true'], name
+    assert declared['lockstep']['default_value'] == 'false'
+    for clock, expected in (('wall', 'false'), ('sim', 'true')):
+        default = resolve(declared['use_sim_time']['default_value'], {'clock': clock}, launch_api)
+        assert default == expected, f'use_sim_time defaults to {default} with clock {clock}'
+
+
+def test_by_default_every_node_runs_on_the_wall_clock(entities, launch_api):
+    parameters = node_parameters(entities, launch_api)
+    for executable, overrides in parameters.items():
+        assert overrides['use_sim_time'] is False, executable
+    assert parameters['plant']['clock'] == 'wall'
+    assert parameters['plant']['lockstep'] is False
+    assert parameters['plant']['real_time_factor'] == 1.0
+    assert parameters['pressure_command']['lockstep'] is False
+
+
+def test_clock_sim_reaches_the_nodes_the_runner_gives_it_to(entities, launch_api):
+    """The same overrides as ``python -m exodigit_nodes.glove --clock sim
+    --real-time-factor 0 --lockstep`` (glove.sim_time_arguments), but its summary's pauses."""
+    launched = node_parameters(
+        entities, launch_api, clock='sim', lockstep='true', real_time_factor='0.0'
+    )
+    runner_args = argparse.Namespace(
+        clock='sim', lockstep=True, real_time_factor=0.0, duration=0.0
+    )
+    for executable in NODE_EXECUTABLES:
+        options = sim_time_arguments(executable, runner_args)
+        assert options[::2] == ['-p'] * (len(options) // 2)
+        runner = dict(option.split(':=', 1) for option in options[1::2])
+        runner = {k: yaml.safe_load(v) for k, v in runner.items() if k not in RUNNER_ONLY}
+        runner.setdefault('use_sim_time', False)  # the plant owns /clock
+        for name, value in runner.items():
+            assert launched[executable].get(name) == value, (executable, name)
+        for name in SIM_TIME_ARGUMENTS - {'use_sim_time'} - set(runner):
+            assert name not in launched[executable], (executable, name)
+
+
+def test_use_sim_time_can_be_set_apart_from_clock(entities, launch_api):
+    # clock wall, use_sim_time true: every node follows somebody else's /clock (a bag, a sim).
+    parameters = node_parameters(entities, launch_api, use_sim_time='true')
+    assert {name: p['use_sim_time'] for name, p in parameters.items()} == dict.fromkeys(
+        NODE_EXECUTABLES, True
+    )
+    parameters = node_parameters(entities, launch_api, clock='sim', use_sim_time='false')
+    assert parameters['plant']['clock'] == 'sim'
+    assert not any(p['use_sim_time'] for p in parameters.values())
+
+
+def exit_handlers(entities, api) -> dict[int, Recorded]:
+    """OnProcessExit handlers registered by the description, by id of their target action."""
+    handlers = {}
+    for register in of_kind(entities, api.RegisterEventHandler):
+        (handler,) = register.args or (register.kwargs['event_handler'],)
+        if isinstance(handler, api.OnProcessExit):
+            target = handler.kwargs['target_action']
+            assert id(target) not in handlers, 'two exit handlers for one node'
+            handlers[id(target)] = handler
+    return handlers
+
+
+def test_every_node_has_an_exit_handler_registered_before_it_starts(entities, launch_api):
+    handlers = exit_handlers(entities, launch_api)
+    nodes = of_kind(entities, launch_api.Node)
+    assert set(handlers) == {id(node) for node in nodes}
+    registered = [entities.index(e) for e in of_kind(entities, launch_api.RegisterEventHandler)]
+    # A raising handler ends launch's handling of that event, so the node's own exit handlers
+    # (registered when it starts, in front of earlier ones) must come first.
+    assert max(registered) < min(entities.index(node) for node in nodes)
+    for handler in handlers.values():
+        assert callable(handler.kwargs['on_exit'])
+
+
+class FakeEvent:
+    """The parts of launch.events.process.ProcessExited the handler reads."""
+
+    def __init__(self, returncode: int, process_name: str = 'plant-1'):
+        self.returncode = returncode
+        self.process_name = process_name
+
+
+@pytest.mark.parametrize(
+    ('returncode', 'words'),
+    [(-9, 'SIGKILL'), (-15, 'SIGTERM'), (2, 'code 2'), (1, 'code 1')],
+)
+def test_a_failed_node_fails_the_launch(entities, launch_api, returncode, words):
+    # launch turns an exception raised in an event handler into a shutdown and return code 1.
+    for handler in exit_handlers(entities, launch_api).values():
+        for is_shutdown in (False, True):  # also when it dies while the launch stops
+            context = types.SimpleNamespace(is_shutdown=is_shutdown)
+            with pytest.raises(Exception) as raised:
+                handler.kwargs['on_exit'](FakeEvent(returncode, 'estimator-2'), context)
+            assert 'estimator-2' in str(raised.value)
+            assert words in str(raised.value)
+
+
+def test_a_clean_exit_ends_the_launch_with_code_0(entities, launch_api):
+    for handler in exit_handlers(entities, launch_api).values():
+        on_exit = handler.kwargs['on_exit']
+        action = on_exit(FakeEvent(0), types.SimpleNamespace(is_shutdown=False))
+        actions = action if isinstance(action, list | tuple) else [action]
+        assert any(isinstance(a, launch_api.Shutdown) for a in actions)
+        # Ctrl-C: launch is already stopping every node; nothing more to do.
+        assert on_exit(FakeEvent(0), types.SimpleNamespace(is_shutdown=True)) is None

@@ -3,33 +3,103 @@
     ros2 launch exodigit_nodes glove.launch.py
     ros2 launch exodigit_nodes glove.launch.py namespace:=/left/index mode:=staircase
     ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
+    ros2 launch exodigit_nodes glove.launch.py clock:=sim lockstep:=true real_time_factor:=0.0
 
 Each node reads its defaults from its ``config/*.yaml`` in the package share directory; the
-launch arguments below override them. Without a ROS install, ``python -m exodigit_nodes.glove``
-starts the same three nodes (README, "Running the glove").
+launch arguments below override them. Simulated time (INTERFACES.md Part II) is what
+``python -m exodigit_nodes.glove --clock sim --real-time-factor X --lockstep`` sets: the plant
+owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
+``use_sim_time`` and pressure_command answers each joint_states in lockstep.
+
+Like that runner, the glove is one unit: when any of its nodes exits, launch stops the other two
+and ends; ``ros2 launch`` then exits 1 if that node failed (non-zero code, or killed by a
+signal) and 0 after a clean exit or Ctrl-C. Without a ROS install, ``python -m
+exodigit_nodes.glove`` starts the same three nodes (README, "Running the glove").
 """
 
 import os
+import signal
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
-from launch.substitutions import LaunchConfiguration
+from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
+from launch.event_handlers import OnProcessExit
+from launch.substitutions import (
+    AndSubstitution,
+    EqualsSubstitution,
+    LaunchConfiguration,
+    NotEqualsSubstitution,
+)
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 PACKAGE = 'exodigit_nodes'
 MODES = ['sine', 'staircase', 'hold', 'position', 'force']
+CLOCKS = ['wall', 'sim']
+BOOLEANS = ['true', 'false']
+
+
+class GloveNodeError(RuntimeError):
+    """A glove node ended with a non-zero code or by a signal: the launch fails."""
+
+
+class ClockIsSim(EqualsSubstitution):
+    """'true' when the launch argument ``clock`` is sim, else 'false' (use_sim_time's default)."""
+
+    def __init__(self):
+        super().__init__(LaunchConfiguration('clock'), 'sim')
+
+    def describe(self):
+        """What ``ros2 launch --show-args`` prints as the default."""
+        return "'true' if clock is sim, else 'false'"
+
+
+def exit_status(returncode: int) -> str:
+    """How a process ended, in words: 'exited with code 2', 'was killed by SIGKILL'."""
+    if returncode < 0:
+        try:
+            return f'was killed by {signal.Signals(-returncode).name}'
+        except ValueError:
+            return f'was killed by signal {-returncode}'
+    return f'exited with code {returncode}'
+
+
+def end_the_glove(event, context):
+    """On any node's exit, end the whole launch; fail it if the node failed.
+
+    ``Shutdown`` alone makes ``ros2 launch`` exit 0 whatever the node's code. An exception raised
+    while launch handles an event makes it shut everything down and return 1 (LaunchService
+    .run_async), so a failed node is reported by raising. A node that stops cleanly because the
+    launch is already ending (Ctrl-C) changes nothing.
+    """
+    if event.returncode != 0:
+        raise GloveNodeError(
+            f'{event.process_name} {exit_status(event.returncode)}: stopping the glove'
+        )
+    if context.is_shutdown:
+        return None
+    return Shutdown(reason=f'{event.process_name} exited: stopping the glove')
 
 
 def generate_launch_description():
-    """The glove's three nodes and the arguments that configure them."""
+    """The glove's three nodes, the arguments that configure them, and the exit handlers."""
     config_dir = os.path.join(get_package_share_directory(PACKAGE), 'config')
     namespace = LaunchConfiguration('namespace')
-    use_sim_time = ParameterValue(LaunchConfiguration('use_sim_time'), value_type=bool)
+    clock = LaunchConfiguration('clock')
+    use_sim_time = LaunchConfiguration('use_sim_time')
     params_file = ParameterValue(LaunchConfiguration('params_file'), value_type=str)
     joint_prefix = ParameterValue(LaunchConfiguration('joint_prefix'), value_type=str)
     mode = ParameterValue(LaunchConfiguration('mode'), value_type=str)
+    real_time_factor = ParameterValue(LaunchConfiguration('real_time_factor'), value_type=float)
+    lockstep = ParameterValue(LaunchConfiguration('lockstep'), value_type=bool)
+    node_sim_time = ParameterValue(use_sim_time, value_type=bool)
+    # With clock sim the plant is the time source: its stamps are its steps, and its
+    # diagnostics and markers stay on the wall clock, which goes on while simulated time is
+    # paused or waits for a lockstep answer (as with python -m exodigit_nodes.glove). With clock
+    # wall, use_sim_time makes it follow somebody else's /clock, as it makes every node.
+    plant_sim_time = ParameterValue(
+        AndSubstitution(use_sim_time, NotEqualsSubstitution(clock, 'sim')), value_type=bool
+    )
 
     arguments = [
         DeclareLaunchArgument(
@@ -57,10 +127,31 @@ def generate_launch_description():
             '<prefix>dip)',
         ),
         DeclareLaunchArgument(
-            'use_sim_time',
+            'clock',
+            default_value='wall',
+            choices=CLOCKS,
+            description='time source: wall (system clock) or sim (the plant owns simulated '
+            'time and publishes /clock; the other nodes follow it)',
+        ),
+        DeclareLaunchArgument(
+            'real_time_factor',
+            default_value='1.0',
+            description='clock sim: simulated seconds per wall second, >= 0 (0 = as fast as '
+            'possible); settable at run time on the plant',
+        ),
+        DeclareLaunchArgument(
+            'lockstep',
             default_value='false',
-            choices=['true', 'false'],
-            description='use /clock (simulated time) for every stamp and timer',
+            choices=BOOLEANS,
+            description='clock sim: one step in flight; the plant waits for pressure_command '
+            'to answer each joint_states, and pressure_command answers each one',
+        ),
+        DeclareLaunchArgument(
+            'use_sim_time',
+            default_value=ClockIsSim(),
+            choices=BOOLEANS,
+            description='estimator and pressure_command (and with clock wall the plant) use '
+            '/clock for every stamp and timer; default true when clock is sim, else false',
         ),
     ]
 
@@ -72,19 +163,42 @@ def generate_launch_description():
             namespace=namespace,
             output='screen',
             emulate_tty=True,
-            parameters=[
-                os.path.join(config_dir, config_file),
-                {'use_sim_time': use_sim_time, **overrides},
-            ],
+            parameters=[os.path.join(config_dir, config_file), overrides],
         )
 
     nodes = [
         glove_node(
-            'plant', 'plant.yaml', {'params_file': params_file, 'joint_prefix': joint_prefix}
+            'plant',
+            'plant.yaml',
+            {
+                'use_sim_time': plant_sim_time,
+                'params_file': params_file,
+                'joint_prefix': joint_prefix,
+                'clock': ParameterValue(clock, value_type=str),
+                'real_time_factor': real_time_factor,
+                'lockstep': lockstep,
+            },
         ),
-        glove_node('estimator', 'estimator.yaml', {'params_file': params_file}),
         glove_node(
-            'pressure_command', 'pressure_command.yaml', {'params_file': params_file, 'mode': mode}
+            'estimator',
+            'estimator.yaml',
+            {'use_sim_time': node_sim_time, 'params_file': params_file},
+        ),
+        glove_node(
+            'pressure_command',
+            'pressure_command.yaml',
+            {
+                'use_sim_time': node_sim_time,
+                'params_file': params_file,
+                'mode': mode,
+                'lockstep': lockstep,
+            },
         ),
     ]
-    return LaunchDescription(arguments + nodes)
+    # Registered before the nodes start, so that each node's own exit handlers (which flush its
+    # last output) come first: a raising handler ends the handling of that event.
+    exit_handlers = [
+        RegisterEventHandler(OnProcessExit(target_action=node, on_exit=end_the_glove))
+        for node in nodes
+    ]
+    return LaunchDescription(arguments + exit_handlers + nodes)
