@@ -36,13 +36,30 @@ MODEL_MD_DEFAULTS = {
     },
     'finger': {
         'joints': [
-            {'name': 'mcp', 'link_half_length': 0.023, 'stiffness': 0.040},
-            {'name': 'pip', 'link_half_length': 0.0135, 'stiffness': 0.030},
-            {'name': 'dip', 'link_half_length': 0.009, 'stiffness': 0.015},
+            {
+                'name': name,
+                'link_half_length': half,
+                'stiffness': k,
+                # MODEL.md §11 defaults: a linear spring about q = 0.
+                'rest_angle': 0.0,
+                'rom_min': low,
+                'rom_max': high,
+                'rom_torque': 0.0,
+                'rom_sharpness': 10.0,
+                'damping': 0.0,
+                'spasticity': 0.0,
+                'extensor_spasticity': 0.0,
+                'spasticity_threshold': 0.5,
+            }
+            for name, half, k, low, high in (
+                ('mcp', 0.023, 0.040, -0.35, 1.57),
+                ('pip', 0.0135, 0.030, 0.0, 1.75),
+                ('dip', 0.009, 0.015, 0.0, 1.40),
+            )
         ]
     },
 }
-"""The parameter file of MODEL.md §10, typed in from the document."""
+"""The parameter file of MODEL.md §10 with the patient defaults of §11, typed in from it."""
 SEGMENT_LENGTH_KEYS = (
     'arc_length',
     'inner_radius',
@@ -207,15 +224,43 @@ def robot_contact_jacobian(params, q):
     return jacobian_by_differences(lambda a: exo_digit_points(params, a)[2], normals, q)
 
 
-def coupled_residual(params, q, p):
-    """F(q, p) of eq 36: τ_s by quadrature, B_R from the region moment, J* from eq 4 and print."""
+SPASTICITY_WIDTH = 0.01
+"""w of MODEL.md eq 11.3, rad/s (typed in from the document)."""
+
+
+def finger_torque(params, q, qdot=None, effort=None):
+    """τ_H of MODEL.md eqs 11.1-11.3, written from the document with numpy (logaddexp)."""
+    q = np.asarray(q, dtype=float)
+    v = np.zeros(3) if qdot is None else np.asarray(qdot, dtype=float)
+    u = np.zeros(3) if effort is None else np.asarray(effort, dtype=float)
+    torque = np.zeros(3)
+    for i, j in enumerate(params.finger.joints):
+        beta, q_r = j.rom_sharpness, j.rest_angle
+        stiffening = j.rom_torque * (
+            np.exp(beta * (q[i] - j.rom_max)) - np.exp(beta * (q_r - j.rom_max))
+        ) - j.rom_torque * (np.exp(beta * (j.rom_min - q[i])) - np.exp(beta * (j.rom_min - q_r)))
+
+        def soft(x, threshold=j.spasticity_threshold):
+            return SPASTICITY_WIDTH * np.logaddexp(0.0, (x - threshold) / SPASTICITY_WIDTH)
+
+        spastic = j.extensor_spasticity * (soft(v[i]) - soft(0.0)) - j.spasticity * (
+            soft(-v[i]) - soft(0.0)
+        )
+        torque[i] = j.stiffness * (q[i] - q_r) + stiffening + j.damping * v[i] + spastic - u[i]
+    return torque
+
+
+def coupled_residual(params, q, p, qdot=None, effort=None):
+    """F(q, p) of eq 36 / 11.4: τ_s by quadrature, B_R from the region moment, J* from eq 4 and
+    the print, τ_H from :func:`finger_torque` at the joint speed ``qdot``."""
     segments = params.exo_digit.segments
     torque = np.array(
         [-resisting_moment(params.material, s, a) for s, a in zip(segments, q, strict=True)]
     )
     pressure = np.array([region_first_moment(s) for s in segments]) * p
-    stiffness = np.array([j.stiffness for j in params.finger.joints])
-    forces = np.linalg.solve(printed_finger_jacobian_transposed(params, q), stiffness * q)
+    forces = np.linalg.solve(
+        printed_finger_jacobian_transposed(params, q), finger_torque(params, q, qdot, effort)
+    )
     return torque + pressure - robot_contact_jacobian(params, q).T @ forces
 
 

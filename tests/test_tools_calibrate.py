@@ -155,7 +155,7 @@ def zero_pressure_rows(count):
         (
             'stiffness',
             lambda: [[10, 0, 0, 5, 0, 0, '', '', '', 'finger']] * 5,
-            'pip joint barely moved',
+            'mcp joint barely moved',
         ),
     ],
 )

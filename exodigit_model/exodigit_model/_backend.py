@@ -12,6 +12,9 @@ import math
 
 import numpy as np
 
+MAX_EXPONENT = 700.0
+"""Largest exponent passed to exp (e^700 ≈ 1e304: finite, so a wild trial state stays finite)."""
+
 
 class ScalarOps:
     """Operations on Python floats (and complex numbers)."""
@@ -21,6 +24,24 @@ class ScalarOps:
 
     sin = staticmethod(math.sin)
     cos = staticmethod(math.cos)
+
+    @staticmethod
+    def exp(x: float) -> float:
+        """eˣ, with the exponent capped at ``MAX_EXPONENT`` (finite for any trial state)."""
+        return math.exp(min(x, MAX_EXPONENT))
+
+    @staticmethod
+    def softplus(x: float) -> float:
+        """ln(1 + eˣ), without overflow."""
+        return max(x, 0.0) + math.log1p(math.exp(-abs(x)))
+
+    @staticmethod
+    def sigmoid(x: float) -> float:
+        """1/(1 + e⁻ˣ), without overflow."""
+        if x >= 0.0:
+            return 1.0 / (1.0 + math.exp(-x))
+        z = math.exp(x)
+        return z / (1.0 + z)
 
     @staticmethod
     def where(condition, if_true, if_false):
@@ -61,6 +82,22 @@ class ArrayOps:
     sin = staticmethod(np.sin)
     cos = staticmethod(np.cos)
     where = staticmethod(np.where)
+
+    @staticmethod
+    def exp(x):
+        """eˣ element-wise, exponent capped at ``MAX_EXPONENT``."""
+        return np.exp(np.minimum(x, MAX_EXPONENT))
+
+    @staticmethod
+    def softplus(x):
+        """ln(1 + eˣ) element-wise, without overflow."""
+        return np.logaddexp(0.0, x)
+
+    @staticmethod
+    def sigmoid(x):
+        """1/(1 + e⁻ˣ) element-wise, without overflow."""
+        return 0.5 * (1.0 + np.tanh(0.5 * x))
+
     isfinite = staticmethod(np.isfinite)
     logical_not = staticmethod(np.logical_not)
 

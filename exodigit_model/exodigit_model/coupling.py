@@ -1,13 +1,14 @@
-r"""Coupled quasi-statics of exo-digit and finger (eqs 31, 34-36, MODEL.md §6-7).
+r"""Coupled quasi-statics of exo-digit and finger (eqs 31, 34-36, MODEL.md §6-7, §11).
 
-With f the contact forces (robot on finger, positive towards flexion),
+With f the contact forces (robot on finger, positive towards flexion) and τ_H the joint torque
+the finger needs (:mod:`.patient`, eq 11.1; the paper's K_H q),
 
 .. math::
 
-    K_H q = (J_H^*)^T f \quad (34), \qquad
+    \tau_H = (J_H^*)^T f \quad (34), \qquad
     F(q, p) = \tau_s(q) + B_R\,p - (J_R^*)^T f = 0 \quad (35)
 
-and eliminating f = (J_H^*)^{-T} K_H q gives eq 36. :class:`Evaluation` holds F and the
+and eliminating f = (J_H^*)^{-T} τ_H gives eq 36 (11.4). :class:`Evaluation` holds F and the
 finger-side forces at a state and computes the analytic Jacobian ∂F/∂q on request:
 
 .. math::
@@ -15,7 +16,7 @@ finger-side forces at a state and computes the analytic Jacobian ∂F/∂q on re
     \frac{\partial F_k}{\partial q_m} = \delta_{km}\tau_{s,k}'(q_k)
       - \sum_i \frac{\partial J^*_{R,ik}}{\partial q_m} f_i - \sum_i J^*_{R,ik}
       \frac{\partial f_i}{\partial q_m}, \qquad
-    (J_H^*)^T\frac{\partial f}{\partial q_m} = K_H e_m
+    (J_H^*)^T\frac{\partial f}{\partial q_m} = \frac{\partial \tau_{H,m}}{\partial q_m} e_m
       - \Bigl(\frac{\partial J_H^*}{\partial q_m}\Bigr)^T f.
 
 Everything works on per-joint lists of floats or of 1-D arrays (see :mod:`._backend`).
@@ -41,8 +42,6 @@ class Geometry:
         d_0..d_3 of the base block and the three blocks, m.
     finger_half_lengths : tuple
         ℓ_1, ℓ_2, ℓ_3: half lengths of the finger links, m.
-    stiffness : tuple
-        k_H,k, N·m/rad.
     pressure_moments : tuple
         (r_p A_p)_k of eq 12, m³ (the diagonal of B_R).
     """
@@ -50,7 +49,6 @@ class Geometry:
     arc_lengths: tuple
     block_half_lengths: tuple
     finger_half_lengths: tuple
-    stiffness: tuple
     pressure_moments: tuple
 
 
@@ -93,42 +91,68 @@ def solve3(a, b):
 class Evaluation:
     """F(q, p) and the finger-side forces at one state (or a batch); ∂F/∂q on request.
 
+    Parameters
+    ----------
+    q, p : list of 3
+        The state, rad, and the pressures, Pa (floats, or 1-D arrays for a batch).
+    ops : backend of :mod:`._backend`
+    geometry : Geometry
+    structural_joints : tuple of 3 callables
+        q_k -> (τ_s,k, dτ_s,k/dq_k).
+    load : callable, optional
+        q -> (τ_H, ∂τ_H/∂q per joint), the finger of this solve (:class:`.patient.FingerLoad`);
+        None for free motion (no finger, f = 0).
+
     Attributes
     ----------
-    q, pressure : list of 3
-        The state evaluated, rad, and the pressures, Pa.
-    geometry : Geometry
     residual : list of 3
-        F(q, p) of eq 36, N·m.
+        F(q, p) of eq 36 (11.4), N·m.
+    scale : float or array
+        Size of the terms F is made of, ‖|τ_s| + |B_R p| + |(J_R*)ᵀ f|‖, N·m: what the residual
+        is judged against.
     forces : list of 3
-        f = (J_H*)^{-T} K_H q, N.
+        f = (J_H*)^{-T} τ_H, N.
+    finger_torque : list of 3
+        τ_H, N·m.
     """
 
-    def __init__(self, q, ops, geometry: Geometry, structural_joints: tuple, p) -> None:
-        self.q, self.pressure, self.geometry = q, p, geometry
+    def __init__(self, q, ops, geometry: Geometry, structural_joints: tuple, p, load) -> None:
+        self.q, self.pressure, self.geometry, self.load = q, p, geometry, load
         self._jacobian = None
-        chord_set = chords(q, ops)
-        self._robot = robot_jacobian(chord_set, geometry.arc_lengths, geometry.block_half_lengths)
-        self._finger, self._finger_slopes = finger_jacobian(q, ops, geometry.finger_half_lengths)
-        stiffness = geometry.stiffness
-        self.forces = transpose_solve(self._finger, [stiffness[k] * q[k] for k in range(3)])
-        coupling = transpose_product(self._robot.matrix, self.forces)
+        self._free = load is None
         torques = [structural_joints[k](q[k]) for k in range(3)]
-        moments = geometry.pressure_moments
-        self.residual = [torques[k][0] + moments[k] * p[k] - coupling[k] for k in range(3)]
+        self._torques = [torques[k][0] for k in range(3)]
         self._torque_slopes = [torques[k][1] for k in range(3)]
+        if self._free:
+            zero = 0.0 * q[0]
+            self.finger_torque = self.forces = self._coupling = [zero, zero, zero]
+        else:
+            self._robot = robot_jacobian(
+                chords(q, ops), geometry.arc_lengths, geometry.block_half_lengths
+            )
+            self._finger, self._finger_slopes = finger_jacobian(
+                q, ops, geometry.finger_half_lengths
+            )
+            self.finger_torque, self._load_slopes = load(q)
+            self.forces = transpose_solve(self._finger, self.finger_torque)
+            self._coupling = transpose_product(self._robot.matrix, self.forces)
+        self._set_pressure(p)
+
+    def _set_pressure(self, p) -> None:
+        moments, torques, coupling = self.geometry.pressure_moments, self._torques, self._coupling
+        drive = [moments[k] * p[k] for k in range(3)]
+        self.residual = [torques[k] + drive[k] - coupling[k] for k in range(3)]
+        sizes = [abs(torques[k]) + abs(drive[k]) + abs(coupling[k]) for k in range(3)]
+        self.scale = (sizes[0] * sizes[0] + sizes[1] * sizes[1] + sizes[2] * sizes[2]) ** 0.5
 
     def at_pressure(self, p) -> Evaluation:
-        """The same state under pressures ``p``: F(q, p') = F(q, p) + B_R (p' - p), exactly.
+        """The same state under pressures ``p``: F(q, p') = F(q, p) + B_R (p' − p), exactly.
 
         Shares the kinematics (and Jacobian) of this evaluation, which do not depend on p.
         """
-        moments = self.geometry.pressure_moments
         repriced = copy.copy(self)
         repriced.pressure = p
-        repriced.residual = [
-            self.residual[k] + moments[k] * (p[k] - self.pressure[k]) for k in range(3)
-        ]
+        repriced._set_pressure(p)
         return repriced
 
     def jacobian(self) -> list:
@@ -138,12 +162,17 @@ class Evaluation:
         return self._jacobian
 
     def _compute_jacobian(self) -> list:
+        zero = 0.0 * self.q[0]
+        jacobian = [[zero, zero, zero], [zero, zero, zero], [zero, zero, zero]]
+        if self._free:
+            for k in range(3):
+                jacobian[k][k] = self._torque_slopes[k]
+            return jacobian
         robot_slopes = self._robot.slopes()
         j_robot, j_finger, forces = self._robot.matrix, self._finger, self.forces
-        stiffness = self.geometry.stiffness
-        jacobian = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+        load_slopes = self._load_slopes
         for m in range(3):
-            rhs = [stiffness[k] if k == m else 0.0 for k in range(3)]
+            rhs = [load_slopes[k] if k == m else 0.0 for k in range(3)]
             for i, k, slope in self._finger_slopes[m]:
                 rhs[k] = rhs[k] - slope * forces[i]
             column = [-c for c in transpose_product(j_robot, transpose_solve(j_finger, rhs))]

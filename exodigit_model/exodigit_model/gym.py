@@ -101,14 +101,15 @@ class FlexExtendTarget:
         Raises
         ------
         ValueError
-            If the coupled solve (MODEL.md §7) at that pressure does not converge.
+            If the coupled solve (MODEL.md §7) at that pressure does not converge, or its state
+            leaves the model (the validated stretch or the finger's range of motion).
         """
         solution = model.solve([pressure, pressure, pressure])
-        if not solution.converged:
+        problems = solution.warnings()
+        if problems:
             raise ValueError(
-                f'model: the solve at {pressure:g} Pa in every chamber does not converge '
-                f'(residual {solution.residual:.3g} N·m), so there is no default target; '
-                'pass target='
+                f'model: at {pressure:g} Pa in every chamber {"; ".join(problems)} (residual '
+                f'{solution.residual:.3g} N·m), so there is no default target; pass target='
             )
         return cls(tuple(solution.q.tolist()), period)
 

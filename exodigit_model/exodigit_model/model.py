@@ -4,18 +4,20 @@
 pressure moments of eq 12, the τ_s tables). Its methods take and return numpy arrays in SI
 units, joints in the order MCP, PIP, DIP:
 
-- forward: :meth:`GloveModel.solve` (eq 36 for q given p), :meth:`GloveModel.solve_batch`,
-  :meth:`GloveModel.solve_free` (no finger, paper §3.3);
+- the patient: :meth:`GloveModel.finger_torque` (τ_H of MODEL.md eq 11.1);
+- forward: :meth:`GloveModel.solve` (eq 36 / 11.4 for q given p, static or stepped in time),
+  :meth:`GloveModel.solve_batch`, :meth:`GloveModel.solve_free` (no finger, paper §3.3);
 - inverse: :meth:`GloveModel.pressure_for` (p for desired q, exact);
 - estimation: :meth:`GloveModel.estimate_forces` (robot side, needs no finger model),
-  :meth:`GloveModel.finger_forces` (finger side), :meth:`GloveModel.identify_stiffness`.
+  :meth:`GloveModel.estimate_finger_torque`, :meth:`GloveModel.finger_forces` (finger side),
+  :meth:`GloveModel.fit_stiffness` (stiffness and rest angle of an effective linear patient).
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,8 +33,9 @@ from .coupling import (
 from .identification import StiffnessFit, fit_stiffness
 from .kinematics import arc_points, chain, chords, finger_chain
 from .params import GloveParams, load_params
+from .patient import FingerLoad, JointLaw
 from .section import pressure_moment
-from .solver import newton
+from .solver import CONVERGED_STEP, STATUS, newton
 from .structural import StructuralTorque
 
 VALID_STRETCH = (1.0, 1.5)
@@ -41,33 +44,66 @@ VALID_STRETCH = (1.0, 1.5)
 
 @dataclass(frozen=True)
 class Solution:
-    """Result of one coupled (or free) solve.
+    """Result of one coupled (or free) solve, scipy-style.
 
     Attributes
     ----------
     q : ndarray, shape (3,)
-        Joint angles, rad. The start guess if the solve did not converge (never NaN).
+        Joint angles, rad. The last finite iterate if the solve did not converge (never NaN).
     forces : ndarray, shape (3,)
-        Contact forces f = (J_H*)^{-T} K_H q, N (zero for free motion).
+        Contact forces f = (J_H*)^{-T} τ_H, N (zero for free motion).
+    finger_torque : ndarray, shape (3,)
+        τ_H of eq 11.1 at ``q``, N·m: the torque the exo-digit applies to each finger joint.
     pressure : ndarray, shape (3,)
         The chamber pressures solved for, Pa.
-    converged : bool
-        Whether the residual norm reached :data:`.solver.RESIDUAL_TOLERANCE`.
+    status : int
+        Why the iteration stopped: a key of :data:`exodigit_model.solver.STATUS`.
+    message : str
+        The status in words.
     iterations : int
         Newton steps taken.
     residual : float
         2-norm of F(q, p) at ``q``, N·m.
     in_valid_range : bool
         Whether every fibre's stretch lies in 1 ≤ λ ≤ 1.5 (the model's validated range).
+    in_range_of_motion : bool
+        Whether every joint lies within the finger's range of motion [rom_min, rom_max].
     """
 
     q: NDArray[np.float64]
     forces: NDArray[np.float64]
+    finger_torque: NDArray[np.float64]
     pressure: NDArray[np.float64]
-    converged: bool
+    status: int
+    message: str
     iterations: int
     residual: float
     in_valid_range: bool
+    in_range_of_motion: bool
+
+    @property
+    def converged(self) -> bool:
+        """Whether the solve converged (status ≤ CONVERGED_STEP)."""
+        return self.status <= CONVERGED_STEP
+
+    def warnings(self) -> list[str]:
+        """Why this state is not to be trusted as a model result (empty when it is)."""
+        return state_warnings(self.converged, self.in_valid_range, self.in_range_of_motion)
+
+
+def state_warnings(converged: bool, in_valid_range: bool, in_range_of_motion: bool) -> list[str]:
+    """One sentence per way a state leaves the model (the tools and nodes say them)."""
+    low, high = VALID_STRETCH
+    messages = []
+    if not converged:
+        messages.append('the solve did not converge')
+    if not in_valid_range:
+        messages.append(
+            f'a fibre stretch is outside the validated range {low:g} <= lambda <= {high:g}'
+        )
+    if not in_range_of_motion:
+        messages.append("a joint is outside the finger's range of motion")
+    return messages
 
 
 @dataclass(frozen=True)
@@ -117,11 +153,23 @@ class BatchSolution:
 
     q: NDArray[np.float64]
     forces: NDArray[np.float64]
+    finger_torque: NDArray[np.float64]
     pressure: NDArray[np.float64]
-    converged: NDArray[np.bool_]
+    status: NDArray[np.int_]
     iterations: NDArray[np.int_]
     residual: NDArray[np.float64]
     in_valid_range: NDArray[np.bool_]
+    in_range_of_motion: NDArray[np.bool_]
+
+    @property
+    def converged(self) -> NDArray[np.bool_]:
+        """Per row: whether the solve converged."""
+        return self.status <= CONVERGED_STEP
+
+    @property
+    def message(self) -> list[str]:
+        """Per row: the status in words."""
+        return [STATUS[int(code)] for code in self.status]
 
 
 def as_joint_list(name: str, value: ArrayLike) -> list[float]:
@@ -142,6 +190,12 @@ def as_joint_list(name: str, value: ArrayLike) -> list[float]:
 def as_joint_vector(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """``value`` as a finite float array of shape (3,), or a ValueError naming ``name``."""
     return np.array(as_joint_list(name, value))
+
+
+def _joint_columns(name: str, value: ArrayLike) -> list[NDArray[np.float64]]:
+    """Rows of shape (N, 3) as three columns (the batch backend's per-joint arrays)."""
+    rows = as_joint_rows(name, value)
+    return [rows[:, k] for k in range(3)]
 
 
 def as_joint_rows(name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -181,10 +235,17 @@ class GloveModel:
                 *(s.block_half_length for s in segments),
             ),
             finger_half_lengths=tuple(j.link_half_length for j in joints),
-            stiffness=tuple(j.stiffness for j in joints),
             pressure_moments=tuple(pressure_moment(s) for s in segments),
         )
-        self._free_geometry = replace(self.geometry, stiffness=(0.0, 0.0, 0.0))
+        self.laws = tuple(JointLaw.of(joint) for joint in joints)
+        """The patient's joint torque laws (eqs 11.1-11.3), MCP, PIP, DIP."""
+        self.viscous = any(law.viscous for law in self.laws)
+        """Whether τ_H depends on the joint speed (damping or spasticity)."""
+        self.range_of_motion = (
+            np.array([j.rom_min for j in joints]),
+            np.array([j.rom_max for j in joints]),
+        )
+        """(rom_min, rom_max) per joint, rad."""
         self.structural = StructuralTorque(self.params.material, segments)
         self._strain_per_angle = tuple(s.height / s.arc_length for s in segments)
 
@@ -202,58 +263,132 @@ class GloveModel:
         """τ_p = B_R p, N·m (eqs 11-12)."""
         return np.asarray(self.geometry.pressure_moments) * np.asarray(p, dtype=float)
 
+    def finger_torque(
+        self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """τ_H of eq 11.1, N·m, shape (3,): what the finger needs to hold ``q`` at ``qdot``.
+
+        Parameters
+        ----------
+        q : array_like, shape (3,)
+            Joint angles, rad.
+        qdot : array_like, shape (3,), optional
+            Joint speeds, rad/s (None: at rest).
+        effort : array_like, shape (3,), optional
+            The patient's voluntary effort u, N·m (None: none).
+        """
+        angles = as_joint_list('q', q)
+        load = self._load(ScalarOps, qdot=qdot, effort=effort)
+        return np.array(load(angles)[0])
+
     def contact_jacobians(self, q: ArrayLike) -> tuple[NDArray, NDArray]:
         """(J_R*, J_H*), each (3, 3) lower triangular, J[i, k] = n_i·∂r_i/∂q_k (MODEL.md §3)."""
         angles = as_joint_vector('q', q).tolist()
         j_robot, j_finger = contact_jacobians(angles, ScalarOps, self.geometry)
         return np.array(j_robot), np.array(j_finger)
 
-    def residual(self, q: ArrayLike, p: ArrayLike, *, free: bool = False) -> NDArray[np.float64]:
-        """F(q, p) of eq 36 (or of free motion), N·m."""
-        return np.array(self._evaluate(q, p, free=free).residual)
+    def residual(
+        self,
+        q: ArrayLike,
+        p: ArrayLike,
+        *,
+        free: bool = False,
+        effort: ArrayLike | None = None,
+        q_previous: ArrayLike | None = None,
+        dt: float | None = None,
+    ) -> NDArray[np.float64]:
+        """F(q, p) of eq 36 / 11.4 (or of free motion), N·m; arguments as :meth:`solve`."""
+        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
+        return np.array(self._evaluate(q, p, load).residual)
 
     def residual_jacobian(
-        self, q: ArrayLike, p: ArrayLike, *, free: bool = False
+        self,
+        q: ArrayLike,
+        p: ArrayLike,
+        *,
+        free: bool = False,
+        effort: ArrayLike | None = None,
+        q_previous: ArrayLike | None = None,
+        dt: float | None = None,
     ) -> NDArray[np.float64]:
-        """∂F/∂q of eq 36 (analytic), N·m/rad, shape (3, 3)."""
-        return np.array(self._evaluate(q, p, free=free).jacobian(), dtype=float)
+        """∂F/∂q of eq 36 / 11.4 (analytic), N·m/rad, shape (3, 3); arguments as :meth:`solve`."""
+        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
+        return np.array(self._evaluate(q, p, load).jacobian(), dtype=float)
 
-    def _evaluate(self, q, p, *, free: bool) -> Evaluation:
-        geometry = self._free_geometry if free else self.geometry
-        return self._evaluate_at(as_joint_list('q', q), as_joint_list('p', p), geometry)
+    def _load(
+        self, ops, *, free=False, effort=None, q_previous=None, dt=None, qdot=None
+    ) -> FingerLoad | None:
+        """The finger of one solve (None for free motion), its arguments checked."""
+        if free:
+            return None
+        if (q_previous is None) != (dt is None):
+            raise ValueError('q_previous and dt go together: give both for a stepped solve')
+        if dt is not None and not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f'dt = {dt!r}: must be a finite time step > 0 s')
+        joint = as_joint_list if ops is ScalarOps else _joint_columns
+        return FingerLoad(
+            self.laws,
+            ops,
+            q_previous=None if q_previous is None else joint('q_previous', q_previous),
+            dt=dt,
+            effort=None if effort is None else joint('effort', effort),
+            qdot=None if qdot is None else joint('qdot', qdot),
+        )
+
+    def _evaluate(self, q, p, load) -> Evaluation:
+        return self._evaluate_at(as_joint_list('q', q), as_joint_list('p', p), load)
+
+    def _evaluate_at(self, q: list, p: list, load) -> Evaluation:
+        return Evaluation(q, ScalarOps, self.geometry, self.structural.scalar_joints, p, load)
 
     # -- forward solves ------------------------------------------------------------------
 
     def solve(
-        self, p: ArrayLike, q0: ArrayLike | Solution | None = None, *, free: bool = False
+        self,
+        p: ArrayLike,
+        q0: ArrayLike | Solution | None = None,
+        *,
+        free: bool = False,
+        effort: ArrayLike | None = None,
+        q_previous: ArrayLike | None = None,
+        dt: float | None = None,
     ) -> Solution:
-        """Joint angles and contact forces for chamber pressures ``p`` (eq 36).
+        """Joint angles and contact forces for chamber pressures ``p`` (eq 36, MODEL.md 11.4).
 
         Parameters
         ----------
         p : array_like, shape (3,)
             Gauge pressures, Pa.
         q0 : array_like, shape (3,), or Solution, optional
-            Start of the Newton iteration (warm start; a Solution starts from its angles); zero
-            when omitted.
+            Start of the Newton iteration (warm start; a Solution starts from its angles); the
+            previous angles of a stepped solve, else zero, when omitted.
         free : bool
             Solve free motion (no finger, τ_s + B_R p = 0) instead.
+        effort : array_like, shape (3,), optional
+            The patient's voluntary effort u of eq 11.1, N·m.
+        q_previous : array_like, shape (3,), optional
+            Angles at the previous time step, rad. With ``dt`` the solve is stepped in time:
+            q̇ = (q − q_previous)/dt inside the equation (damping and spasticity act).
+        dt : float, optional
+            Time step, s.
 
         Returns
         -------
         Solution
-            Never raises for a solve that fails to converge: ``converged`` is False and ``q`` is
-            the last finite iterate.
+            Never raises for a solve that fails to converge: ``status`` and ``message`` say why
+            and ``q`` is the last finite iterate.
         """
         pressure = as_joint_list('p', p)
+        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
         if isinstance(q0, Solution):
             q0 = q0.q
-        start = [0.0, 0.0, 0.0] if q0 is None else as_joint_list('q0', q0)
-        geometry = self._free_geometry if free else self.geometry
-        return self._solve(pressure, self._evaluate_at(start, pressure, geometry))[0]
-
-    def _evaluate_at(self, q: list, p: list, geometry: Geometry) -> Evaluation:
-        return Evaluation(q, ScalarOps, geometry, self.structural.scalar_joints, p)
+        if q0 is not None:
+            start = as_joint_list('q0', q0)
+        elif load is not None and load.stepped:
+            start = list(load.q_previous)
+        else:
+            start = [0.0, 0.0, 0.0]
+        return self._solve(pressure, self._evaluate_at(start, pressure, load))[0]
 
     def _solve(self, pressure: list, first: Evaluation) -> tuple[Solution, Evaluation]:
         """Newton from the evaluation ``first`` at pressures ``pressure``; also the final one.
@@ -261,24 +396,29 @@ class GloveModel:
         The final evaluation is what a stepper keeps to warm-start its next solve
         (:meth:`.Evaluation.at_pressure` re-prices it exactly, F being affine in p).
         """
-        geometry = first.geometry
+        geometry, joints, load = first.geometry, self.structural.scalar_joints, first.load
 
         def evaluate(q, p_):
-            return self._evaluate_at(q, p_, geometry)
+            return Evaluation(q, ScalarOps, geometry, joints, p_, load)
 
-        outcome = newton(first.q, pressure, evaluate, ScalarOps, self._strain_per_angle, first)
+        outcome = newton(pressure, evaluate, ScalarOps, self._strain_per_angle, first)
         low, high = VALID_STRETCH
+        q = outcome.q
+        rom_min, rom_max = self.range_of_motion
         solution = Solution(
-            q=np.array(outcome.q),
+            q=np.array(q),
             forces=np.array(outcome.forces),
+            finger_torque=np.array(outcome.finger_torque),
             pressure=np.array(pressure),
-            converged=outcome.converged,
+            status=outcome.status,
+            message=STATUS[outcome.status],
             iterations=outcome.iterations,
             residual=outcome.residual,
             in_valid_range=all(
                 low <= 1.0 + angle * strain <= high
-                for angle, strain in zip(outcome.q, self._strain_per_angle, strict=True)
+                for angle, strain in zip(q, self._strain_per_angle, strict=True)
             ),
+            in_range_of_motion=all(rom_min[k] <= q[k] <= rom_max[k] for k in range(3)),
         )
         return solution, outcome.final
 
@@ -290,84 +430,109 @@ class GloveModel:
         solution = self.solve(p, free=True)
         if not solution.converged:
             warnings.warn(
-                f'free-motion solve did not converge (residual {solution.residual:.3g} N·m)',
+                f'free-motion solve did not converge (residual {solution.residual:.3g} N·m): '
+                f'{solution.message}',
                 RuntimeWarning,
                 stacklevel=2,
             )
         return solution.q
 
     def solve_batch(
-        self, P: ArrayLike, Q0: ArrayLike | None = None, *, free: bool = False
+        self,
+        P: ArrayLike,
+        Q0: ArrayLike | None = None,
+        *,
+        free: bool = False,
+        effort: ArrayLike | None = None,
+        Q_previous: ArrayLike | None = None,
+        dt: float | None = None,
     ) -> BatchSolution:
-        """Vectorised :meth:`solve` over rows of pressures.
+        """Vectorised :meth:`solve` over rows.
 
         Parameters
         ----------
         P : array_like, shape (N, 3)
             Pressures, Pa.
         Q0 : array_like, shape (N, 3), optional
-            Start angles per row; zero when omitted.
+            Start angles per row; ``Q_previous`` (stepped), else zero, when omitted.
         free : bool
             Solve free motion instead.
+        effort : array_like, shape (N, 3), optional
+            Voluntary effort per row, N·m.
+        Q_previous : array_like, shape (N, 3), optional
+            Angles at the previous step per row, rad; with ``dt`` a stepped solve.
+        dt : float, optional
+            Time step, s.
         """
         pressure = as_joint_rows('P', P)
         rows = pressure.shape[0]
-        start = np.zeros_like(pressure) if Q0 is None else as_joint_rows('Q0', Q0)
-        if start.shape != pressure.shape:
-            raise ValueError(f'Q0 must have the shape of P {pressure.shape}, got {start.shape}')
-        geometry = self._free_geometry if free else self.geometry
-
-        def evaluate(q, p_):
-            return Evaluation(q, ArrayOps, geometry, self.structural.array_joints, p_)
-
+        for name, value in (('Q0', Q0), ('effort', effort), ('Q_previous', Q_previous)):
+            if value is not None and as_joint_rows(name, value).shape != pressure.shape:
+                raise ValueError(
+                    f'{name} must have the shape of P {pressure.shape}, got {np.shape(value)}'
+                )
+        load = self._load(ArrayOps, free=free, effort=effort, q_previous=Q_previous, dt=dt)
+        if Q0 is not None:
+            start = as_joint_rows('Q0', Q0)
+        elif Q_previous is not None and dt is not None:
+            start = as_joint_rows('Q_previous', Q_previous)
+        else:
+            start = np.zeros_like(pressure)
         if rows == 0:
             empty = np.zeros((0, 3))
             return BatchSolution(
                 empty,
                 empty,
                 empty,
-                np.zeros(0, bool),
+                empty,
+                np.zeros(0, int),
                 np.zeros(0, int),
                 np.zeros(0),
                 np.zeros(0, bool),
+                np.zeros(0, bool),
             )
-        outcome = newton(
-            [start[:, k].copy() for k in range(3)],
-            [pressure[:, k] for k in range(3)],
-            evaluate,
-            ArrayOps,
-            self._strain_per_angle,
-        )
+        joints = self.structural.array_joints
+
+        def evaluate(q, p_):
+            return Evaluation(q, ArrayOps, self.geometry, joints, p_, load)
+
+        columns = [pressure[:, k] for k in range(3)]
+        first = evaluate([start[:, k].copy() for k in range(3)], columns)
+        outcome = newton(columns, evaluate, ArrayOps, self._strain_per_angle, first)
         q = np.column_stack(outcome.q)
         return BatchSolution(
             q=q,
             forces=np.column_stack(outcome.forces),
+            finger_torque=np.column_stack(outcome.finger_torque),
             pressure=pressure,
-            converged=np.asarray(outcome.converged, dtype=bool),
+            status=np.asarray(outcome.status, dtype=int),
             iterations=np.asarray(outcome.iterations, dtype=int),
             residual=np.asarray(outcome.residual, dtype=float),
             in_valid_range=self.in_valid_range(q),
+            in_range_of_motion=self.in_range_of_motion(q),
         )
 
     # -- inverse and estimation ----------------------------------------------------------
 
-    def pressure_for(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Pressures that hold the glove at angles ``q`` on the finger, Pa (eq 36 solved for p).
+    def pressure_for(
+        self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Pressures that hold the glove at angles ``q`` on the finger, Pa (eq 11.4 for p).
 
-        p = B_R^{-1} ((J_R*)ᵀ (J_H*)^{-T} K_H q - τ_s(q)); exact, no iteration. The result may be
-        negative where holding ``q`` would need suction.
+        p = B_R^{-1} ((J_R*)ᵀ (J_H*)^{-T} τ_H(q, q̇, u) − τ_s(q)); exact, no iteration. The
+        result may be negative where holding ``q`` would need suction.
         """
-        angles = as_joint_vector('q', q)
-        residual_at_zero = self.residual(angles, np.zeros(3))
-        return -residual_at_zero / np.asarray(self.geometry.pressure_moments)
+        load = self._load(ScalarOps, qdot=qdot, effort=effort)
+        residual_at_zero = self._evaluate(q, np.zeros(3), load).residual
+        return -np.array(residual_at_zero) / np.asarray(self.geometry.pressure_moments)
 
-    def finger_forces(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Finger-side contact forces f = (J_H*)^{-T} K_H q, N (eq 34, MODEL.md §7)."""
+    def finger_forces(
+        self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Finger-side contact forces f = (J_H*)^{-T} τ_H(q, q̇, u), N (eqs 34, 11.1)."""
         angles = as_joint_vector('q', q)
         _, j_finger = self.contact_jacobians(angles)
-        return np.array(
-            transpose_solve(j_finger.tolist(), (np.asarray(self.geometry.stiffness) * angles))
-        )
+        return np.array(transpose_solve(j_finger.tolist(), self.finger_torque(q, qdot, effort)))
 
     def estimate_forces(self, q: ArrayLike, p: ArrayLike) -> NDArray[np.float64]:
         """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (MODEL.md §7).
@@ -386,13 +551,28 @@ class GloveModel:
         j_robot, _ = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
         return np.column_stack(transpose_solve(j_robot, list(torque.T)))
 
-    def fit_stiffness(self, Q: ArrayLike, P: ArrayLike) -> StiffnessFit:
-        """Least-squares K_H from samples (eq 34 is linear in K_H), with standard errors."""
-        angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
-        forces = self.estimate_forces_batch(angles, pressure)
+    def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
+        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m, per row of shape (N, 3).
+
+        The torque the finger actually resists with (MODEL.md §11, "Estimation"); (3,) rows
+        give a (3,) result.
+        """
+        single = np.ndim(Q) == 1
+        angles = np.atleast_2d(np.asarray(Q, dtype=float))
+        forces = self.estimate_forces_batch(angles, np.atleast_2d(np.asarray(P, dtype=float)))
         _, j_finger = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
-        joint_torque = np.column_stack(transpose_product(j_finger, list(forces.T)))
-        return fit_stiffness(angles, joint_torque)
+        torque = np.column_stack(transpose_product(j_finger, list(forces.T)))
+        return torque[0] if single else torque
+
+    def fit_stiffness(self, Q: ArrayLike, P: ArrayLike) -> StiffnessFit:
+        """The effective linear patient τ̂_H,k = k_k (q_k − q_r,k) fitted to samples.
+
+        Linear least squares with an intercept per joint on the robot-side estimate
+        (:meth:`estimate_finger_torque`), whatever the true patient is; the fit's RMSE says
+        how well a linear spring explains the data (MODEL.md §11, "Estimation").
+        """
+        angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
+        return fit_stiffness(angles, self.estimate_finger_torque(angles, pressure))
 
     def identify_stiffness(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """K_H diagonal identified from samples of angles Q and pressures P, N·m/rad."""
@@ -433,3 +613,9 @@ class GloveModel:
         stretch = self.top_fibre_stretch(q)
         low, high = VALID_STRETCH
         return np.all((stretch >= low) & (stretch <= high), axis=-1)
+
+    def in_range_of_motion(self, q: ArrayLike) -> NDArray[np.bool_]:
+        """Whether every joint lies in [rom_min, rom_max] (scalar for (3,), per row for (N, 3))."""
+        angles = np.asarray(q, dtype=float)
+        low, high = self.range_of_motion
+        return np.all((angles >= low) & (angles <= high), axis=-1)

@@ -156,7 +156,10 @@ class ExoDigit:
 
 @dataclass(frozen=True)
 class FingerJoint:
-    """One finger joint and the link distal to it (eqs 32-34).
+    """One finger joint and the link distal to it: the patient of MODEL.md §11 (eqs 11.1-11.3).
+
+    With the defaults of ``default_params.yaml`` (the one place they live) the joint is the
+    paper's linear torsional spring (eq 32).
 
     Attributes
     ----------
@@ -165,17 +168,62 @@ class FingerJoint:
     link_half_length : float
         ℓ_i, half the length of the link (the contact sits at its middle), m.
     stiffness : float
-        k_H,i, passive torsional stiffness of the joint, N·m/rad (0 = no finger).
+        k_i, passive torsional stiffness about the rest angle, N·m/rad (0 = no finger).
+    rest_angle : float
+        q_r,i, where the relaxed finger rests, rad (flexion positive); within the range of motion.
+    rom_torque : float
+        a_i, size of the range-of-motion stiffening e(q) of eq 11.2, N·m (0 = off).
+    rom_sharpness : float
+        β_i, how steeply e(q) rises towards the ends of the range, 1/rad.
+    rom_min, rom_max : float
+        q_min,i < q_max,i, the passive range of motion, rad.
+    damping : float
+        c_i, viscous joint damping, N·m·s/rad.
+    spasticity : float
+        g_f,i, velocity-dependent resistance of the flexors to extension (eq 11.3), N·m·s/rad.
+    extensor_spasticity : float
+        g_e,i, the same of the extensors, resisting flexion, N·m·s/rad.
+    spasticity_threshold : float
+        v_t,i, joint speed above which the spastic resistance acts, rad/s.
     """
 
     name: str
     link_half_length: float
     stiffness: float
+    rest_angle: float
+    rom_min: float
+    rom_max: float
+    rom_torque: float
+    rom_sharpness: float
+    damping: float
+    spasticity: float
+    extensor_spasticity: float
+    spasticity_threshold: float
 
     def __post_init__(self) -> None:
         _set(self, 'name', _name('name', self.name))
         _set(self, 'link_half_length', _positive('link_half_length', self.link_half_length, 'm'))
-        _set(self, 'stiffness', _non_negative('stiffness', self.stiffness, 'N·m/rad'))
+        for key, unit in (
+            ('stiffness', 'N·m/rad'),
+            ('rom_torque', 'N·m'),
+            ('damping', 'N·m·s/rad'),
+            ('spasticity', 'N·m·s/rad'),
+            ('extensor_spasticity', 'N·m·s/rad'),
+        ):
+            _set(self, key, _non_negative(key, getattr(self, key), unit))
+        for key, unit in (('rom_sharpness', '1/rad'), ('spasticity_threshold', 'rad/s')):
+            _set(self, key, _positive(key, getattr(self, key), unit))
+        for key in ('rom_min', 'rom_max', 'rest_angle'):
+            _set(self, key, _number(key, getattr(self, key)))
+        if not self.rom_min < self.rom_max:
+            raise ParameterError(
+                f'rom_min = {self.rom_min!r}: must be below rom_max = {self.rom_max!r} (rad)'
+            )
+        if not self.rom_min <= self.rest_angle <= self.rom_max:
+            raise ParameterError(
+                f'rest_angle = {self.rest_angle!r}: must lie within the range of motion '
+                f'[rom_min, rom_max] = [{self.rom_min!r}, {self.rom_max!r}] rad'
+            )
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,10 @@ length Δt = 1/``rate_hz`` from the state at t_{k−1}:
 
 1. chambers: exact zero-order-hold lag toward the command clipped to the supply range
    (:mod:`.chambers`);
-2. the coupled solve (eq 36) at the new pressures, warm-started from the last converged
-   solution; a solve that does not converge keeps the last good state and says so;
+2. the coupled solve (eq 36, or 11.4 with the patient's damping and spasticity: q̇ =
+   (q − q_prev)/Δt inside the equation) at the new pressures and the patient's effort,
+   warm-started from the last converged solution; a solve that does not converge keeps the last
+   good state and says so;
 3. q̇ = (q − q_prev)/Δt, and the measured angles and pressures with seeded Gaussian noise (the
    true state is never noisy).
 
@@ -29,6 +31,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._backend import ScalarOps
 from .chambers import Chambers, ChamberSettings
 from .model import BatchSolution, GloveModel, Solution, as_joint_rows, as_joint_vector
 
@@ -123,7 +126,9 @@ class GloveState:
     forces : ndarray
         Contact forces f (MODEL.md §6), N.
     finger_torque : ndarray
-        Torque the exo-digit applies to each finger joint, (J_H*)ᵀ f = K_H q, N·m.
+        Torque the exo-digit applies to each finger joint, (J_H*)ᵀ f = τ_H (eq 11.1), N·m.
+    effort : ndarray
+        The patient's voluntary effort applied in the step, N·m.
     converged : bool or ndarray of bool
         Whether this step's solve converged (per glove for a batch).
     iterations : int or ndarray
@@ -132,6 +137,8 @@ class GloveState:
         Residual norm of this step's solve, N·m.
     in_valid_range : bool or ndarray of bool
         Whether every fibre's stretch lies in the model's validated range.
+    in_range_of_motion : bool or ndarray of bool
+        Whether every joint lies within the finger's range of motion.
     saturated : bool
         Whether the command had to be clipped to [0, max_supply_pressure] in this step.
     """
@@ -147,10 +154,12 @@ class GloveState:
     qdot: NDArray[np.float64]
     forces: NDArray[np.float64]
     finger_torque: NDArray[np.float64]
+    effort: NDArray[np.float64]
     converged: bool | NDArray[np.bool_]
     iterations: int | NDArray[np.int_]
     residual: float | NDArray[np.float64]
     in_valid_range: bool | NDArray[np.bool_]
+    in_range_of_motion: bool | NDArray[np.bool_]
     saturated: bool
 
 
@@ -194,7 +203,6 @@ class GloveSimulation:
         angle_stream, pressure_stream = np.random.SeedSequence(self.settings.seed).spawn(2)
         self._angle_noise = np.random.default_rng(angle_stream)
         self._pressure_noise = np.random.default_rng(pressure_stream)
-        self._stiffness = np.asarray(self.model.geometry.stiffness)
         self.step_count = 0
         self.solver_failures = 0
         """Steps whose solve did not converge (the last good state was kept)."""
@@ -227,8 +235,11 @@ class GloveSimulation:
         self.state = self._rest_state()
         return self.state
 
-    def step(self, command: ArrayLike) -> GloveState:
+    def step(self, command: ArrayLike, effort: ArrayLike | None = None) -> GloveState:
         """Advance one step of Δt under the pressure ``command`` (Pa, shape (3,) or (N, 3)).
+
+        ``effort`` is the patient's voluntary effort u of eq 11.1 during the step (N·m, the
+        shape of the command; None: none).
 
         Returns
         -------
@@ -239,20 +250,16 @@ class GloveSimulation:
         Raises
         ------
         ValueError
-            If ``command`` has the wrong shape or a non-finite value.
+            If ``command`` or ``effort`` has the wrong shape or a non-finite value.
         """
-        if self.count is None:
-            command = as_joint_vector('command', command)
-        else:
-            command = as_joint_rows('command', command)
-            if command.shape != self.shape:
-                raise ValueError(f'command must have shape {self.shape}, got {command.shape}')
+        command = self._rows('command', command)
+        effort = None if effort is None else self._rows('effort', effort)
         previous = self.state.q
         pressure = self.chambers.advance(command)
         if self.count is None:
-            q, forces, solution = self._solve_one(pressure)
+            q, forces, torque, solution = self._solve_one(pressure, effort)
         else:
-            q, forces, solution = self._solve_batch(pressure)
+            q, forces, torque, solution = self._solve_batch(pressure, effort)
         self.step_count += 1
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         self.state = GloveState(
@@ -266,32 +273,56 @@ class GloveSimulation:
             q_measured=self._measured(q, self._angle_noise, 'angle'),
             qdot=(q - previous) / self.period,
             forces=forces,
-            finger_torque=self._stiffness * q,
+            finger_torque=torque,
+            effort=np.zeros(self.shape) if effort is None else effort,
             converged=solution.converged,
             iterations=solution.iterations,
             residual=solution.residual,
             in_valid_range=solution.in_valid_range,
+            in_range_of_motion=solution.in_range_of_motion,
             saturated=self.chambers.saturated_now,
         )
         return self.state
 
-    def _solve_one(self, pressure: NDArray[np.float64]) -> tuple:
-        p = pressure.tolist()
-        # F is affine in p: the last good evaluation, re-priced, is the first Newton iterate.
-        solution, final = self.model._solve(p, self._warm.at_pressure(p))
-        if solution.converged:
-            self._warm = final
-            return solution.q, solution.forces, solution
-        self.solver_failures += 1
-        return self.state.q, self.state.forces, solution
+    def _rows(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
+        """``value`` checked to the shape of this simulation's commands."""
+        if self.count is None:
+            return as_joint_vector(name, value)
+        rows = as_joint_rows(name, value)
+        if rows.shape != self.shape:
+            raise ValueError(f'{name} must have shape {self.shape}, got {rows.shape}')
+        return rows
 
-    def _solve_batch(self, pressure: NDArray[np.float64]) -> tuple:
-        solution: BatchSolution = self.model.solve_batch(pressure, Q0=self.state.q)
+    def _solve_one(self, pressure: NDArray[np.float64], effort) -> tuple:
+        p = pressure.tolist()
+        u = None if effort is None else effort.tolist()
+        previous = self.state.q.tolist()
+        load = self.model._load(ScalarOps, effort=u, q_previous=previous, dt=self.period)
+        if self.model.viscous or u != self._warm_effort:
+            first = self.model._evaluate_at(previous, p, load)
+        else:
+            # τ_H depends on q alone and F is affine in p: the last good evaluation, re-priced,
+            # is the first Newton iterate.
+            first = self._warm.at_pressure(p)
+        solution, final = self.model._solve(p, first)
+        if solution.converged:
+            self._warm, self._warm_effort = final, u
+            return solution.q, solution.forces, solution.finger_torque, solution
+        self.solver_failures += 1
+        state = self.state
+        return state.q, state.forces, state.finger_torque, solution
+
+    def _solve_batch(self, pressure: NDArray[np.float64], effort) -> tuple:
+        state = self.state
+        solution: BatchSolution = self.model.solve_batch(
+            pressure, Q0=state.q, effort=effort, Q_previous=state.q, dt=self.period
+        )
         good = solution.converged[:, None]
         self.solver_failures += int(np.count_nonzero(~solution.converged))
-        q = np.where(good, solution.q, self.state.q)
-        forces = np.where(good, solution.forces, self.state.forces)
-        return q, forces, solution
+        q = np.where(good, solution.q, state.q)
+        forces = np.where(good, solution.forces, state.forces)
+        torque = np.where(good, solution.finger_torque, state.finger_torque)
+        return q, forces, torque, solution
 
     def _measured(self, true: NDArray[np.float64], rng: np.random.Generator, sensor: str):
         """``true`` plus Gaussian noise of the ``<sensor>_noise_std`` setting from ``rng``.
@@ -307,9 +338,11 @@ class GloveSimulation:
     def _rest_state(self) -> GloveState:
         zeros = np.zeros(self.shape)
         rest: Solution = self.model.solve(np.zeros(3))
-        self._warm = self.model._evaluate(rest.q, np.zeros(3), free=False)
+        self._warm = self.model._evaluate(rest.q, np.zeros(3), self.model._load(ScalarOps))
+        self._warm_effort = None
         q = np.broadcast_to(rest.q, self.shape).copy()
         forces = np.broadcast_to(rest.forces, self.shape).copy()
+        torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
         batch = self.count is not None
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         return GloveState(
@@ -323,10 +356,16 @@ class GloveSimulation:
             q_measured=q,
             qdot=zeros,
             forces=forces,
-            finger_torque=self._stiffness * q,
-            converged=np.ones(self.count, bool) if batch else True,
+            finger_torque=torque,
+            effort=zeros,
+            converged=np.full(self.count, rest.converged) if batch else rest.converged,
             iterations=np.zeros(self.count, int) if batch else 0,
-            residual=np.zeros(self.count) if batch else 0.0,
-            in_valid_range=np.ones(self.count, bool) if batch else True,
+            residual=np.full(self.count, rest.residual) if batch else rest.residual,
+            in_valid_range=np.full(self.count, rest.in_valid_range)
+            if batch
+            else rest.in_valid_range,
+            in_range_of_motion=np.full(self.count, rest.in_range_of_motion)
+            if batch
+            else rest.in_range_of_motion,
             saturated=False,
         )
