@@ -380,7 +380,7 @@ def test_pairer_drops_samples_that_lost_their_partner():
 def test_window_identifies_the_finger_stiffness_and_slides(model):
     other = stiffer_finger_model(2.0)
     window = StiffnessWindow(model, 50)
-    with pytest.raises(ValueError, match='no samples'):
+    with pytest.raises(ValueError, match='at least two'):
         window.fit()
     rng = np.random.default_rng(1)
     for plant in (model, other):

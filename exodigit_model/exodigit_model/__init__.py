@@ -14,6 +14,7 @@ from .identification import StiffnessFit, fit_stiffness
 from .model import BatchSolution, GloveModel, GlovePose, Solution
 from .params import (
     JOINT_NAMES,
+    PATIENT_PRESETS,
     ExoDigit,
     Finger,
     FingerJoint,
@@ -24,11 +25,13 @@ from .params import (
     dump_params,
     load_params,
     params_from_dict,
+    patient_file,
 )
 from .simulation import GloveSimulation, GloveState, SimulationSettings
 
 __all__ = [
     'JOINT_NAMES',
+    'PATIENT_PRESETS',
     'BatchSolution',
     'ChamberSettings',
     'ExoDigit',
@@ -49,5 +52,6 @@ __all__ = [
     'fit_stiffness',
     'load_params',
     'params_from_dict',
+    'patient_file',
 ]
 __version__ = '0.1.0'

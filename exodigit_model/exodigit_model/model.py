@@ -551,18 +551,27 @@ class GloveModel:
         j_robot, _ = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
         return np.column_stack(transpose_solve(j_robot, list(torque.T)))
 
-    def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
-        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m, per row of shape (N, 3).
+    def contact_torque(self, q: ArrayLike, forces: ArrayLike) -> NDArray[np.float64]:
+        """(J_H*)ᵀ f: the joint torque contact forces f (N) apply to the finger, N·m (eq 34).
 
-        The torque the finger actually resists with (MODEL.md §11, "Estimation"); (3,) rows
-        give a (3,) result.
+        ``q`` and ``forces`` of shape (3,), or (N, 3) rows.
         """
-        single = np.ndim(Q) == 1
-        angles = np.atleast_2d(np.asarray(Q, dtype=float))
-        forces = self.estimate_forces_batch(angles, np.atleast_2d(np.asarray(P, dtype=float)))
+        if np.ndim(q) == 1:
+            _, j_finger = self.contact_jacobians(q)
+            return j_finger.T @ as_joint_vector('forces', forces)
+        angles, rows = as_joint_rows('q', q), as_joint_rows('forces', forces)
         _, j_finger = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
-        torque = np.column_stack(transpose_product(j_finger, list(forces.T)))
-        return torque[0] if single else torque
+        return np.column_stack(transpose_product(j_finger, list(rows.T)))
+
+    def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
+        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m (MODEL.md §11, "Estimation").
+
+        The torque the finger actually resists with, from measured angles and pressures of
+        shape (3,) or (N, 3).
+        """
+        if np.ndim(Q) == 1:
+            return self.contact_torque(Q, self.estimate_forces(Q, P))
+        return self.contact_torque(Q, self.estimate_forces_batch(Q, P))
 
     def fit_stiffness(self, Q: ArrayLike, P: ArrayLike) -> StiffnessFit:
         """The effective linear patient τ̂_H,k = k_k (q_k − q_r,k) fitted to samples.

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from importlib import resources
 from pathlib import Path
@@ -313,7 +313,7 @@ def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
     Parameters
     ----------
     data : mapping, optional
-        Keys as in MODEL.md §10; missing keys take the defaults.
+        Keys as in MODEL.md §10-11; missing keys take the defaults.
 
     Returns
     -------
@@ -324,7 +324,10 @@ def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
     ParameterError
         If a key is unknown, a count is wrong or a value breaks its rule.
     """
-    merged = _merge('', _default_dict(), {} if data is None else data)
+    return _params(_merge('', _default_dict(), {} if data is None else data))
+
+
+def _params(merged: Mapping[str, Any]) -> GloveParams:
     exo, finger = merged['exo_digit'], merged['finger']
     segments = tuple(
         _build(Segment, f'exo_digit.segments[{i}]', s) for i, s in enumerate(exo['segments'])
@@ -351,13 +354,47 @@ def _default_dict() -> dict[str, Any]:
     return _read_yaml(text, 'default_params.yaml')
 
 
-def load_params(path: str | Path | None = None) -> GloveParams:
-    """Load glove parameters: the defaults, or a YAML file merged over them (MODEL.md §10).
+PATIENT_PRESETS = ('healthy', 'stroke_mild', 'stroke_moderate', 'stroke_severe')
+"""The patient files shipped with the package (MODEL.md §11, "Presets"; sources inside)."""
+
+
+def patient_file(name: str) -> Path:
+    """The path of a shipped patient preset (a parameter file holding only ``finger``).
+
+    Raises
+    ------
+    ParameterError
+        For a name that is not one of :data:`PATIENT_PRESETS`.
+    """
+    if name not in PATIENT_PRESETS:
+        raise ParameterError(
+            f'patient {name!r}: unknown preset (known: {", ".join(PATIENT_PRESETS)})'
+        )
+    return Path(str(resources.files(__package__).joinpath('patients', f'{name}.yaml')))
+
+
+ParamsFiles = str | Path | Sequence[str | Path] | None
+"""One parameter file, several (merged in order), or none (the defaults)."""
+
+
+def params_files(paths: ParamsFiles) -> list[Path]:
+    """``paths`` as a list of files: one path, a sequence of them, or none ('' is none)."""
+    if paths is None:
+        return []
+    if isinstance(paths, str | Path):
+        paths = [paths]
+    return [Path(path) for path in paths if str(path) != '']
+
+
+def load_params(path: ParamsFiles = None) -> GloveParams:
+    """Load parameters: the defaults, with YAML files merged over them in order (MODEL.md §10).
 
     Parameters
     ----------
-    path : str or Path, optional
-        Parameter file. ``None`` (or an empty string) returns the built-in defaults.
+    path : str, Path or sequence of them, optional
+        Parameter file, or files merged in order (e.g. a glove, then a patient: later files
+        change only the keys they hold). ``None`` (or empty strings) gives the built-in
+        defaults.
 
     Returns
     -------
@@ -368,18 +405,24 @@ def load_params(path: str | Path | None = None) -> GloveParams:
     ParameterError
         With the file name, the key, the value and the rule, if anything is wrong.
     """
-    if path is None or str(path) == '':
-        return params_from_dict()
-    path = Path(path)
+    merged = _default_dict()
+    files = params_files(path)
+    for file in files:
+        try:
+            text = file.read_text('utf-8')
+        except OSError as error:
+            raise ParameterError(
+                f'{file}: cannot read parameter file ({error.strerror})'
+            ) from None
+        try:
+            merged = _merge('', merged, _read_yaml(text, str(file)))
+        except ParameterError as error:
+            raise ParameterError(f'{file}: {error}') from None
     try:
-        text = path.read_text('utf-8')
-    except OSError as error:
-        raise ParameterError(f'{path}: cannot read parameter file ({error.strerror})') from None
-    data = _read_yaml(text, str(path))
-    try:
-        return params_from_dict(data)
+        return _params(merged)
     except ParameterError as error:
-        raise ParameterError(f'{path}: {error}') from None
+        where = ' + '.join(str(file) for file in files)
+        raise ParameterError(f'{where}: {error}' if where else str(error)) from None
 
 
 def dump_params(params: GloveParams, path: str | Path) -> None:

@@ -1,10 +1,13 @@
-"""``estimator``: robot-side contact forces and the finger's stiffness (INTERFACES.md).
+"""``estimator``: robot-side contact forces and the patient's effective spring (INTERFACES.md).
 
 Pairs each ``joint_states`` with the ``chamber_pressure`` of the same plant step by their DDS
 publication sequence numbers (refusing stale or unmatched samples) and publishes
 ``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (MODEL.md §7, needs no finger
-model); every ``identification_period``, over the last ``identification_window`` pairs, it
-publishes the least-squares finger stiffness K_H as ``estimated_finger_stiffness``.
+model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
+with); every ``identification_period``, over the last ``identification_window`` pairs, it fits
+the effective linear patient τ̂_H = k (q − q_r) and publishes its stiffness as
+``estimated_finger_stiffness`` and its rest angle as ``estimated_rest_angle``, with the fit's
+RMSE in ``/diagnostics`` (large when a linear spring does not explain the finger).
 
 Run: ``python -m exodigit_nodes.estimator --ros-args -p max_sample_age:=0.05``.
 """
@@ -22,12 +25,14 @@ from .messages import (
     CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
     ESTIMATED_FINGER_STIFFNESS,
+    ESTIMATED_FINGER_TORQUE,
+    ESTIMATED_REST_ANGLE,
     JOINT_STATES,
     fill,
     joint_vector_message,
 )
 from .node_base import GloveNode, load_model, run
-from .parameters import ParamSpec, ParamTable
+from .parameters import ParamSpec, ParamTable, describe_files, params_file_spec
 from .qos import GLOVE_QOS
 
 DIAGNOSTIC_PERIOD = 1.0
@@ -37,12 +42,7 @@ MAX_PRESSURE_READING = 10e6
 
 ESTIMATOR_PARAMETERS = ParamTable(
     [
-        ParamSpec(
-            'params_file',
-            '',
-            'Model parameter YAML (MODEL.md §10); empty = built-in defaults',
-            read_only=True,
-        ),
+        params_file_spec('the estimate (the nominal glove and finger)'),
         ParamSpec(
             'max_sample_age',
             0.5,
@@ -89,12 +89,20 @@ class Estimator(GloveNode):
         self.fit = None
         self.fit_problem = 'no identification yet'
         self.force_message = joint_vector_message()
+        self.torque_message = joint_vector_message()
         self.stiffness_message = joint_vector_message()
+        self.rest_message = joint_vector_message()
         self.force_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_CONTACT_FORCES, GLOVE_QOS
         )
+        self.torque_publisher = self.create_publisher(
+            Float64MultiArray, ESTIMATED_FINGER_TORQUE, GLOVE_QOS
+        )
         self.stiffness_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, GLOVE_QOS
+        )
+        self.rest_publisher = self.create_publisher(
+            Float64MultiArray, ESTIMATED_REST_ANGLE, GLOVE_QOS
         )
         self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
         self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, GLOVE_QOS)
@@ -103,7 +111,7 @@ class Estimator(GloveNode):
         )
         self.create_timer(DIAGNOSTIC_PERIOD, self.report)
         self.get_logger().info(
-            f'estimator: model from {self.values["params_file"] or "built-in defaults"}, '
+            f'estimator: model from {describe_files(self.values["params_file"])}, '
             f'window {self.values["identification_window"]} pairs'
         )
 
@@ -136,31 +144,36 @@ class Estimator(GloveNode):
             self.reject(CHAMBER_PRESSURE, error)
 
     def estimate(self, pair: Pair | None) -> None:
-        """Publish the robot-side contact forces of a pair (N) and keep it for identification."""
+        """Publish the forces (N) and finger torque (N·m) of a pair; keep it to identify."""
         if pair is None:
             return
         forces = self.model.estimate_forces(pair.angles, pair.pressure)
-        if not np.isfinite(forces).all():
+        torque = self.model.contact_torque(pair.angles, forces)
+        if not (np.isfinite(forces).all() and np.isfinite(torque).all()):
             raise InvalidInputError(
                 'non-finite result', f'no finite force estimate at q={pair.angles.tolist()}'
             )
         self.pairs += 1
         self.forces = forces
         self.force_publisher.publish(fill(self.force_message, forces))
+        self.torque_publisher.publish(fill(self.torque_message, torque))
         self.window.add(pair)
 
     def identify(self) -> None:
-        """Fit K_H over the window and publish it (N·m/rad) when the window identifies it."""
+        """Fit the effective spring over the window; publish k (N·m/rad) and q_r (rad)."""
         try:
             fit = self.window.fit()
         except ValueError as error:
             self.fit_problem = str(error)
             return
-        if not np.isfinite(fit.stiffness).all():
-            self.fit_problem = f'fit not finite: {fit.stiffness.tolist()}'
+        if not (np.isfinite(fit.stiffness).all() and np.isfinite(fit.rest_angle).all()):
+            self.fit_problem = (
+                f'fit not finite: k {fit.stiffness.tolist()}, rest {fit.rest_angle.tolist()}'
+            )
             return
         self.fit, self.fit_problem = fit, ''
         self.stiffness_publisher.publish(fill(self.stiffness_message, fit.stiffness))
+        self.rest_publisher.publish(fill(self.rest_message, fit.rest_angle))
 
     def report(self) -> None:
         """One /diagnostics status: pairs made, latest forces, identified stiffness."""
@@ -173,6 +186,11 @@ class Estimator(GloveNode):
         if self.fit is not None:
             values['finger stiffness (N·m/rad)'] = str(self.fit.stiffness.tolist())
             values['standard error (N·m/rad)'] = str(self.fit.standard_error.tolist())
+            values['rest angle (rad)'] = str(self.fit.rest_angle.tolist())
+            values['rest angle standard error (rad)'] = str(
+                self.fit.rest_angle_standard_error.tolist()
+            )
+            values['fit RMSE (N·m)'] = str(self.fit.rmse.tolist())
         text = 'running' if not self.fit_problem else f'running; K_H: {self.fit_problem}'
         self.publish_status(DiagnosticStatus.OK, text, values)
 

@@ -22,6 +22,8 @@ import sys
 import time
 from pathlib import Path
 
+from exodigit_model.params import PATIENT_PRESETS
+
 from exodigit_nodes.pacing import CLOCKS, MAX_REAL_TIME_FACTOR
 from exodigit_nodes.ros_env import discovery_settings
 from exodigit_nodes.run_record import RunRecord, new_run_directory
@@ -33,6 +35,10 @@ NODES = ('plant', 'estimator', 'pressure_command')
 #: Stop order: commands first (the node publishes zero pressure as it stops), recorder last.
 STOP_ORDER = ('pressure_command', 'estimator', 'plant', 'recorder')
 MODES = ('sine', 'staircase', 'hold', 'position', 'force')
+#: The finger the default session's plant simulates (the controller assumes the nominal one).
+DEFAULT_PATIENT = 'stroke_moderate'
+#: --patient value for "the glove file alone" (the nominal finger).
+NOMINAL_PATIENT = 'nominal'
 #: Seconds between two refreshes of the terminal summary.
 REFRESH_PERIOD = 0.25
 #: Lines of a dead node's log shown when it exits unexpectedly.
@@ -104,7 +110,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         '--params-file',
         metavar='FILE',
-        help='model parameter YAML (MODEL.md section 10) for the nodes; default built-in values',
+        help='model parameter YAML (MODEL.md section 10) of the glove, for every node; default '
+        'built-in values',
+    )
+    parser.add_argument(
+        '--patient',
+        default=DEFAULT_PATIENT,
+        metavar='NAME|FILE',
+        help=f'the finger the plant simulates (MODEL.md section 11): a preset '
+        f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal (the glove file alone); '
+        f'the estimator and pressure_command assume the nominal one. Default {DEFAULT_PATIENT}',
     )
     parser.add_argument(
         '--ros-params',
@@ -150,13 +165,16 @@ def check_arguments(args: argparse.Namespace) -> None:
             f'--namespace {args.namespace!r}: must be absolute, e.g. /glove or /left/index '
             '(letters, digits, underscores)'
         )
-    if args.params_file is not None:
-        from exodigit_model import ParameterError, load_params
+    from exodigit_model import ParameterError, load_params
 
-        try:
-            load_params(args.params_file)
-        except ParameterError as error:
-            raise UsageError(f'--params-file: {" ".join(str(error).split())}') from None
+    try:
+        load_params(nominal_files(args))
+    except ParameterError as error:
+        raise UsageError(f'--params-file: {" ".join(str(error).split())}') from None
+    try:
+        load_params(plant_files(args))
+    except ParameterError as error:
+        raise UsageError(f'--patient: {" ".join(str(error).split())}') from None
     for path in args.ros_params:
         if not Path(path).is_file():
             raise UsageError(f'--ros-params {path}: no such file')
@@ -170,13 +188,48 @@ def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list
     command += ['--ros-args', '-r', f'__ns:={args.namespace}']
     for path in args.ros_params:
         command += ['--params-file', str(Path(path).resolve())]
-    if node in NODES and args.params_file is not None:  # each node loads the model
-        command += ['-p', f'params_file:={Path(args.params_file).resolve()}']
+    files = plant_files(args) if node == 'plant' else nominal_files(args)
+    if node in NODES and files:  # each node loads the model: the plant with the patient
+        listed = ','.join("'" + str(Path(f).resolve()).replace("'", "''") + "'" for f in files)
+        command += ['-p', f'params_file:=[{listed}]']
     if node == 'pressure_command':
         command += ['-p', f'mode:={args.mode}']
     if args.clock == 'sim':
         command += sim_time_arguments(node, args)
     return command
+
+
+def nominal_files(args: argparse.Namespace) -> list[str]:
+    """The model files the estimator and the controller assume (the glove, nominal finger)."""
+    return [] if args.params_file is None else [args.params_file]
+
+
+def plant_files(args: argparse.Namespace) -> list[str]:
+    """The plant's model files: the glove, then the patient merged over it."""
+    from exodigit_model import PATIENT_PRESETS, patient_file
+
+    if args.patient == NOMINAL_PATIENT:
+        return nominal_files(args)
+    patient = patient_file(args.patient) if args.patient in PATIENT_PRESETS else args.patient
+    return [*nominal_files(args), str(patient)]
+
+
+def identification_references(args: argparse.Namespace) -> dict:
+    """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate."""
+    from exodigit_model import load_params
+
+    joints = {
+        label: load_params(files).finger.joints
+        for label, files in (('nominal', nominal_files(args)), ('patient', plant_files(args)))
+    }
+    return {
+        'estimated_finger_stiffness': {
+            label: [j.stiffness for j in rows] for label, rows in joints.items()
+        },
+        'estimated_rest_angle': {
+            label: [j.rest_angle for j in rows] for label, rows in joints.items()
+        },
+    }
 
 
 def sim_time_arguments(node: str, args: argparse.Namespace) -> list[str]:
@@ -242,7 +295,10 @@ def main(argv=None) -> int:
         print(f'glove: cannot write the run record: {error}', file=sys.stderr)
         return 2
     print(settings.describe())
-    print(f'glove {args.namespace}: mode {args.mode}; run record and node logs in {run_dir}/')
+    print(
+        f'glove {args.namespace}: mode {args.mode}, patient {args.patient} (the controller and '
+        f'estimator assume the nominal finger); run record and node logs in {run_dir}/'
+    )
     return run_glove(args, env, record)
 
 
@@ -261,7 +317,8 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')
     clock = '' if args.clock == 'wall' else ', simulated time' + (', lockstep' * args.lockstep)
     title = f'exodigit glove {args.namespace} ({args.mode}{clock})'
-    signals = GloveSignals(NODES)
+    references = identification_references(args)
+    signals = GloveSignals(NODES, references)
     executor = monitor = None
     failures, stops = [], []
     try:
@@ -324,7 +381,7 @@ def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
         print(f'glove: {exit_.describe()}', file=sys.stderr)
         for line in log_tail(supervisor.log_path(exit_.name)):
             print(f'  {exit_.name}| {line}', file=sys.stderr)
-    plot = record.plot()
+    plot = record.plot(references)
     print(f'run record: {record.csv_path} ({record.rows} samples)')
     print(f'plot: {plot}' if plot else 'plot: none (no sample was received)')
     if args.record:

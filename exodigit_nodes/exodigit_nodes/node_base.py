@@ -72,6 +72,8 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     )
     if spec.choices:
         result.additional_constraints = 'one of: ' + ', '.join(spec.choices)
+    if spec.files:
+        result.additional_constraints = 'a file name, or a list of file names merged in order'
     if kind is tuple:
         result.additional_constraints = 'three values: MCP, PIP, DIP'
     if spec.low is not None and kind is int:
@@ -85,10 +87,10 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     return result
 
 
-def load_model(path: str) -> GloveModel:
-    """The glove model of a ``params_file`` ('' = defaults), or ConfigurationError in one line."""
+def load_model(paths: tuple[str, ...]) -> GloveModel:
+    """The model of the ``params_file`` files (none: defaults); one-line ConfigurationError."""
     try:
-        return GloveModel(load_params(path or None))
+        return GloveModel(load_params(paths))
     except (ParameterError, OSError, ValueError) as error:
         raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
 

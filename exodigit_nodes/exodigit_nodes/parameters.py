@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-ParamValue = bool | int | float | str | tuple[float, ...]
+ParamValue = bool | int | float | str | tuple[float, ...] | tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -36,6 +36,9 @@ class ParamSpec:
         Allowed values of a string parameter (empty: any string).
     required : bool
         A string parameter that may not be empty.
+    files : bool
+        A string parameter that names files: one path, or a list of paths (merged in order by
+        the model loader); the checked value is a tuple of the non-empty paths.
     """
 
     name: str
@@ -46,6 +49,7 @@ class ParamSpec:
     read_only: bool = False
     choices: tuple[str, ...] = ()
     required: bool = False
+    files: bool = False
 
     def check(self, value: Any) -> ParamValue:
         """``value`` converted to this parameter's type, or a ValueError naming the parameter."""
@@ -54,6 +58,13 @@ class ParamSpec:
             if not isinstance(value, bool):
                 raise ValueError(f'{self.name} must be true or false, got {value!r}')
             return value
+        if kind is str and self.files:
+            paths = [value] if isinstance(value, str) else value
+            if not isinstance(paths, list | tuple) or not all(isinstance(p, str) for p in paths):
+                raise ValueError(
+                    f'{self.name} must be a file name or a list of file names, got {value!r}'
+                )
+            return tuple(path for path in paths if path.strip())
         if kind is str:
             if not isinstance(value, str):
                 raise ValueError(f'{self.name} must be a string, got {value!r}')
@@ -114,8 +125,8 @@ class ParamTable:
         self.specs = {spec.name: spec for spec in specs}
 
     def defaults(self) -> dict[str, ParamValue]:
-        """Every parameter at its default."""
-        return {name: spec.default for name, spec in self.specs.items()}
+        """Every parameter at its default, as :meth:`check` gives it."""
+        return {name: spec.check(spec.default) for name, spec in self.specs.items()}
 
     def check(self, values: Mapping[str, Any]) -> dict[str, ParamValue]:
         """``values`` (a subset of the parameters) checked and converted.
@@ -136,3 +147,20 @@ class ParamTable:
     def help(self) -> str:
         """All parameters, one entry each, for ``--help``."""
         return '\n'.join(spec.help_line() for spec in self.specs.values())
+
+
+def params_file_spec(whose: str) -> ParamSpec:
+    """The ``params_file`` parameter of a node that loads the model (``whose`` model it is)."""
+    return ParamSpec(
+        'params_file',
+        '',
+        f'Model parameter YAML for {whose} (MODEL.md §10-11): one file, or a list of files '
+        "merged in order (e.g. ['my_glove.yaml', 'patient.yaml']); empty = built-in defaults",
+        read_only=True,
+        files=True,
+    )
+
+
+def describe_files(paths: tuple[str, ...]) -> str:
+    """How a log line names the model files of a node: ``a.yaml + b.yaml`` or the defaults."""
+    return ' + '.join(paths) or 'built-in defaults'

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from exodigit_model.model import state_warnings
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMessage
 from sensor_msgs.msg import JointState
@@ -45,6 +46,7 @@ from .messages import (
     CONTACT_FORCES,
     JOINT_STATES,
     MARKERS,
+    PATIENT_EFFORT,
     PRESSURE_COMMAND,
     RESET,
     SET_PAUSED,
@@ -53,8 +55,8 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import CLOCKS, CONTROLLERS_LABEL, MAX_REAL_TIME_FACTOR, Pacer
-from .parameters import ParamSpec, ParamTable
+from .pacing import CLOCKS, CONTROLLERS_LABEL, MAX_REAL_TIME_FACTOR, Pacer, known_node
+from .parameters import ParamSpec, ParamTable, describe_files, params_file_spec
 from .qos import CLOCK_QOS, GLOVE_QOS
 from .watchdog import Watchdog
 
@@ -68,17 +70,14 @@ FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 READER_WAIT = 2.0
 """Longest wait of the ``step`` service for new subscribers to be matched, wall s."""
+MAX_EFFORT = 10.0
+"""Largest |patient effort| accepted, N·m (a finger joint makes well under 1 N·m)."""
 SIM_DEFAULTS = SimulationSettings()
 """The stepper's defaults, which are the plant's."""
 
 PLANT_PARAMETERS = ParamTable(
     [
-        ParamSpec(
-            'params_file',
-            '',
-            'Model parameter YAML (MODEL.md §10); empty = built-in defaults',
-            read_only=True,
-        ),
+        params_file_spec('the simulated glove and patient'),
         ParamSpec(
             'rate_hz',
             SIM_DEFAULTS.rate_hz,
@@ -106,6 +105,14 @@ PLANT_PARAMETERS = ParamTable(
             0.5,
             'No valid pressure_command for this long: the chambers vent to zero, s '
             '(simulated s with clock sim; lockstep uses lockstep_timeout instead)',
+            low=0.01,
+            high=60.0,
+        ),
+        ParamSpec(
+            'effort_timeout',
+            0.5,
+            'patient_effort older than this counts as none (zero effort), s (simulated with '
+            'clock sim)',
             low=0.01,
             high=60.0,
         ),
@@ -192,6 +199,7 @@ class PlantSettings:
 
     simulation: SimulationSettings
     command_timeout: float
+    effort_timeout: float
     frame_id: str
     marker_rate_hz: float
     real_time_factor: float
@@ -217,6 +225,7 @@ class Plant(GloveNode):
         self.lockstep = values['lockstep']
         self.watchdog = Watchdog(settings.command_timeout)
         self.command = np.zeros(3)
+        self.effort: tuple[float, np.ndarray] | None = None  # (time received, N·m)
         self.failure_residual = 0.0
         self.failures_reported = 0
         self.cycles = 0
@@ -245,6 +254,7 @@ class Plant(GloveNode):
         self.command_subscription = self.create_subscription(
             Float64MultiArray, PRESSURE_COMMAND, self.on_command, GLOVE_QOS
         )
+        self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, GLOVE_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
         self.marker_timer = None
         self.sim_timer = None
@@ -280,7 +290,7 @@ class Plant(GloveNode):
         )
         self.get_logger().info(
             f'plant running at {values["rate_hz"]:g} Hz on {time_source}, model from '
-            f'{values["params_file"] or "built-in defaults"}, chamber lag '
+            f'{describe_files(values["params_file"])}, chamber lag '
             f'{settings.simulation.pressure_time_constant:g} s, command timeout '
             f'{settings.command_timeout:g} s'
         )
@@ -303,6 +313,7 @@ class Plant(GloveNode):
                 seed=values['seed'],
             ),
             command_timeout=values['command_timeout'],
+            effort_timeout=values['effort_timeout'],
             frame_id=values['frame_id'],
             marker_rate_hz=values['marker_rate_hz'],
             real_time_factor=values['real_time_factor'],
@@ -343,11 +354,29 @@ class Plant(GloveNode):
         except InvalidInputError as error:
             self.reject(PRESSURE_COMMAND, error)
         else:
-            now = self.state.t if self.sim_clock else self.now_seconds()
-            if self.watchdog.feed(now):
+            if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{PRESSURE_COMMAND} again: venting stopped')
         if self.lockstep:
             self.on_answer()
+
+    def on_effort(self, message: Float64MultiArray) -> None:
+        """Keep a valid patient effort (N·m per joint, u of eq 11.1) with its arrival time."""
+        try:
+            effort = joint_vector(message.data, PATIENT_EFFORT, MAX_EFFORT)
+        except InvalidInputError as error:
+            self.reject(PATIENT_EFFORT, error)
+            return
+        self.effort = (self.time_now(), effort)
+
+    def time_now(self) -> float:
+        """The plant's time: simulated (its latest step) with clock sim, else the node clock, s."""
+        return self.state.t if self.sim_clock else self.now_seconds()
+
+    def current_effort(self) -> np.ndarray | None:
+        """The latest effort if younger than effort_timeout, else None (no effort)."""
+        if self.effort is None or self.time_now() - self.effort[0] > self.settings.effort_timeout:
+            return None
+        return self.effort[1]
 
     def on_answer(self) -> None:
         """Lockstep: the latest step has its answer; take the next step if it is due."""
@@ -365,6 +394,7 @@ class Plant(GloveNode):
         """
         self.simulation.reset()
         self.command = np.zeros(3)
+        self.effort = None
         self.watchdog.clear()
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
@@ -482,7 +512,7 @@ class Plant(GloveNode):
 
     def advance(self, stamp, *, vent: bool) -> GloveState:
         """Step the simulation with the latest command (zero when venting); publish if stamped."""
-        state = self.simulation.step(np.zeros(3) if vent else self.command)
+        state = self.simulation.step(np.zeros(3) if vent else self.command, self.current_effort())
         self.state = state
         if state.saturated:
             self.get_logger().warning(
@@ -574,7 +604,9 @@ class Plant(GloveNode):
         listening = {(info.node_namespace, info.node_name) for info in readers}
         return sorted(
             f'{namespace.rstrip("/")}/{name}'
-            for namespace, name in {(i.node_namespace, i.node_name) for i in publishers}
+            for namespace, name in {
+                (i.node_namespace, i.node_name) for i in publishers if known_node(i)
+            }
             if (namespace, name) in listening
         )
 
@@ -643,8 +675,11 @@ class Plant(GloveNode):
                 f'(last residual {self.failure_residual:.3g} N·m), kept the last good state'
             )
             self.failures_reported = failures
-        if not state.in_valid_range:
-            problems.append('outside the validated stretch range 1 <= lambda <= 1.5')
+        problems += state_warnings(True, state.in_valid_range, state.in_range_of_motion)
+        tension = [name for name, f in zip(JOINT_NAMES, state.forces, strict=True) if f < 0.0]
+        notes = (
+            [f'contact in tension at {", ".join(tension)} (the strap pulls)'] if tension else []
+        )
         if state.saturated:
             problems.append('command saturated to the supply range')
         saturation = self.simulation.chambers.saturation
@@ -655,6 +690,10 @@ class Plant(GloveNode):
             'solver residual (N·m)': f'{state.residual:.3g}',
             'solver failures': str(failures),
             'in valid range': str(bool(state.in_valid_range)),
+            'in range of motion': str(bool(state.in_range_of_motion)),
+            'contact forces (N)': str(state.forces.tolist()),
+            'contacts in tension': ', '.join(tension) or 'none',
+            'patient effort (N·m)': str(state.effort.tolist()),
             'watchdog': 'venting'
             if self.watchdog.tripped
             else ('waiting for a command' if self.watchdog.last_feed is None else 'ok'),
@@ -667,7 +706,8 @@ class Plant(GloveNode):
             **time_values,
         }
         level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
-        self.publish_status(level, '; '.join(problems) or 'running', values, self.stamp())
+        text = '; '.join(problems + notes) or 'running'
+        self.publish_status(level, text, values, self.stamp())
 
 
 def main(args: list[str] | None = None) -> int:

@@ -46,7 +46,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .parameters import ParamSpec, ParamTable
+from .parameters import ParamSpec, ParamTable, params_file_spec
 from .qos import GLOVE_QOS
 from .safety import SafetyLimiter, SafetyLimits
 
@@ -71,12 +71,7 @@ LIMIT_NAMES = frozenset(
 
 COMMAND_PARAMETERS = ParamTable(
     [
-        ParamSpec(
-            'params_file',
-            '',
-            'Model parameter YAML for the feed-forward (MODEL.md §10); empty = defaults',
-            read_only=True,
-        ),
+        params_file_spec('the feed-forward (the nominal glove and finger)'),
         ParamSpec('mode', 'sine', 'Command session', choices=MODES),
         ParamSpec('rate_hz', 100.0, 'Command rate, Hz', low=1.0, high=1000.0, read_only=True),
         ParamSpec(

@@ -83,12 +83,12 @@ class RunRecord:
         """Close the CSV file."""
         self._file.close()
 
-    def plot(self) -> Path | None:
+    def plot(self, references=None) -> Path | None:
         """Draw the recorded signals to ``signals.png``; None when there is no row to draw."""
         table = read_csv(self.csv_path)
         if len(table['time_s']) == 0:
             return None
-        save_plot(table, self.plot_path)
+        save_plot(table, self.plot_path, references)
         return self.plot_path
 
 
@@ -106,11 +106,17 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
     return {name: data[:, i] for i, name in enumerate(header)}
 
 
-def save_plot(table: dict[str, np.ndarray], path: Path) -> None:
-    """Plot pressures, angles, forces and identified stiffness against time to ``path``.
+REFERENCE_STYLES = (':', '-.')
+"""Line styles of the constant reference values (nominal, patient) beside an identification."""
+
+
+def save_plot(table: dict[str, np.ndarray], path: Path, references=None) -> None:
+    """Plot pressures, angles, forces and the identified patient against time to ``path``.
 
     One panel per quantity, one colour per joint; commanded pressure and estimated force are
-    dashed beside the chamber pressure and simulated force they are compared with.
+    dashed beside the chamber pressure and simulated force they are compared with; the
+    identified stiffness and rest angle beside constant ``references`` (per topic: label ->
+    SI values, as `GloveSignals.references`), so the plot shows the identification converging.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -122,8 +128,9 @@ def save_plot(table: dict[str, np.ndarray], path: Path) -> None:
         ('joint angle (deg)', [('joint_states', '-')]),
         ('contact force (N)', [('contact_forces', '-'), ('estimated_contact_forces', '--')]),
         ('finger stiffness (N·m/rad)', [('estimated_finger_stiffness', '-')]),
+        ('finger rest angle (deg)', [('estimated_rest_angle', '-')]),
     ]
-    figure = Figure(figsize=(9, 10), layout='constrained')
+    figure = Figure(figsize=(9, 12), layout='constrained')
     FigureCanvasAgg(figure)
     axes = figure.subplots(len(panels), 1, sharex=True)
     for ax, (ylabel, curves) in zip(axes, panels, strict=True):
@@ -135,9 +142,19 @@ def save_plot(table: dict[str, np.ndarray], path: Path) -> None:
                 )
             if np.isnan(table[signal.columns()[0]]).all():
                 ax.text(0.5, 0.5, f'no {topic} received', transform=ax.transAxes, ha='center')
+            rows = (references or {}).get(topic, {})
+            for style_ref, (label, values) in zip(REFERENCE_STYLES, rows.items(), strict=False):
+                for colour, joint, value in zip('bgr', JOINT_LABELS, values, strict=True):
+                    ax.axhline(
+                        signal.scale * value,
+                        linestyle=style_ref,
+                        color=colour,
+                        linewidth=1,
+                        label=f'{joint} {label}',
+                    )
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
-        ax.legend(loc='upper right', fontsize='small', ncols=len(curves))
+        ax.legend(loc='upper right', fontsize='small', ncols=3)
     axes[-1].set_xlabel('time (s)')
     figure.suptitle('exodigit glove run')
     figure.savefig(path, dpi=100)

@@ -55,7 +55,8 @@ SIGNALS = {
     'joint_states': Signal('angle', 'q', 180.0 / math.pi, 'deg', 'deg'),
     'contact_forces': Signal('force sim', 'f', 1.0, 'N', 'n', decimals=3),
     'estimated_contact_forces': Signal('force est', 'f_est', 1.0, 'N', 'n', decimals=3),
-    'estimated_finger_stiffness': Signal('K_H', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
+    'estimated_finger_stiffness': Signal('K_H est', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
+    'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
 #: The order in which the plant publishes the messages of one step (``Plant.publish_state``).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
@@ -112,9 +113,16 @@ class GloveSignals:
     ----------
     nodes : sequence of str
         Node names whose health is shown.
+    references : mapping, optional
+        Constant values shown beside an identified signal, per topic of `SIGNALS`: label ->
+        values (SI), e.g. ``{'estimated_finger_stiffness': {'nominal': k, 'patient': k_true}}``.
     """
 
-    def __init__(self, nodes):
+    def __init__(self, nodes, references=None):
+        self.references = {
+            topic: {label: np.asarray(values, dtype=float) for label, values in rows.items()}
+            for topic, rows in (references or {}).items()
+        }
         self.latest: dict[str, np.ndarray | None] = dict.fromkeys(SIGNALS)
         self.health: dict[str, Health | None] = dict.fromkeys(nodes)
         self.time: float | None = None
@@ -225,6 +233,9 @@ class GloveSignals:
         for topic, signal in SIGNALS.items():
             cells = _cells(self.latest[topic], signal, width=9)
             lines.append(f'{signal.label:<10}{cells}  {signal.unit}')
+            for label, values in self.references.get(topic, {}).items():
+                row = f'{signal.label.split()[0]} {label}'
+                lines.append(f'{row:<10}{_cells(values, signal, width=9)}  {signal.unit}')
         lines.append('nodes: ' + ', '.join(self.health_text(now)))
         return '\n'.join(lines)
 

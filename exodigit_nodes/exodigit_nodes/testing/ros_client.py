@@ -28,6 +28,7 @@ from ..messages import (
     fill,
     joint_vector_message,
 )
+from ..pacing import known_node
 from ..qos import GLOVE_QOS, RECORD_QOS
 from .client import SimState
 
@@ -109,7 +110,7 @@ class GloveClient(Node):
         return [
             f'{info.node_namespace.rstrip("/")}/{info.node_name}'
             for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
-            if (info.node_name, info.node_namespace) != me
+            if (info.node_name, info.node_namespace) != me and known_node(info)
         ]
 
     # -- states and commands ---------------------------------------------------------------
