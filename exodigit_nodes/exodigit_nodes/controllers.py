@@ -204,3 +204,57 @@ class ForceController(PIController):
 
 
 Controller = OpenLoop | PositionController | ForceController
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command of :class:`CommandLoop`: what to send, and what shaped it.
+
+    Attributes
+    ----------
+    pressure : ndarray, shape (3,)
+        The pressures to send, Pa.
+    reasons : dict of str to str
+        The safety limits that acted, and why (see :class:`.safety.Limited`).
+    missing : bool
+        A closed loop had no fresh feedback and ramps down to zero.
+    """
+
+    pressure: NDArray[np.float64]
+    reasons: dict[str, str]
+    missing: bool
+
+
+class CommandLoop:
+    """A controller behind the safety limiter: what ``pressure_command`` computes each step.
+
+    Plain Python, so a controller can be run against an in-process simulation exactly as the
+    node runs it.
+
+    Parameters
+    ----------
+    controller : Controller
+        Open-loop session or closed loop (replaceable: ``loop.controller = ...``).
+    limiter : SafetyLimiter
+        The safety limits every command passes.
+    """
+
+    def __init__(self, controller: Controller, limiter) -> None:
+        self.controller, self.limiter = controller, limiter
+
+    def command(self, t: float, dt: float, feedback: Feedback) -> Command:
+        """The command at session time ``t`` (s), ``dt`` (s) after the previous one."""
+        controller = self.controller
+        missing = controller.closed_loop and (
+            feedback.angles is None
+            or (isinstance(controller, ForceController) and feedback.forces is None)
+        )
+        if missing:
+            desired = np.zeros(3)
+            controller.integral[:] = 0.0  # start afresh when the feedback returns
+        else:
+            desired = controller.desired(t, feedback, dt)
+        limited = self.limiter.apply(desired, dt, feedback.angles, feedback.forces)
+        if not missing:
+            controller.commit(desired, limited.pressure)
+        return Command(limited.pressure, limited.reasons, missing)

@@ -28,6 +28,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from .controllers import (
+    CommandLoop,
     Controller,
     Feedback,
     ForceController,
@@ -118,8 +119,14 @@ COMMAND_PARAMETERS = ParamTable(
             -3.14,
             3.14,
         ),
+        # 10 N: the vented glove strapped on the stroke_severe preset's flexed finger already
+        # carries 6 N at a contact; a lower default would leave that patient no way to move.
         ParamSpec(
-            'max_contact_force', 5.0, 'Safety: largest |contact force| tolerated, N', 0.01, 100.0
+            'max_contact_force',
+            10.0,
+            'Safety: largest |contact force| tolerated, N',
+            low=0.01,
+            high=100.0,
         ),
         ParamSpec(
             'feedback_timeout',
@@ -152,7 +159,6 @@ class PressureCommand(GloveNode):
         super().__init__()
         self.model = load_model(self.values['params_file'])
         self.period = 1.0 / self.values['rate_hz']
-        self.limiter = SafetyLimiter(self.settings.limits)
         self.angles: tuple[float, np.ndarray] | None = None
         self.forces: tuple[float, np.ndarray] | None = None
         self.topic_targets: np.ndarray | None = None
@@ -160,7 +166,7 @@ class PressureCommand(GloveNode):
         self.last_back_off = ''
         self.back_offs_reported = 0
         self.sent = np.zeros(3)
-        self.controller = self.make_controller()
+        self.loop = CommandLoop(self.make_controller(), SafetyLimiter(self.settings.limits))
         self.started = self.now_seconds()
         self.last_tick: float | None = None
         self.lockstep = self.values['lockstep']
@@ -215,11 +221,11 @@ class PressureCommand(GloveNode):
 
     def apply(self, settings: CommandSettings, changed: set[str]) -> None:
         """New limits at once; a new controller (session restarts) when its parameters change."""
-        self.limiter.limits = settings.limits
+        self.loop.limiter.limits = settings.limits
         if changed - LIMIT_NAMES:
             if 'joint_targets' in changed:
                 self.topic_targets = None
-            self.controller = self.make_controller()
+            self.loop.controller = self.make_controller()
             self.started = self.now_seconds()
 
     def make_controller(self) -> Controller:
@@ -273,7 +279,7 @@ class PressureCommand(GloveNode):
 
     def on_targets(self, message: Float64MultiArray) -> None:
         """New position targets (rad), accepted only inside the range of motion."""
-        limits = self.limiter.limits
+        limits = self.loop.limiter.limits
         try:
             targets = joint_vector(message.data, JOINT_TARGETS)
             outside = (targets < limits.joint_lower) | (targets > limits.joint_upper)
@@ -286,8 +292,8 @@ class PressureCommand(GloveNode):
             self.reject(JOINT_TARGETS, error)
             return
         self.topic_targets = targets
-        if isinstance(self.controller, PositionController):
-            self.controller.set_targets(targets)
+        if isinstance(self.loop.controller, PositionController):
+            self.loop.controller.set_targets(targets)
 
     def fresh(self, sample: tuple[float, np.ndarray] | None, now: float) -> np.ndarray | None:
         """The sample's value if it is younger than feedback_timeout, else None."""
@@ -313,7 +319,7 @@ class PressureCommand(GloveNode):
         The state's stamp is the controller's time; dt is the step between two stamps.
         """
         state, forces = self.pending['angles'], self.pending['forces']
-        force_mode = isinstance(self.controller, ForceController)
+        force_mode = isinstance(self.loop.controller, ForceController)
         if state is None or (force_mode and forces is None):
             return
         self.pending = {'angles': None, 'forces': None}
@@ -324,33 +330,22 @@ class PressureCommand(GloveNode):
 
     def command(self, now: float, dt: float, feedback: Feedback) -> None:
         """Compute, limit and publish the command at ``now`` (s) after ``dt`` (s)."""
-        controller = self.controller
-        missing = controller.closed_loop and (
-            feedback.angles is None
-            or (isinstance(controller, ForceController) and feedback.forces is None)
-        )
-        if missing:
-            desired = np.zeros(3)
-            controller.integral[:] = 0.0  # start afresh when the feedback returns
+        result = self.loop.command(now - self.started, dt, feedback)
+        if result.missing:
             self.get_logger().warning(
                 f'{self.values["mode"]} mode: no fresh feedback for over '
                 f'{self.values["feedback_timeout"]:g} s: ramping down to zero',
                 throttle_duration_sec=LOG_THROTTLE,
             )
-        else:
-            desired = controller.desired(now - self.started, feedback, dt)
-        limited = self.limiter.apply(desired, dt, feedback.angles, feedback.forces)
-        if not missing:
-            controller.commit(desired, limited.pressure)
-        for kind in limited.reasons:
+        for kind in result.reasons:
             self.limit_counts[kind] = self.limit_counts.get(kind, 0) + 1
-        if 'back-off' in limited.reasons:
-            self.last_back_off = limited.reasons['back-off']
-        if 'back-off' in limited.reasons or 'non-finite' in limited.reasons:
+        if 'back-off' in result.reasons:
+            self.last_back_off = result.reasons['back-off']
+        if 'back-off' in result.reasons or 'non-finite' in result.reasons:
             self.get_logger().warning(
-                '; '.join(limited.reasons.values()), throttle_duration_sec=LOG_THROTTLE
+                '; '.join(result.reasons.values()), throttle_duration_sec=LOG_THROTTLE
             )
-        self.sent = limited.pressure
+        self.sent = result.pressure
         self.publisher.publish(fill(self.command_message, self.sent))
 
     def on_shutdown(self) -> None:
