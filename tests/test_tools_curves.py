@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from exodigit_model.tools.cli import EXAMPLES, main
 
-from exodigit_model import JOINT_NAMES, GloveModel, load_params
+from exodigit_model import JOINT_NAMES, GloveModel, load_params, patient_file
 
 #: CSV angles (deg, 9 significant digits) against single solves.
 ANGLE_TOLERANCE_DEG = 1e-6
@@ -156,3 +156,33 @@ def test_missing_matplotlib_says_what_to_install(tmp_path):
         'exodigit draw: error: matplotlib is not installed; install the tools with: '
         'pip install "./exodigit_model[tools]"'
     ]
+
+
+def test_curves_for_a_patient_preset_are_the_patients_solves(tmp_path, capsys):
+    assert (
+        main(
+            [
+                'curves',
+                '--patient',
+                'stroke_severe',
+                '--out',
+                str(tmp_path),
+                '--pressures',
+                '0:40:20',
+            ]
+        )
+        == 0
+    )
+    patient = GloveModel(load_params(patient_file('stroke_severe')))
+    with open(tmp_path / 'angles.csv', newline='') as handle:
+        rows = [r for r in csv.DictReader(handle) if r['condition'] == 'finger']
+    assert rows
+    for row in rows:
+        pressure = chamber_pressures(row['experiment'], float(row['pressure_kpa']))
+        angles = [float(row[f'q_{name}_deg']) for name in JOINT_NAMES]
+        np.testing.assert_allclose(
+            angles, np.degrees(patient.solve(pressure).q), atol=ANGLE_TOLERANCE_DEG
+        )
+    # the severe finger rests flexed: at 0 kPa on the finger the joints are bent
+    rest = next(r for r in rows if float(r['pressure_kpa']) == 0.0)
+    assert float(rest['q_mcp_deg']) > 20.0

@@ -7,7 +7,7 @@ import pytest
 from exodigit_model.tools.cli import main
 from PIL import Image
 
-from exodigit_model import GloveModel, load_params
+from exodigit_model import GloveModel, load_params, patient_file
 
 #: Angles are written with one decimal (deg), forces with two (N).
 ANGLE_DECIMALS_DEG = 0.05
@@ -54,3 +54,34 @@ def test_bad_draw_input_is_one_line(args, fragment, capsys):
     assert main(['draw', *args]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith('exodigit draw: error:') and fragment in err and '\n' not in err
+
+
+def test_a_state_outside_the_model_is_drawn_with_a_warning(tmp_path, capsys):
+    # 500 kPa (a typo for 50): the finger folds through itself; it must not look normal.
+    assert main(['draw', '--pressure', '500', '--out', str(tmp_path / 'g.png')]) == 0
+    err = capsys.readouterr().err
+    assert 'validated range' in err and 'range of motion' in err
+    assert main(['draw', '--pressure', '30', '--out', str(tmp_path / 'g.png')]) == 0
+    assert capsys.readouterr().err == ''
+
+
+def test_draw_takes_a_patient_preset(tmp_path, capsys):
+    assert (
+        main(
+            [
+                'draw',
+                '--pressure',
+                '30',
+                '--patient',
+                'stroke_mild',
+                '--out',
+                str(tmp_path / 'g.png'),
+            ]
+        )
+        == 0
+    )
+    patient = GloveModel(load_params(patient_file('stroke_mild')))
+    angles, _ = written_numbers(capsys.readouterr().out)
+    np.testing.assert_allclose(
+        angles, patient.solve([30e3] * 3).q, atol=np.radians(ANGLE_DECIMALS_DEG)
+    )

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import GloveModel, ParameterError, load_params
+from .. import PATIENT_PRESETS, GloveModel, ParameterError, load_params, patient_file
 from ._deps import ToolError, progress
 
 EXIT_USAGE = 2
@@ -46,12 +46,19 @@ DESCRIPTIONS = {
 }
 
 
-def _params_argument(parser: argparse.ArgumentParser) -> None:
+def _params_argument(parser: argparse.ArgumentParser, *, patient: bool = True) -> None:
     parser.add_argument(
         '--params',
         metavar='FILE',
         help='model parameter YAML (MODEL.md §10); built-in defaults when omitted',
     )
+    if patient:
+        parser.add_argument(
+            '--patient',
+            metavar='NAME|FILE',
+            help=f'the finger (MODEL.md §11): a preset ({", ".join(PATIENT_PRESETS)}) or a '
+            'patient YAML merged over --params; the nominal finger when omitted',
+        )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -101,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
         help='samples: p_mcp_kpa,p_pip_kpa,p_dip_kpa,q_mcp_deg,q_pip_deg,q_dip_deg '
         '[,f_mcp_n,f_pip_n,f_dip_n] [,condition (free|finger)]',
     )
-    _params_argument(calibrate)
+    _params_argument(calibrate, patient=False)
     calibrate.add_argument(
         '--fit',
         choices=('material', 'stiffness', 'both'),
@@ -121,8 +128,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _model(path: str | None) -> GloveModel:
-    return GloveModel(load_params(path))
+def _model(args: argparse.Namespace) -> GloveModel:
+    files = [] if args.params is None else [args.params]
+    patient = getattr(args, 'patient', None)
+    if patient in PATIENT_PRESETS:
+        files.append(patient_file(patient))
+    elif patient is not None:
+        if not Path(patient).is_file():
+            raise ToolError(
+                f'--patient {patient}: neither a preset ({", ".join(PATIENT_PRESETS)}) nor a file'
+            )
+        files.append(patient)
+    return GloveModel(load_params(files))
 
 
 def _out_dir(path: str) -> Path:
@@ -153,7 +170,7 @@ def run_curves(args: argparse.Namespace) -> None:
     from . import curves, figures
 
     pressure = curves.parse_pressures(args.pressures)
-    model = _model(args.params)
+    model = _model(args)
     folder = _out_dir(args.out)
     steps = progress(total=5, desc='curves', unit='step')
     sweeps = curves.simulate(model, pressure)
@@ -191,10 +208,11 @@ def run_draw(args: argparse.Namespace) -> None:
         raise ToolError(f'--out {args.out}: the picture is a PNG, name it *.png')
     if not out.parent.is_dir():
         raise ToolError(f'--out {args.out}: folder {out.parent} does not exist')
-    drawing = draw(_model(args.params), pressure, out)
-    if not drawing.solution.converged:
+    drawing = draw(_model(args), pressure, out)
+    for problem in drawing.solution.warnings():
         print(
-            f'warning: the solve did not converge (residual {drawing.solution.residual:.3g} N·m)',
+            f'warning: {problem} (residual {drawing.solution.residual:.3g} N·m): this state '
+            'is outside what the model describes',
             file=sys.stderr,
         )
     print(f'wrote {out}: {drawing.caption}')

@@ -183,7 +183,7 @@ def write_markers_csv(markers: dict[tuple[str, str], NDArray], pressure, path: P
 
 
 def summary(sweeps: list[Sweep]) -> list[str]:
-    """Warnings about rows that did not converge or left the validated stretch range."""
+    """Warnings about rows that did not converge or left the model (stretch, range of motion)."""
     lines = []
     for sweep in sweeps:
         failed = int(np.count_nonzero(~sweep.solution.converged))
@@ -195,5 +195,10 @@ def summary(sweeps: list[Sweep]) -> list[str]:
             lines.append(
                 f'warning: {where}: {outside} pressures outside 1 <= stretch <= 1.5 '
                 '(a joint overstretched or bent backwards)'
+            )
+        beyond = int(np.count_nonzero(~sweep.solution.in_range_of_motion))
+        if beyond and sweep.condition != 'free':
+            lines.append(
+                f"warning: {where}: {beyond} pressures outside the finger's range of motion"
             )
     return lines
