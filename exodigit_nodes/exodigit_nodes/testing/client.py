@@ -37,6 +37,9 @@ from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 
 DEFAULT_TIMEOUT = 60.0
 """Longest wall-clock wait for the glove (start-up, a step, a run) before an error, s."""
+ESTIMATE_GRACE = 1.0
+"""How long the start-up waits for a just-started estimator's estimate of the first state, s
+(it may not have been listening yet; a later step always has one)."""
 POLL = 0.05
 """Longest single wait of the client's executor, s."""
 PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
@@ -184,7 +187,9 @@ class GloveSim:
                     estimator_parameters['params_file'] = parameters['params_file']
                 self._start('estimator', estimator_parameters)
             self._connect(estimator)
-            self.state = self.reset()
+            self.state = self._reset(with_estimate=False)  # the estimator may join only now
+            if estimator:
+                self._settle_estimates()
         except BaseException:
             self.close()
             raise
@@ -246,9 +251,20 @@ class GloveSim:
 
         Simulated time goes on: the rest state is published as the next step.
         """
+        return self._reset(with_estimate=True)
+
+    def _settle_estimates(self) -> None:
+        """Let the estimate of the start-up state (if the estimator had it) arrive and go."""
+        deadline = time.monotonic() + ESTIMATE_GRACE
+        while not self._node.estimate_count() and time.monotonic() < deadline:
+            self._executor.spin_once(timeout_sec=POLL)
+        self._node.clear_estimates()
+
+    def _reset(self, *, with_estimate: bool) -> SimState:
         self._node.clear_commands()
+        self._node.clear_estimates()
         self._call(self._node.reset_client, self._node.trigger(), 'reset')
-        self.state = self._next_state()
+        self.state = self._next_state(with_estimate=with_estimate)
         self._external_synced = False
         return self.state
 

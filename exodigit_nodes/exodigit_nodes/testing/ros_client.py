@@ -152,6 +152,10 @@ class GloveClient(Node):
         """The oldest ``count`` commands heard, removed."""
         return [self.commands.popleft() for _ in range(count)]
 
+    def estimate_count(self) -> int:
+        """Estimates queued."""
+        return len(self.queues.get(ESTIMATED_CONTACT_FORCES, ()))
+
     def clear_estimates(self) -> None:
         """Forget queued estimates (a run does not pair them with its states)."""
         self.queues.get(ESTIMATED_CONTACT_FORCES, deque()).clear()

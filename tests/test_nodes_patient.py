@@ -1,0 +1,158 @@
+"""The patient over ROS (INTERFACES.md Part II, "The patient"), in lockstep simulated time.
+
+The plant simulates a patient file; a probe publishes ``patient_effort`` and reads the
+estimator's ``estimated_finger_torque``, ``estimated_rest_angle`` and the diagnostics. Expected
+values come from ``GloveModel`` solves of the same patient, independent of the nodes.
+"""
+
+import ast
+
+import numpy as np
+import pytest
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_nodes.testing import GloveSim
+from ros_harness import RosProbe, wait_until
+from std_msgs.msg import Float64MultiArray
+
+from exodigit_model import GloveModel, load_params
+
+#: A linear patient (so the effective spring is the patient itself), resting flexed.
+LINEAR_PATIENT = {
+    'finger': {
+        'joints': [
+            {'stiffness': 0.08, 'rest_angle': 0.2},
+            {'stiffness': 0.06, 'rest_angle': 0.25},
+            {'stiffness': 0.03, 'rest_angle': 0.15},
+        ]
+    }
+}
+ANGLE_TOLERANCE = 1e-9
+#: Identification of a noise-free linear patient: stiffness (relative), rest angle (rad).
+STIFFNESS_RTOL, REST_TOLERANCE = 1e-4, 1e-5
+
+
+@pytest.fixture
+def patient_file(tmp_path):
+    path = tmp_path / 'patient.yaml'
+    path.write_text(yaml.safe_dump(LINEAR_PATIENT))
+    return path
+
+
+@pytest.fixture
+def glove(patient_file, tmp_path):
+    with GloveSim(patient_file, estimator=True, log_dir=tmp_path / 'logs') as sim:
+        probe = RosProbe(sim.domain_id, name='patient_probe')
+        try:
+            yield sim, probe
+        finally:
+            probe.close()
+
+
+def plant_status(diagnostics, ns):
+    for array in reversed(diagnostics.messages()):
+        for status in array.status:
+            if status.name == f'{ns}/plant':
+                return status, {kv.key: kv.value for kv in status.values}
+    return None
+
+
+def steps_until(glove, command, condition, limit=400):
+    for _ in range(limit):
+        state = glove.step(command)
+        if condition(state):
+            return state
+    return None
+
+
+def test_an_effort_moves_the_glove_as_the_model_predicts_and_times_out(glove, patient_file):
+    sim, probe = glove
+    model = GloveModel(load_params(patient_file))
+    effort = probe.publisher(f'{sim.namespace}/patient_effort', Float64MultiArray)
+    p, u = [20e3, 20e3, 20e3], [0.01, 0.005, 0.002]
+    helped = model.solve(p, effort=u).q
+    plain = model.solve(p).q
+    assert np.abs(helped - plain).min() > 1e-3  # the effort matters
+
+    def near(target):
+        return lambda state: np.abs(state.q - target).max() < ANGLE_TOLERANCE
+
+    assert steps_until(sim, p, near(plain)) is not None
+    effort.publish(Float64MultiArray(data=u))
+    assert steps_until(sim, p, near(helped)) is not None
+    # effort_timeout (0.5 simulated s) after the last effort message: no effort any more
+    assert steps_until(sim, p, near(plain), limit=200) is not None
+
+
+def test_a_bad_effort_is_dropped_and_counted(glove, patient_file):
+    sim, probe = glove
+    diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+    effort = probe.publisher(f'{sim.namespace}/patient_effort', Float64MultiArray)
+    effort.publish(Float64MultiArray(data=[1.0, float('nan'), 0.0]))
+    effort.publish(Float64MultiArray(data=[50.0, 0.0, 0.0]))  # beyond any finger
+
+    def counted():
+        report = plant_status(diagnostics, sim.namespace)
+        return report and sum(
+            int(v) for k, v in report[1].items() if k.startswith('rejected patient_effort')
+        )
+
+    assert wait_until(lambda: counted() == 2, 10.0)
+    model = GloveModel(load_params(patient_file))
+    state = sim.step([10e3, 10e3, 10e3])  # still running, and without the dropped efforts
+    np.testing.assert_allclose(state.q, model.solve([10e3] * 3).q, atol=ANGLE_TOLERANCE)
+
+
+def test_the_estimator_identifies_the_patient_and_publishes_its_torque(glove, patient_file):
+    sim, probe = glove
+    ns = sim.namespace
+    torques = probe.subscribe(f'{ns}/estimated_finger_torque', Float64MultiArray)
+    rests = probe.subscribe(f'{ns}/estimated_rest_angle', Float64MultiArray)
+    stiffness = probe.subscribe(f'{ns}/estimated_finger_stiffness', Float64MultiArray)
+    diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+    assert wait_until(lambda: probe.node.count_publishers(f'{ns}/estimated_rest_angle'), 10.0)
+    model = GloveModel(load_params(patient_file))
+    states = []
+    for k in range(300):  # 3 simulated s of a sine: two identification periods
+        p = 25e3 * (1.0 - np.cos(2.0 * np.pi * k / 150))
+        states.append(sim.step([p, 0.8 * p, 0.6 * p]))
+    assert wait_until(lambda: rests.count() >= 1 and stiffness.count() >= 1, 10.0)
+    truth = LINEAR_PATIENT['finger']['joints']
+    np.testing.assert_allclose(
+        stiffness.latest().data, [j['stiffness'] for j in truth], rtol=STIFFNESS_RTOL
+    )
+    np.testing.assert_allclose(
+        rests.latest().data, [j['rest_angle'] for j in truth], atol=REST_TOLERANCE
+    )
+    # τ̂_H of each step is the patient's torque at that state (static patient: no speed terms)
+    assert torques.count() >= 100
+    expected = [model.finger_torque(s.q) for s in states]
+    for message in torques.messages()[-50:]:
+        assert min(np.abs(np.array(message.data) - e).max() for e in expected) < 1e-9
+    report = wait_until(
+        lambda: next(
+            (
+                {kv.key: kv.value for kv in status.values}
+                for array in reversed(diagnostics.messages())
+                for status in array.status
+                if status.name == f'{ns}/estimator' and 'fit RMSE (N·m)' in str(status.values)
+            ),
+            None,
+        ),
+        10.0,
+    )
+    assert report is not None
+    assert max(ast.literal_eval(report['fit RMSE (N·m)'])) < 1e-6
+
+
+def test_diagnostics_say_when_a_contact_is_in_tension(glove):
+    sim, probe = glove
+    diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+    state = sim.step([0.0, 0.0, 0.0])  # the flexed finger against the vented glove
+    tense = [name for name, f in zip(('mcp', 'pip', 'dip'), state.forces, strict=True) if f < 0]
+    assert tense, state.forces
+    report = wait_until(lambda: plant_status(diagnostics, sim.namespace), 10.0)
+    assert report is not None
+    status, values = report
+    assert values['contacts in tension'] == ', '.join(tense)
+    assert 'in tension' in status.message
