@@ -19,12 +19,29 @@ import time
 import numpy as np
 from scipy import integrate, optimize
 
-from exodigit_model import GloveModel, load_params
+from exodigit_model import (
+    GloveModel,
+    GloveSimulation,
+    SimulationSettings,
+    load_params,
+    params_from_dict,
+)
+
+EVERY_TERM = {
+    'rest_angle': 0.25,
+    'rom_torque': 0.004,
+    'rom_sharpness': 12.0,
+    'damping': 0.003,
+    'spasticity': 0.02,
+    'extensor_spasticity': 0.005,
+    'spasticity_threshold': 0.3,
+}
+"""A patient with every term of MODEL.md (11.1)-(11.3) on (as in tests/test_model_patient.py)."""
 
 
-def _timed(function, *args):
+def _timed(function, *args, **kwargs):
     start = time.perf_counter()
-    result = function(*args)
+    result = function(*args, **kwargs)
     return time.perf_counter() - start, result
 
 
@@ -135,21 +152,69 @@ def bench(naive_steps: int) -> None:
     gc.disable()
 
     staircase = np.arange(0.0, 50e3 + 1, 500.0)
-    for label, reuse in (('previous Solution', True), ('previous angles', False)):
-        times, iterations = [], []
-        for _ in range(10):
-            previous = None
-            for level in staircase:
-                start = previous if reuse or previous is None else previous.q
-                elapsed, previous = _timed(model.solve, np.full(3, level), start)
-                times.append(elapsed)
-                iterations.append(previous.iterations)
-        warm_median, warm_p99 = _percentiles(times)
-        print(
-            f'warm coupled solve from the {label}, 0.5 kPa staircase ({len(times)} solves): '
-            f'median {warm_median:.1f} us, p99 {warm_p99:.1f} us, '
-            f'median iterations {np.median(iterations):g}  [median <= 100 us, stretch 50 us]'
-        )
+    times, iterations = [], []
+    for _ in range(10):
+        previous = None
+        for level in staircase:
+            start = None if previous is None else previous.q
+            elapsed, previous = _timed(model.solve, np.full(3, level), start)
+            times.append(elapsed)
+            iterations.append(previous.iterations)
+    warm_median, warm_p99 = _percentiles(times)
+    print(
+        f'warm coupled solve from the previous angles, 0.5 kPa staircase ({len(times)} solves): '
+        f'median {warm_median:.1f} us, p99 {warm_p99:.1f} us, '
+        f'median iterations {np.median(iterations):g}  [median <= 100 us, stretch 50 us]'
+    )
+    simulation = GloveSimulation(model, SimulationSettings(pressure_time_constant=0.0))
+    steps = [_timed(simulation.step, np.full(3, level))[0] for level in np.tile(staircase, 10)]
+    print(
+        'the same staircase through GloveSimulation.step (reuses the last evaluation): median '
+        f'{_percentiles(steps)[0]:.1f} us'
+    )
+
+    patient = GloveModel(params_from_dict({'finger': {'joints': [EVERY_TERM] * 3}}))
+    effort = np.array([0.003, 0.002, 0.001])
+    times, previous = [], np.full(3, 0.25)
+    before = previous
+    for _ in range(10):
+        for level in staircase:
+            # started where the last step's motion goes on, as GloveSimulation does
+            start = previous + (previous - before)
+            elapsed, solution = _timed(
+                patient.solve,
+                np.full(3, level),
+                start,
+                effort=effort,
+                q_previous=previous,
+                dt=0.01,
+            )
+            times.append(elapsed)
+            before, previous = previous, solution.q
+    print(
+        'warm stepped solve with every patient term on (rest angle, range-of-motion stiffening, '
+        f'damping, spasticity, effort): median {_percentiles(times)[0]:.1f} us, p99 '
+        f'{_percentiles(times)[1]:.1f} us  [median <= 100 us]'
+    )
+    rng = np.random.default_rng(2)
+    pressures = rng.uniform(0.0, 60e3, (10_000, 3))
+    before = patient.solve_batch(pressures).q
+    after = pressures + rng.uniform(-500.0, 500.0, pressures.shape)
+    patient.solve_batch(
+        after[:100], effort=np.tile(effort, (100, 1)), Q_previous=before[:100], dt=0.01
+    )
+    batch_time, batch = _timed(
+        patient.solve_batch,
+        after,
+        effort=np.tile(effort, (10_000, 1)),
+        Q_previous=before,
+        dt=0.01,
+    )
+    print(
+        f'batch of 10,000 stepped solves with every patient term on: {batch_time * 1e3:.0f} ms, '
+        f'{10_000 / batch_time:,.0f} solves/s, all converged: {bool(batch.converged.all())}'
+        '  [>= 200,000/s]'
+    )
 
     cold = [_timed(model.solve, np.full(3, 50e3))[0] for _ in range(300)]
     print(f'cold solve from q = 0 at 50 kPa: median {_percentiles(cold)[0]:.1f} us  [<= 500 us]')
@@ -186,7 +251,7 @@ def bench(naive_steps: int) -> None:
         p = np.full(3, level)
         elapsed, q_naive = _timed(naive.solve, p, q_naive)
         naive_times.append(elapsed)
-        elapsed, previous = _timed(model.solve, p, previous)
+        elapsed, previous = _timed(model.solve, p, None if previous is None else previous.q)
         ours_times.append(elapsed)
         worst = max(worst, float(np.max(np.abs(q_naive - previous.q))))
     ratio = np.median(naive_times) / np.median(ours_times)

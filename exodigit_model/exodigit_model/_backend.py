@@ -31,17 +31,10 @@ class ScalarOps:
         return math.exp(min(x, MAX_EXPONENT))
 
     @staticmethod
-    def softplus(x: float) -> float:
-        """ln(1 + eˣ), without overflow."""
-        return max(x, 0.0) + math.log1p(math.exp(-abs(x)))
-
-    @staticmethod
-    def sigmoid(x: float) -> float:
-        """1/(1 + e⁻ˣ), without overflow."""
-        if x >= 0.0:
-            return 1.0 / (1.0 + math.exp(-x))
-        z = math.exp(x)
-        return z / (1.0 + z)
+    def softplus_and_sigmoid(x: float) -> tuple[float, float]:
+        """ln(1 + eˣ) and its slope 1/(1 + e⁻ˣ), from one exponential, without overflow."""
+        z = math.exp(-abs(x))
+        return max(x, 0.0) + math.log1p(z), (1.0 if x >= 0.0 else z) / (1.0 + z)
 
     @staticmethod
     def where(condition, if_true, if_false):
@@ -89,14 +82,10 @@ class ArrayOps:
         return np.exp(np.minimum(x, MAX_EXPONENT))
 
     @staticmethod
-    def softplus(x):
-        """ln(1 + eˣ) element-wise, without overflow."""
-        return np.logaddexp(0.0, x)
-
-    @staticmethod
-    def sigmoid(x):
-        """1/(1 + e⁻ˣ) element-wise, without overflow."""
-        return 0.5 * (1.0 + np.tanh(0.5 * x))
+    def softplus_and_sigmoid(x):
+        """ln(1 + eˣ) and its slope 1/(1 + e⁻ˣ) element-wise, without overflow."""
+        z = np.exp(-np.abs(x))
+        return np.maximum(x, 0.0) + np.log1p(z), np.where(x >= 0.0, 1.0, z) / (1.0 + z)
 
     isfinite = staticmethod(np.isfinite)
     logical_not = staticmethod(np.logical_not)

@@ -56,41 +56,43 @@ class JointLaw:
     extensor_spasticity: float
     spasticity_threshold: float
 
+    def __post_init__(self) -> None:
+        """Precompute what does not depend on the state (the offsets that zero e and s at rest)."""
+        beta = self.rom_sharpness
+        derived = {
+            'stiffening': self.rom_torque > 0.0,
+            'viscous': self.damping > 0.0 or self.spasticity > 0.0 or self.extensor_spasticity > 0,
+            '_upper_at_rest': math.exp(beta * (self.rest_angle - self.rom_max)),
+            '_lower_at_rest': math.exp(beta * (self.rom_min - self.rest_angle)),
+            '_spastic_at_zero': SPASTICITY_WIDTH
+            * ScalarOps.softplus_and_sigmoid(-self.spasticity_threshold / SPASTICITY_WIDTH)[0],
+        }
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)
+
     @classmethod
     def of(cls, joint: FingerJoint) -> JointLaw:
         """The law of a validated finger joint."""
         return cls(**{name: getattr(joint, name) for name in cls.__dataclass_fields__})
 
-    @property
-    def stiffening(self) -> bool:
-        """Whether e(q) is on (``rom_torque`` > 0)."""
-        return self.rom_torque > 0.0
-
-    @property
-    def viscous(self) -> bool:
-        """Whether τ_H depends on q̇ (damping or spasticity)."""
-        return self.damping > 0.0 or self.spasticity > 0.0 or self.extensor_spasticity > 0.0
-
     def stiffening_torque(self, q, ops) -> tuple:
-        """e(q) of (11.2) and e'(q), N·m and N·m/rad."""
+        """e(q) of (11.2) and e'(q), N·m and N·m/rad (``stiffening``: whether a > 0)."""
         a, beta = self.rom_torque, self.rom_sharpness
         upper = ops.exp(beta * (q - self.rom_max))
         lower = ops.exp(beta * (self.rom_min - q))
-        at_rest_upper = math.exp(beta * (self.rest_angle - self.rom_max))
-        at_rest_lower = math.exp(beta * (self.rom_min - self.rest_angle))
-        value = a * (upper - at_rest_upper) - a * (lower - at_rest_lower)
+        value = a * (upper - self._upper_at_rest) - a * (lower - self._lower_at_rest)
         return value, a * beta * (upper + lower)
 
     def spastic_torque(self, v, ops) -> tuple:
-        """s(q̇) of (11.3) and s'(q̇), N·m and N·m·s/rad."""
+        """s(q̇) of (11.3) and s'(q̇), N·m and N·m·s/rad (``viscous``: τ_H depends on q̇)."""
         w, threshold = SPASTICITY_WIDTH, self.spasticity_threshold
-        at_zero = w * ScalarOps.softplus(-threshold / w)
-        rising = (v - threshold) / w
-        falling = (-v - threshold) / w
-        value = self.extensor_spasticity * (w * ops.softplus(rising) - at_zero)
-        value = value - self.spasticity * (w * ops.softplus(falling) - at_zero)
-        slope = self.extensor_spasticity * ops.sigmoid(rising)
-        return value, slope + self.spasticity * ops.sigmoid(falling)
+        rising_value, rising_slope = ops.softplus_and_sigmoid((v - threshold) / w)
+        falling_value, falling_slope = ops.softplus_and_sigmoid((-v - threshold) / w)
+        at_zero = self._spastic_at_zero
+        value = self.extensor_spasticity * (w * rising_value - at_zero)
+        value = value - self.spasticity * (w * falling_value - at_zero)
+        slope = self.extensor_spasticity * rising_slope + self.spasticity * falling_slope
+        return value, slope
 
     def torque(self, q, qdot, ops) -> tuple:
         """τ_H of (11.1) without the effort, ∂τ_H/∂q and ∂τ_H/∂q̇ (``qdot`` None: q̇ = 0)."""

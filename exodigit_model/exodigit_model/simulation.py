@@ -260,6 +260,7 @@ class GloveSimulation:
             q, forces, torque, solution = self._solve_one(pressure, effort)
         else:
             q, forces, torque, solution = self._solve_batch(pressure, effort)
+        self._q_before = previous  # from now on: where the glove was one step earlier
         self.step_count += 1
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         self.state = GloveState(
@@ -298,7 +299,12 @@ class GloveSimulation:
         u = None if effort is None else effort.tolist()
         previous = self.state.q.tolist()
         load = self.model._load(ScalarOps, effort=u, q_previous=previous, dt=self.period)
-        if self.model.viscous or u != self._warm_effort:
+        if self.model.viscous:
+            # q̇ enters the equation: start where the last step's motion goes on (half the
+            # Newton steps of a start at q_prev for a spastic patient).
+            start = (2.0 * self.state.q - self._q_before).tolist()
+            first = self.model._evaluate_at(start, p, load)
+        elif u != self._warm_effort:
             first = self.model._evaluate_at(previous, p, load)
         else:
             # τ_H depends on q alone and F is affine in p: the last good evaluation, re-priced,
@@ -314,8 +320,9 @@ class GloveSimulation:
 
     def _solve_batch(self, pressure: NDArray[np.float64], effort) -> tuple:
         state = self.state
+        start = 2.0 * state.q - self._q_before if self.model.viscous else state.q
         solution: BatchSolution = self.model.solve_batch(
-            pressure, Q0=state.q, effort=effort, Q_previous=state.q, dt=self.period
+            pressure, Q0=start, effort=effort, Q_previous=state.q, dt=self.period
         )
         good = solution.converged[:, None]
         self.solver_failures += int(np.count_nonzero(~solution.converged))
@@ -341,6 +348,7 @@ class GloveSimulation:
         self._warm = self.model._evaluate(rest.q, np.zeros(3), self.model._load(ScalarOps))
         self._warm_effort = None
         q = np.broadcast_to(rest.q, self.shape).copy()
+        self._q_before = q
         forces = np.broadcast_to(rest.forces, self.shape).copy()
         torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
         batch = self.count is not None
