@@ -14,10 +14,15 @@ from __future__ import annotations
 import argparse
 import gc
 import math
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import integrate, optimize
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
+from model_reference import EVERY_TERM
 
 from exodigit_model import (
     GloveModel,
@@ -26,17 +31,6 @@ from exodigit_model import (
     load_params,
     params_from_dict,
 )
-
-EVERY_TERM = {
-    'rest_angle': 0.25,
-    'rom_torque': 0.004,
-    'rom_sharpness': 12.0,
-    'damping': 0.003,
-    'spasticity': 0.02,
-    'extensor_spasticity': 0.005,
-    'spasticity_threshold': 0.3,
-}
-"""A patient with every term of MODEL.md (11.1)-(11.3) on (as in tests/test_model_patient.py)."""
 
 
 def _timed(function, *args, **kwargs):

@@ -226,6 +226,16 @@ def robot_contact_jacobian(params, q):
 
 SPASTICITY_WIDTH = 0.01
 """w of MODEL.md eq 11.3, rad/s (typed in from the document)."""
+EVERY_TERM = {
+    'rest_angle': 0.25,
+    'rom_torque': 0.004,
+    'rom_sharpness': 12.0,
+    'damping': 0.003,
+    'spasticity': 0.02,
+    'extensor_spasticity': 0.005,
+    'spasticity_threshold': 0.3,
+}
+"""A patient joint with every term of MODEL.md (11.1)-(11.3) on (within each joint's range)."""
 
 
 def finger_torque(params, q, qdot=None, effort=None):

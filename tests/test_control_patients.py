@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 from exodigit_nodes.controllers import CommandLoop, Feedback, ForceController, PositionController
-from exodigit_nodes.pressure_command import COMMAND_PARAMETERS
-from exodigit_nodes.safety import SafetyLimiter, SafetyLimits
+from exodigit_nodes.pressure_command import COMMAND_PARAMETERS, safety_limits
+from exodigit_nodes.safety import SafetyLimiter
 
 from exodigit_model import (
     PATIENT_PRESETS,
@@ -27,13 +27,7 @@ from exodigit_model import (
 
 NOMINAL = GloveModel(load_params())
 DEFAULTS = COMMAND_PARAMETERS.defaults()
-LIMITS = SafetyLimits(
-    max_pressure=DEFAULTS['max_pressure'],
-    max_pressure_rate=DEFAULTS['max_pressure_rate'],
-    joint_lower=DEFAULTS['joint_lower_limits'],
-    joint_upper=DEFAULTS['joint_upper_limits'],
-    max_contact_force=DEFAULTS['max_contact_force'],
-)
+LIMITS = safety_limits(DEFAULTS)
 SECONDS = 5.0
 #: Steady-state errors accepted (issue 9): angle, rad; contact force, N.
 ANGLE_ERROR = math.radians(1.0)

@@ -9,7 +9,12 @@ import math
 
 import numpy as np
 import pytest
-from model_reference import coupled_residual, finger_torque, printed_finger_jacobian_transposed
+from model_reference import (
+    EVERY_TERM,
+    coupled_residual,
+    finger_torque,
+    printed_finger_jacobian_transposed,
+)
 
 from exodigit_model import (
     GloveModel,
@@ -30,17 +35,6 @@ RESIDUAL_TOLERANCE = 1e-10
 #: Angle agreement between two converged solves of equivalent problems, rad.
 ANGLE_TOLERANCE = 1e-10
 DT = 0.01  # s
-
-EVERY_TERM = {
-    'rest_angle': 0.25,
-    'rom_torque': 0.004,
-    'rom_sharpness': 12.0,
-    'damping': 0.003,
-    'spasticity': 0.02,
-    'extensor_spasticity': 0.005,
-    'spasticity_threshold': 0.3,
-}
-"""A patient with every term of (11.1)-(11.3) on (rest angles within each joint's range)."""
 
 
 def patient(**terms):

@@ -287,33 +287,24 @@ class GloveModel:
         j_robot, j_finger = contact_jacobians(angles, ScalarOps, self.geometry)
         return np.array(j_robot), np.array(j_finger)
 
-    def residual(
-        self,
-        q: ArrayLike,
-        p: ArrayLike,
-        *,
-        free: bool = False,
-        effort: ArrayLike | None = None,
-        q_previous: ArrayLike | None = None,
-        dt: float | None = None,
-    ) -> NDArray[np.float64]:
-        """F(q, p) of eq 36 / 11.4 (or of free motion), N·m; arguments as :meth:`solve`."""
-        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
-        return np.array(self._evaluate(q, p, load).residual)
+    def residual(self, q: ArrayLike, p: ArrayLike, **solve_options) -> NDArray[np.float64]:
+        """F(q, p) of eq 36 / 11.4, N·m.
+
+        Keyword options ``free``, ``effort``, ``q_previous`` and ``dt`` as :meth:`solve`.
+        """
+        return np.array(self._evaluation(q, p, **solve_options).residual)
 
     def residual_jacobian(
-        self,
-        q: ArrayLike,
-        p: ArrayLike,
-        *,
-        free: bool = False,
-        effort: ArrayLike | None = None,
-        q_previous: ArrayLike | None = None,
-        dt: float | None = None,
+        self, q: ArrayLike, p: ArrayLike, **solve_options
     ) -> NDArray[np.float64]:
-        """∂F/∂q of eq 36 / 11.4 (analytic), N·m/rad, shape (3, 3); arguments as :meth:`solve`."""
+        """∂F/∂q of eq 36 / 11.4 (analytic), N·m/rad, shape (3, 3); options as :meth:`residual`."""
+        return np.array(self._evaluation(q, p, **solve_options).jacobian(), dtype=float)
+
+    def _evaluation(
+        self, q, p, *, free=False, effort=None, q_previous=None, dt=None
+    ) -> Evaluation:
         load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
-        return np.array(self._evaluate(q, p, load).jacobian(), dtype=float)
+        return self._evaluate(q, p, load)
 
     def _load(
         self, ops, *, free=False, effort=None, q_previous=None, dt=None, qdot=None

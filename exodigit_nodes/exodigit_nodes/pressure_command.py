@@ -140,6 +140,17 @@ COMMAND_PARAMETERS = ParamTable(
 )
 
 
+def safety_limits(values: dict[str, Any]) -> SafetyLimits:
+    """The safety limits of a set of pressure_command parameter values."""
+    return SafetyLimits(
+        max_pressure=values['max_pressure'],
+        max_pressure_rate=values['max_pressure_rate'],
+        joint_lower=values['joint_lower_limits'],
+        joint_upper=values['joint_upper_limits'],
+        max_contact_force=values['max_contact_force'],
+    )
+
+
 @dataclass(frozen=True)
 class CommandSettings:
     """The command node's settings: its parameter values and the safety limits they give."""
@@ -204,13 +215,7 @@ class PressureCommand(GloveNode):
                 f'staircase_peak ({values["staircase_peak"]:g} Pa) must be at least '
                 f'staircase_step ({values["staircase_step"]:g} Pa)'
             )
-        limits = SafetyLimits(
-            max_pressure=values['max_pressure'],
-            max_pressure_rate=values['max_pressure_rate'],
-            joint_lower=values['joint_lower_limits'],
-            joint_upper=values['joint_upper_limits'],
-            max_contact_force=values['max_contact_force'],
-        )
+        limits = safety_limits(values)
         targets = np.array(values['joint_targets'])
         if ((targets < limits.joint_lower) | (targets > limits.joint_upper)).any():
             raise ValueError(
