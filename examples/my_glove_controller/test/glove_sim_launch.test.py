@@ -1,14 +1,17 @@
 """A launch_testing example for ROS 2 installs: the flex controller in lockstep with the glove.
 
 The launch description starts exodigit's ``plant`` in lockstep simulated time (as fast as the
-CPU allows) and this package's ``flex_controller`` with ``use_sim_time``; the test listens to
-``joint_states`` until 3 simulated seconds have passed and checks the angles. Run it in a
-sourced workspace with::
+CPU allows), paused, and this package's ``flex_controller`` with ``use_sim_time``. The test
+subscribes to ``joint_states``, then lets simulated time run (``set_paused`` false); the plant
+pauses again at 3 simulated seconds (``pause_at``), and the test checks the angles of that last
+state. (A plant started running waits for the controller, not for the test: the test would join
+at whatever simulated time the glove had reached.) Run it in a sourced workspace, from this
+package's directory, with::
 
-    launch_test test/glove_sim_launch.test.py
+    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST launch_test test/glove_sim_launch.test.py
 
-(It is named ``*.test.py`` so that plain pytest does not collect it: on a ROS 2 install
-launch_testing's own pytest plugin does not load with pytest >= 8.1.)
+(It is named ``*.test.py`` so that plain pytest does not collect it: this package's pytest.ini
+turns launch_testing's pytest plugin off, as pytest >= 9 refuses to load it.)
 """
 
 import math
@@ -23,6 +26,7 @@ import launch_testing.markers
 import pytest
 import rclpy
 from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool
 
 NAMESPACE = '/launch_test_glove'
 TARGETS = [0.3, 0.3, 0.2]  # rad
@@ -43,6 +47,8 @@ def generate_test_description():
                 'clock': 'sim',
                 'lockstep': True,
                 'real_time_factor': 0.0,
+                'start_paused': True,
+                'pause_at': SIMULATED_SECONDS,
                 'pressure_time_constant': 0.0,
             }
         ],
@@ -64,15 +70,26 @@ class TestTheControllerReachesItsTargets(unittest.TestCase):
         rclpy.init()
         node = rclpy.create_node('launch_test_listener')
         states = []
-        node.create_subscription(JointState, f'{NAMESPACE}/joint_states', states.append, 1000)
+        subscription = node.create_subscription(
+            JointState, f'{NAMESPACE}/joint_states', states.append, 1000
+        )
+        set_paused = node.create_client(SetBool, f'{NAMESPACE}/set_paused')
         try:
             deadline = time.monotonic() + TIMEOUT
+            # Listen first, then start simulated time: the plant steps once the controller is up.
+            while subscription.get_publisher_count() == 0 and time.monotonic() < deadline:
+                rclpy.spin_once(node, timeout_sec=0.1)
+            self.assertTrue(set_paused.wait_for_service(timeout_sec=TIMEOUT), 'no plant')
+            resumed = set_paused.call_async(SetBool.Request(data=False))
+            rclpy.spin_until_future_complete(node, resumed, timeout_sec=TIMEOUT)
+            self.assertTrue(resumed.done() and resumed.result().success, 'plant did not resume')
             while time.monotonic() < deadline:
                 rclpy.spin_once(node, timeout_sec=0.1)
                 if states and stamp(states[-1]) >= SIMULATED_SECONDS:
                     break
             self.assertTrue(states, 'no joint_states received')
-            self.assertGreaterEqual(stamp(states[-1]), SIMULATED_SECONDS)
+            # pause_at stopped the plant there
+            self.assertAlmostEqual(stamp(states[-1]), SIMULATED_SECONDS, places=6)
             for angle, target in zip(states[-1].position, TARGETS, strict=True):
                 self.assertAlmostEqual(angle, target, delta=TOLERANCE)
         finally:
