@@ -30,6 +30,7 @@ MODEL_MD_DEFAULTS = {
                 'wall_height': 0.004,
                 'base_thickness': 0.0015,
                 'block_half_length': 0.005,
+                'layer_axial_stiffness': math.inf,  # MODEL.md §12: inextensible by default
             }
             for name, arc in (('mcp', 0.046), ('pip', 0.031), ('dip', 0.015))
         ],
@@ -59,7 +60,7 @@ MODEL_MD_DEFAULTS = {
         ]
     },
 }
-"""The parameter file of MODEL.md §10 with the patient defaults of §11, typed in from it."""
+"""The parameter file of MODEL.md §10 with the defaults of §11-12, typed in from it."""
 SEGMENT_LENGTH_KEYS = (
     'arc_length',
     'inner_radius',

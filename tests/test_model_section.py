@@ -1,5 +1,7 @@
 """Pressure moment (eq 12) and structural torque (eq 27) against adaptive scipy quadrature."""
 
+import math
+
 import numpy as np
 import pytest
 from exodigit_model.section import pressure_moment
@@ -58,8 +60,8 @@ def _valid_limit(segment):
 SEGMENTS = [
     *load_params().exo_digit.segments,
     *OTHER.exo_digit.segments,
-    Segment('flat', 0.02, 0.002, 0.0005, 0.0001, 0.003, 0.004),
-    Segment('tall', 0.02, 0.01, 0.003, 0.02, 0.0002, 0.004),
+    Segment('flat', 0.02, 0.002, 0.0005, 0.0001, 0.003, 0.004, math.inf),
+    Segment('tall', 0.02, 0.01, 0.003, 0.02, 0.0002, 0.004, math.inf),
 ]
 
 

@@ -138,6 +138,11 @@ class Evaluation:
             self._coupling = transpose_product(self._robot.matrix, self.forces)
         self._set_pressure(p)
 
+    @property
+    def x(self) -> list:
+        """The unknowns: the joint angles q."""
+        return self.q
+
     def _set_pressure(self, p) -> None:
         moments, torques, coupling = self.geometry.pressure_moments, self._torques, self._coupling
         drive = [moments[k] * p[k] for k in range(3)]
@@ -189,3 +194,17 @@ def contact_jacobians(q, ops, geometry: Geometry) -> tuple[list, list]:
     robot = robot_jacobian(chords(q, ops), geometry.arc_lengths, geometry.block_half_lengths)
     finger, _ = finger_jacobian(q, ops, geometry.finger_half_lengths)
     return robot.matrix, finger
+
+
+MIN_TOP_STRETCH = 0.2
+"""Lowest top-fibre stretch a trial state may have (the material law's domain, with margin)."""
+
+
+def allowed_bending(q, strain_per_angle):
+    """Whether trial angles keep every top fibre's stretch 1 + q H/ℓ̂ above MIN_TOP_STRETCH."""
+    floor = MIN_TOP_STRETCH - 1.0
+    return (
+        (q[0] * strain_per_angle[0] >= floor)
+        & (q[1] * strain_per_angle[1] >= floor)
+        & (q[2] * strain_per_angle[2] >= floor)
+    )

@@ -175,6 +175,48 @@ class RobotJacobian:
                 slopes[m].append((i, k, (local[i, m] - a_ik).real))
         return slopes
 
+    def length_terms(self, arc_lengths) -> tuple[list, list, list]:
+        r"""What extensible segments add (MODEL.md §12): J_ℓ* and the mixed slopes.
+
+        With B_ik = e^{i(φ_k − φ_{i+1})} C(q_k) the chord direction of arc k seen from body i+1,
+        ∂zc_i/∂ℓ_k = e^{iφ_k} C(q_k) for k ≤ i, so
+
+        .. math:: J^*_{\ell,ik} = \operatorname{Im} B_{ik}, \qquad
+                  \frac{\partial J^*_{\ell,ik}}{\partial q_m} = -\operatorname{Re} B_{ik}
+                  + [m = k] \operatorname{Im}(e^{i(\varphi_k - \varphi_{i+1})} C'(q_k))
+                  \quad (k \le m \le i),
+
+        .. math:: \frac{\partial J^*_{R,im}}{\partial \ell_k} = \operatorname{Re} B_{ik}
+                  \ (m < k \le i), \qquad
+                  \frac{\partial J^*_{R,ik}}{\partial \ell_k}
+                  = \operatorname{Im}(e^{i(\varphi_k - \varphi_{i+1})} C'(q_k)).
+
+        Returns
+        -------
+        matrix : list of list
+            J_ℓ*[i][k], zero above the diagonal.
+        slopes : list
+            ``slopes[m]`` = list of (i, k, ∂J_ℓ*[i][k]/∂q_m).
+        robot_slopes : list
+            ``robot_slopes[k]`` = list of (i, m, ∂J_R*[i][m]/∂ℓ_k).
+        """
+        zero = 0.0 * self.chord_set.chord[0].real
+        matrix = [[zero, zero, zero], [zero, zero, zero], [zero, zero, zero]]
+        slopes, robot_slopes = [[], [], []], [[], [], []]
+        chord, chord_slope = self.chord_set.chord, self.chord_set.chord_slope
+        for (i, k), turn in self.arc_turn.items():
+            unit_turn = turn / arc_lengths[k]
+            b = unit_turn * chord[k]
+            b_slope = (unit_turn * chord_slope[k]).imag
+            matrix[i][k] = b.imag
+            slopes[k].append((i, k, b_slope - b.real))
+            for m in range(k + 1, i + 1):
+                slopes[m].append((i, k, -b.real))
+            robot_slopes[k].append((i, k, b_slope))
+            for m in range(k):
+                robot_slopes[k].append((i, m, b.real))
+        return matrix, slopes, robot_slopes
+
 
 def robot_jacobian(chord_set: Chords, arc_lengths, half_lengths) -> RobotJacobian:
     """J_R*[i][k] = n_i · ∂zc_i/∂q_k of the exo-digit (MODEL.md §3), with its slope pieces."""

@@ -67,6 +67,25 @@ def stress_slope_of_strain(material: Material, strain: ArrayLike) -> NDArray[np.
     )
 
 
+def stress_and_slope_of_strain(material: Material, strain: NDArray) -> tuple[NDArray, NDArray]:
+    """σ and dσ/dλ together at strain e = λ - 1 (shared terms computed once), Pa."""
+    lam = 1.0 + strain
+    inverse = 1.0 / lam
+    d = strain * (2.0 + strain) * inverse
+    s = 2.0 + strain * strain * inverse
+    excess = d * d
+    c2, c3 = 2.0 * material.c2, 3.0 * material.c3
+    dw_di1 = material.c1 + excess * (c2 + c3 * excess)
+    ds = d * s
+    stress = 2.0 * ds * dw_di1
+    d_slope = 1.0 + inverse * inverse
+    slope = 2.0 * (
+        (d_slope * s + excess * inverse) * dw_di1
+        + 2.0 * ds * d * d_slope * (c2 + 2.0 * c3 * excess)
+    )
+    return stress, slope
+
+
 def yeoh_stress(material: Material, stretch: ArrayLike) -> NDArray[np.float64]:
     """Axial Cauchy stress σ(λ) of eqs 21-23 (corrected), Pa; zero at λ = 1."""
     return stress_of_strain(material, np.asarray(stretch, dtype=float) - 1.0)

@@ -26,20 +26,24 @@ from ._backend import ArrayOps, ScalarOps
 from .coupling import (
     Evaluation,
     Geometry,
+    allowed_bending,
     contact_jacobians,
+    solve3,
     transpose_product,
     transpose_solve,
 )
+from .extensible import ExtensibleEvaluation, Layers, allowed_stretch, solve_linear
 from .identification import StiffnessFit, fit_stiffness
 from .kinematics import arc_points, chain, chords, finger_chain
 from .params import GloveParams, load_params
 from .patient import FingerLoad, JointLaw
-from .section import pressure_moment
+from .section import SectionResultants, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS, newton
 from .structural import StructuralTorque
 
-VALID_STRETCH = (1.0, 1.5)
-"""Stretch range the model is validated for (paper §2.1.3)."""
+VALID_STRETCH = (0.95, 1.5)
+"""Fibre stretches the model is validated for (paper §2.1.3; MODEL.md §12: a bottom face
+slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,9 @@ class Solution:
         Whether every fibre's stretch lies in 1 ≤ λ ≤ 1.5 (the model's validated range).
     in_range_of_motion : bool
         Whether every joint lies within the finger's range of motion [rom_min, rom_max].
+    lengths : ndarray, shape (3,)
+        ℓ_i, the bottom-face arc lengths of the segments, m (the rest lengths unless a segment
+        is extensible, MODEL.md §12).
     """
 
     q: NDArray[np.float64]
@@ -80,6 +87,7 @@ class Solution:
     residual: float
     in_valid_range: bool
     in_range_of_motion: bool
+    lengths: NDArray[np.float64]
 
     @property
     def converged(self) -> bool:
@@ -160,6 +168,7 @@ class BatchSolution:
     residual: NDArray[np.float64]
     in_valid_range: NDArray[np.bool_]
     in_range_of_motion: NDArray[np.bool_]
+    lengths: NDArray[np.float64]
 
     @property
     def converged(self) -> NDArray[np.bool_]:
@@ -248,6 +257,27 @@ class GloveModel:
         """(rom_min, rom_max) per joint, rad."""
         self.structural = StructuralTorque(self.params.material, segments)
         self._strain_per_angle = tuple(s.height / s.arc_length for s in segments)
+        self.extensible = any(s.extensible for s in segments)
+        """Whether a segment's bottom face stretches (MODEL.md §12): six unknowns, not three."""
+        self.layers = Layers(
+            rest_lengths=self.geometry.arc_lengths,
+            stiffness=tuple(s.layer_axial_stiffness for s in segments),
+            areas=tuple(pressure_area(s) for s in segments),
+            extensible=tuple(s.extensible for s in segments),
+        )
+        if self.extensible:
+            self.resultants = SectionResultants(
+                self.params.material, segments, self.structural.rules
+            )
+            self._newton_options = {
+                'linear_solve': solve_linear,
+                'allowed': lambda x: allowed_stretch(x, self._strain_per_angle),
+            }
+        else:
+            self._newton_options = {
+                'linear_solve': solve3,
+                'allowed': lambda q: allowed_bending(q, self._strain_per_angle),
+            }
 
     # -- torques and Jacobians ------------------------------------------------------------
 
@@ -326,11 +356,35 @@ class GloveModel:
             qdot=None if qdot is None else joint('qdot', qdot),
         )
 
-    def _evaluate(self, q, p, load) -> Evaluation:
-        return self._evaluate_at(as_joint_list('q', q), as_joint_list('p', p), load)
+    def _evaluate(self, q, p, load, lengths=None) -> Evaluation:
+        x = self.unknowns(as_joint_list('q', q), lengths)
+        return self._evaluate_at(x, as_joint_list('p', p), load)
 
-    def _evaluate_at(self, q: list, p: list, load) -> Evaluation:
-        return Evaluation(q, ScalarOps, self.geometry, self.structural.scalar_joints, p, load)
+    def unknowns(self, q: list, lengths=None) -> list:
+        """The solver's unknowns for angles ``q`` (and bottom-face ``lengths``, m).
+
+        With extensible segments also the strains ε = ℓ/ℓ̂ − 1 (the rest lengths when None).
+        """
+        if not self.extensible:
+            return q
+        if lengths is None:
+            return [*q, 0.0, 0.0, 0.0]
+        rest = self.geometry.arc_lengths
+        return [*q, *(length / rest[k] - 1.0 for k, length in enumerate(lengths))]
+
+    def _evaluate_at(self, x: list, p: list, load):
+        if self.extensible:
+            return ExtensibleEvaluation(
+                x, ScalarOps, self.geometry, self.resultants, self.layers, p, load
+            )
+        return Evaluation(x, ScalarOps, self.geometry, self.structural.scalar_joints, p, load)
+
+    def _evaluate_batch(self, x: list, p: list, load):
+        if self.extensible:
+            return ExtensibleEvaluation(
+                x, ArrayOps, self.geometry, self.resultants, self.layers, p, load
+            )
+        return Evaluation(x, ArrayOps, self.geometry, self.structural.array_joints, p, load)
 
     # -- forward solves ------------------------------------------------------------------
 
@@ -371,30 +425,31 @@ class GloveModel:
         """
         pressure = as_joint_list('p', p)
         load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
+        lengths = None
         if isinstance(q0, Solution):
-            q0 = q0.q
+            q0, lengths = q0.q, q0.lengths
         if q0 is not None:
             start = as_joint_list('q0', q0)
         elif load is not None and load.stepped:
             start = list(load.q_previous)
         else:
             start = [0.0, 0.0, 0.0]
-        return self._solve(pressure, self._evaluate_at(start, pressure, load))[0]
+        first = self._evaluate_at(self.unknowns(start, lengths), pressure, load)
+        return self._solve(pressure, first)[0]
 
-    def _solve(self, pressure: list, first: Evaluation) -> tuple[Solution, Evaluation]:
+    def _solve(self, pressure: list, first) -> tuple[Solution, object]:
         """Newton from the evaluation ``first`` at pressures ``pressure``; also the final one.
 
         The final evaluation is what a stepper keeps to warm-start its next solve
         (:meth:`.Evaluation.at_pressure` re-prices it exactly, F being affine in p).
         """
-        geometry, joints, load = first.geometry, self.structural.scalar_joints, first.load
+        load = first.load
 
-        def evaluate(q, p_):
-            return Evaluation(q, ScalarOps, geometry, joints, p_, load)
+        def evaluate(x, p_):
+            return self._evaluate_at(x, p_, load)
 
-        outcome = newton(pressure, evaluate, ScalarOps, self._strain_per_angle, first)
-        low, high = VALID_STRETCH
-        q = outcome.q
+        outcome = newton(pressure, evaluate, ScalarOps, first, **self._newton_options)
+        q, lengths = self._angles_and_lengths(outcome.q)
         rom_min, rom_max = self.range_of_motion
         solution = Solution(
             q=np.array(q),
@@ -405,13 +460,28 @@ class GloveModel:
             message=STATUS[outcome.status],
             iterations=outcome.iterations,
             residual=outcome.residual,
-            in_valid_range=all(
-                low <= 1.0 + angle * strain <= high
-                for angle, strain in zip(q, self._strain_per_angle, strict=True)
-            ),
+            in_valid_range=self._stretches_valid(outcome.q),
             in_range_of_motion=all(rom_min[k] <= q[k] <= rom_max[k] for k in range(3)),
+            lengths=np.array(lengths),
         )
         return solution, outcome.final
+
+    def _angles_and_lengths(self, x: list) -> tuple[list, list]:
+        """Joint angles and bottom-face lengths ℓ_k (m) of the solver's unknowns."""
+        rest = self.geometry.arc_lengths
+        if not self.extensible:
+            return x, list(rest)
+        return x[:3], [rest[k] * (1.0 + x[3 + k]) for k in range(3)]
+
+    def _stretches_valid(self, x: list) -> bool:
+        """(12.1) over the whole section of every segment, one state (plain Python, fast)."""
+        low, high = VALID_STRETCH
+        for k in range(3):
+            bottom = 1.0 + x[3 + k] if self.extensible else 1.0
+            top = bottom + x[k] * self._strain_per_angle[k]
+            if not (low <= bottom <= high and low <= top <= high):
+                return False
+        return True
 
     def solve_free(self, p: ArrayLike) -> NDArray[np.float64]:
         """Free bending angles (no finger), rad: τ_s,i(q_i) + (r_pA_p)_i p_i = 0 (paper §3.3).
@@ -437,6 +507,7 @@ class GloveModel:
         effort: ArrayLike | None = None,
         Q_previous: ArrayLike | None = None,
         dt: float | None = None,
+        lengths0: ArrayLike | None = None,
     ) -> BatchSolution:
         """Vectorised :meth:`solve` over rows.
 
@@ -454,10 +525,18 @@ class GloveModel:
             Angles at the previous step per row, rad; with ``dt`` a stepped solve.
         dt : float, optional
             Time step, s.
+        lengths0 : array_like, shape (N, 3), optional
+            Start bottom-face lengths per row, m (extensible segments; the rest lengths when
+            omitted).
         """
         pressure = as_joint_rows('P', P)
         rows = pressure.shape[0]
-        for name, value in (('Q0', Q0), ('effort', effort), ('Q_previous', Q_previous)):
+        for name, value in (
+            ('Q0', Q0),
+            ('effort', effort),
+            ('Q_previous', Q_previous),
+            ('lengths0', lengths0),
+        ):
             if value is not None and as_joint_rows(name, value).shape != pressure.shape:
                 raise ValueError(
                     f'{name} must have the shape of P {pressure.shape}, got {np.shape(value)}'
@@ -481,16 +560,26 @@ class GloveModel:
                 np.zeros(0),
                 np.zeros(0, bool),
                 np.zeros(0, bool),
+                empty,
             )
-        joints = self.structural.array_joints
 
-        def evaluate(q, p_):
-            return Evaluation(q, ArrayOps, self.geometry, joints, p_, load)
+        def evaluate(x, p_):
+            return self._evaluate_batch(x, p_, load)
 
         columns = [pressure[:, k] for k in range(3)]
-        first = evaluate([start[:, k].copy() for k in range(3)], columns)
-        outcome = newton(columns, evaluate, ArrayOps, self._strain_per_angle, first)
-        q = np.column_stack(outcome.q)
+        x = [start[:, k].copy() for k in range(3)]
+        if self.extensible:
+            rest = self.geometry.arc_lengths
+            lengths = (
+                rest * np.ones((rows, 3))
+                if lengths0 is None
+                else as_joint_rows('lengths0', lengths0)
+            )
+            x += [lengths[:, k] / rest[k] - 1.0 for k in range(3)]
+        first = evaluate(x, columns)
+        outcome = newton(columns, evaluate, ArrayOps, first, **self._newton_options)
+        q = np.column_stack(outcome.q[:3])
+        strain = np.column_stack(outcome.q[3:]) if self.extensible else np.zeros_like(q)
         return BatchSolution(
             q=q,
             forces=np.column_stack(outcome.forces),
@@ -499,8 +588,9 @@ class GloveModel:
             status=np.asarray(outcome.status, dtype=int),
             iterations=np.asarray(outcome.iterations, dtype=int),
             residual=np.asarray(outcome.residual, dtype=float),
-            in_valid_range=self.in_valid_range(q),
+            in_valid_range=self.in_valid_range(q, strain),
             in_range_of_motion=self.in_range_of_motion(q),
+            lengths=np.asarray(self.geometry.arc_lengths) * (1.0 + strain),
         )
 
     # -- inverse and estimation ----------------------------------------------------------
@@ -604,15 +694,24 @@ class GloveModel:
 
     # -- validity ------------------------------------------------------------------------
 
-    def top_fibre_stretch(self, q: ArrayLike) -> NDArray[np.float64]:
-        """λ of each segment's top fibre, 1 + q (b + h + R)/ℓ̂ (eq 26); shape like ``q``."""
-        return 1.0 + np.asarray(q, dtype=float) * np.asarray(self._strain_per_angle)
+    def top_fibre_stretch(self, q: ArrayLike, strain: ArrayLike = 0.0) -> NDArray[np.float64]:
+        """λ of each segment's top fibre, λ_b + q (b + h + R)/ℓ̂ (eqs 26, 12.1); shape like q.
 
-    def in_valid_range(self, q: ArrayLike) -> NDArray[np.bool_]:
-        """Whether all fibres stretch within 1 ≤ λ ≤ 1.5 (scalar for (3,), per row for (N, 3))."""
-        stretch = self.top_fibre_stretch(q)
+        ``strain`` is the bottom face's ε = λ_b − 1 (0: inextensible).
+        """
+        bottom = 1.0 + np.asarray(strain, dtype=float)
+        return bottom + np.asarray(q, dtype=float) * np.asarray(self._strain_per_angle)
+
+    def in_valid_range(self, q: ArrayLike, strain: ArrayLike = 0.0) -> NDArray[np.bool_]:
+        """Whether every fibre's stretch (12.1) lies in VALID_STRETCH (per row for (N, 3)).
+
+        The extreme fibres are the bottom face and the top.
+        """
         low, high = VALID_STRETCH
-        return np.all((stretch >= low) & (stretch <= high), axis=-1)
+        bottom = 1.0 + np.asarray(strain, dtype=float) + 0.0 * np.asarray(q, dtype=float)
+        top = self.top_fibre_stretch(q, strain)
+        inside = (bottom >= low) & (bottom <= high) & (top >= low) & (top <= high)
+        return np.all(inside, axis=-1)
 
     def in_range_of_motion(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Whether every joint lies in [rom_min, rom_max] (scalar for (3,), per row for (N, 3))."""

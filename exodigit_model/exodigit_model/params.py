@@ -93,7 +93,8 @@ class Segment:
     name : str
         Label of the joint the segment drives.
     arc_length : float
-        ℓ̂_i, constant arc length of the bending segment, m.
+        ℓ̂_i, rest arc length of the segment's bottom face, m (its length with an inextensible
+        layer).
     inner_radius : float
         r0_i, radius of the half-bellow cavity, m.
     wall_thickness : float
@@ -104,6 +105,9 @@ class Segment:
         b_i, thickness of the inextensible base layer, m.
     block_half_length : float
         d_i, half the length of the block distal to the segment (its centre of mass), m.
+    layer_axial_stiffness : float
+        E_L,i, axial stiffness of the strain-limiting bottom layer, N (force per unit strain,
+        MODEL.md §12); ``inf`` = inextensible (the paper's constant arc length), 0 = no layer.
     """
 
     name: str
@@ -113,11 +117,21 @@ class Segment:
     wall_height: float
     base_thickness: float
     block_half_length: float
+    layer_axial_stiffness: float
 
     def __post_init__(self) -> None:
         _set(self, 'name', _name('name', self.name))
-        for field in fields(self)[1:]:
+        for field in fields(self)[1:-1]:
             _set(self, field.name, _positive(field.name, getattr(self, field.name), 'm'))
+        stiffness = self.layer_axial_stiffness
+        if stiffness != math.inf:  # .inf is the paper's inextensible layer
+            stiffness = _non_negative('layer_axial_stiffness', stiffness, 'N, or .inf')
+        _set(self, 'layer_axial_stiffness', float(stiffness))
+
+    @property
+    def extensible(self) -> bool:
+        """Whether the bottom face stretches (a finite ``layer_axial_stiffness``)."""
+        return self.layer_axial_stiffness != math.inf
 
     @property
     def outer_radius(self) -> float:

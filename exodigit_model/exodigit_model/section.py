@@ -10,6 +10,9 @@ by λ(y) = 1 + y q / ℓ̂ when the segment bends by q (eqs 24-26).
   outer contour (MODEL.md §4). τ_p = r_pA_p · p (eq 11).
 - Structural side, eqs 13 and 27 without the Taylor truncation:
   :math:`M(q) = \int_A \sigma(\lambda(y))\,y\,dA`, τ_s = -M (MODEL.md §5).
+- Extensible segments (MODEL.md §12): the bottom face stretches by λ_b, every fibre by
+  λ(y) = λ_b + y q / ℓ̂ (12.1), and the section carries the resultants M(q, λ_b) and
+  N(q, λ_b) = ∫ σ dA (12.2); the pressure pushes the end faces apart on A_p (12.3).
 
 :class:`SectionQuadrature` turns :math:`\int_A g(y)\,dA` into a weighted sum over fixed
 Gauss-Legendre points of the three zones; the integrand is smooth, so the sum converges
@@ -24,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .material import stress_of_strain, stress_slope_of_strain
+from .material import stress_and_slope_of_strain, stress_of_strain, stress_slope_of_strain
 from .params import Material, Segment
 
 
@@ -34,6 +37,12 @@ def pressure_moment(segment: Segment) -> float:
     return (
         0.5 * math.pi * r * r * (4.0 * r / (3.0 * math.pi) + h + b) + 2.0 * r * (0.5 * h + b) * h
     )
+
+
+def pressure_area(segment: Segment) -> float:
+    """A_p of MODEL.md (12.3), the area of the region of eq 12 the pressure acts on, m²."""
+    r, h = segment.outer_radius, segment.wall_height
+    return 0.5 * math.pi * r * r + 2.0 * r * h
 
 
 def _gauss(order: int, low: float, high: float) -> tuple[NDArray, NDArray]:
@@ -108,3 +117,54 @@ def resisting_moment(
     moment = rule.integrate(stress_of_strain(material, strain) * y)
     slope = rule.integrate(stress_slope_of_strain(material, strain) * (y * y / segment.arc_length))
     return moment, slope
+
+
+class SectionResultants:
+    r"""M, N and their slopes for the three segments at once, by the quadrature of each section.
+
+    With the strain e(y) = ε + y q/ℓ̂ of (12.1) (ε = λ_b − 1, evaluated in strain form):
+
+    .. math::
+
+        M = \int_A \sigma\,y\,dA, \quad N = \int_A \sigma\,dA, \quad
+        \frac{\partial M}{\partial q} = \int_A \sigma' \frac{y^2}{\hat\ell} dA, \quad
+        \frac{\partial M}{\partial \varepsilon} = \int_A \sigma' y\,dA
+        = \hat\ell\,\frac{\partial N}{\partial q}, \quad
+        \frac{\partial N}{\partial \varepsilon} = \int_A \sigma' dA
+
+    (one potential: the extended system is conservative, MODEL.md §12).
+
+    Parameters
+    ----------
+    material : Material
+    segments : sequence of 3 Segment
+    rules : sequence of 3 SectionQuadrature
+        The same number of points each (:meth:`SectionQuadrature.of` with equal orders).
+    """
+
+    def __init__(self, material: Material, segments, rules) -> None:
+        self.material = material
+        self.heights = np.stack([rule.heights for rule in rules])  # (3, K)
+        self.weights = np.stack([rule.weights for rule in rules])
+        self.inverse_length = np.array([1.0 / s.arc_length for s in segments])
+        self.per_length = self.heights * self.inverse_length[:, None]  # y/ℓ̂
+        self.square_per_length = self.heights * self.per_length  # y²/ℓ̂
+
+    def at(self, q: ArrayLike, strain: ArrayLike) -> tuple[NDArray, ...]:
+        """(M, N, ∂M/∂q, ∂M/∂ε, ∂N/∂q, ∂N/∂ε) for angles and bottom strains of shape (..., 3).
+
+        Units: N·m, N, N·m/rad, N·m, N/rad, N.
+        """
+        q, strain = np.asarray(q, dtype=float), np.asarray(strain, dtype=float)
+        e = strain[..., None] + q[..., None] * self.per_length
+        stress, slope = stress_and_slope_of_strain(self.material, e)
+        stress, slope = stress * self.weights, slope * self.weights
+        moment_rate = np.sum(slope * self.heights, axis=-1)
+        return (
+            np.sum(stress * self.heights, axis=-1),
+            np.sum(stress, axis=-1),
+            np.sum(slope * self.square_per_length, axis=-1),
+            moment_rate,
+            moment_rate * self.inverse_length,
+            np.sum(slope, axis=-1),
+        )

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -95,6 +96,15 @@ class SimulationSettings:
         return ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
 
 
+class KeptState(NamedTuple):
+    """What a step keeps of a solve (or of the last good state where the solve failed)."""
+
+    q: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    finger_torque: NDArray[np.float64]
+    lengths: NDArray[np.float64]
+
+
 FIXED_SETTINGS = ('rate_hz', 'seed')
 """Settings a running simulation cannot change (they define its time grid and noise streams)."""
 
@@ -127,6 +137,8 @@ class GloveState:
         Contact forces f (MODEL.md §6), N.
     finger_torque : ndarray
         Torque the exo-digit applies to each finger joint, (J_H*)ᵀ f = τ_H (eq 11.1), N·m.
+    lengths : ndarray
+        ℓ_k, the segments' bottom-face arc lengths, m (MODEL.md §12).
     effort : ndarray
         The patient's voluntary effort applied in the step, N·m.
     converged : bool or ndarray of bool
@@ -154,6 +166,7 @@ class GloveState:
     qdot: NDArray[np.float64]
     forces: NDArray[np.float64]
     finger_torque: NDArray[np.float64]
+    lengths: NDArray[np.float64]
     effort: NDArray[np.float64]
     converged: bool | NDArray[np.bool_]
     iterations: int | NDArray[np.int_]
@@ -257,9 +270,10 @@ class GloveSimulation:
         previous = self.state.q
         pressure = self.chambers.advance(command)
         if self.count is None:
-            q, forces, torque, solution = self._solve_one(pressure, effort)
+            kept, solution = self._solve_one(pressure, effort)
         else:
-            q, forces, torque, solution = self._solve_batch(pressure, effort)
+            kept, solution = self._solve_batch(pressure, effort)
+        q = kept.q
         self._q_before = previous  # from now on: where the glove was one step earlier
         self.step_count += 1
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
@@ -273,8 +287,9 @@ class GloveSimulation:
             q=q,
             q_measured=self._measured(q, self._angle_noise, 'angle'),
             qdot=(q - previous) / self.period,
-            forces=forces,
-            finger_torque=torque,
+            forces=kept.forces,
+            finger_torque=kept.finger_torque,
+            lengths=kept.lengths,
             effort=np.zeros(self.shape) if effort is None else effort,
             converged=solution.converged,
             iterations=solution.iterations,
@@ -298,14 +313,15 @@ class GloveSimulation:
         p = pressure.tolist()
         u = None if effort is None else effort.tolist()
         previous = self.state.q.tolist()
+        lengths = self.state.lengths.tolist()
         load = self.model._load(ScalarOps, effort=u, q_previous=previous, dt=self.period)
         if self.model.viscous:
             # q̇ enters the equation: start where the last step's motion goes on (half the
             # Newton steps of a start at q_prev for a spastic patient).
             start = (2.0 * self.state.q - self._q_before).tolist()
-            first = self.model._evaluate_at(start, p, load)
+            first = self.model._evaluate_at(self.model.unknowns(start, lengths), p, load)
         elif u != self._warm_effort:
-            first = self.model._evaluate_at(previous, p, load)
+            first = self.model._evaluate_at(self.model.unknowns(previous, lengths), p, load)
         else:
             # τ_H depends on q alone and F is affine in p: the last good evaluation, re-priced,
             # is the first Newton iterate.
@@ -313,23 +329,30 @@ class GloveSimulation:
         solution, final = self.model._solve(p, first)
         if solution.converged:
             self._warm, self._warm_effort = final, u
-            return solution.q, solution.forces, solution.finger_torque, solution
+            return solution, solution
         self.solver_failures += 1
-        state = self.state
-        return state.q, state.forces, state.finger_torque, solution
+        return self.state, solution
 
     def _solve_batch(self, pressure: NDArray[np.float64], effort) -> tuple:
         state = self.state
         start = 2.0 * state.q - self._q_before if self.model.viscous else state.q
         solution: BatchSolution = self.model.solve_batch(
-            pressure, Q0=start, effort=effort, Q_previous=state.q, dt=self.period
+            pressure,
+            Q0=start,
+            effort=effort,
+            Q_previous=state.q,
+            dt=self.period,
+            lengths0=state.lengths,
         )
         good = solution.converged[:, None]
         self.solver_failures += int(np.count_nonzero(~solution.converged))
-        q = np.where(good, solution.q, state.q)
-        forces = np.where(good, solution.forces, state.forces)
-        torque = np.where(good, solution.finger_torque, state.finger_torque)
-        return q, forces, torque, solution
+        kept = KeptState(
+            *(
+                np.where(good, getattr(solution, name), getattr(state, name))
+                for name in KeptState._fields
+            )
+        )
+        return kept, solution
 
     def _measured(self, true: NDArray[np.float64], rng: np.random.Generator, sensor: str):
         """``true`` plus Gaussian noise of the ``<sensor>_noise_std`` setting from ``rng``.
@@ -351,6 +374,7 @@ class GloveSimulation:
         self._q_before = q
         forces = np.broadcast_to(rest.forces, self.shape).copy()
         torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
+        lengths = np.broadcast_to(rest.lengths, self.shape).copy()
         batch = self.count is not None
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         return GloveState(
@@ -365,6 +389,7 @@ class GloveSimulation:
             qdot=zeros,
             forces=forces,
             finger_torque=torque,
+            lengths=lengths,
             effort=zeros,
             converged=np.full(self.count, rest.converged) if batch else rest.converged,
             iterations=np.zeros(self.count, int) if batch else 0,

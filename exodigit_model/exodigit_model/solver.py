@@ -1,11 +1,13 @@
 """Damped Newton iteration for the coupled quasi-statics (MODEL.md §7, §11), one state or a batch.
 
-The iteration uses the analytic Jacobian of :class:`.coupling.Evaluation`, starts from the
-caller's guess (warm start) and backtracks along the Newton direction until the squared residual
-norm decreases enough (Armijo, factor 1e-4). Trial states whose top fibre would compress below
-λ = 1 + MIN_TOP_STRAIN are refused before evaluation, so no state leaves the domain where the
-material law is defined. The iteration never raises and never returns NaN: a state that cannot
-be improved keeps its last finite value and is reported as not converged.
+The iteration uses the analytic Jacobian of the evaluation (:class:`.coupling.Evaluation` for
+the joint angles, :class:`.extensible.ExtensibleEvaluation` for angles and bottom-face strains),
+starts from the caller's guess (warm start) and backtracks along the Newton direction until the
+squared residual norm decreases enough (Armijo, factor 1e-4). Trial states the caller's
+``allowed`` refuses (a fibre compressed below λ = 0.2) are never evaluated, so no state leaves
+the domain where the material law is defined. The iteration never raises and never returns
+NaN: a state that cannot be improved keeps its last finite value and is reported as not
+converged.
 
 Convergence is judged relative to the problem, so that it means the same for a glove a thousand
 times smaller or larger than the default one: the residual against the size of the terms it is
@@ -19,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .coupling import Evaluation, solve3
+from .coupling import Evaluation
 
 RTOL = 1e-12
 """Converged when ‖F‖ ≤ RTOL · ‖|τ_s| + |B_R p| + |(J_R*)ᵀ f|‖ (the terms F is made of)."""
@@ -31,8 +33,6 @@ MAX_HALVINGS = 40
 """Step halvings at most per Newton step."""
 ARMIJO = 1e-4
 """Sufficient-decrease factor of the line search."""
-MIN_TOP_STRAIN = -0.8
-"""Lowest top-fibre strain a trial state may have (λ_top ≥ 0.2)."""
 
 CONVERGED, CONVERGED_STEP, ITERATION_LIMIT, NO_DECREASE, NOT_FINITE = range(5)
 STATUS = {
@@ -61,35 +61,40 @@ class NewtonOutcome:
 
 
 def _norm(residual):
-    return (
-        residual[0] * residual[0] + residual[1] * residual[1] + residual[2] * residual[2]
-    ) ** 0.5
+    return sum(r * r for r in residual) ** 0.5
 
 
 def newton(
     p,
     evaluate: Callable[..., Evaluation],
     ops,
-    strain_per_angle: tuple,
     first: Evaluation,
+    *,
+    linear_solve: Callable,
+    allowed: Callable,
 ) -> NewtonOutcome:
-    """Solve F(q, p) = 0 from the state of ``first``, the evaluation at the start.
+    """Solve F(x, p) = 0 from the state of ``first``, the evaluation at the start.
 
     Parameters
     ----------
     p : list of 3
         Pressures, Pa: floats, or 1-D arrays for a batch.
     evaluate : callable
-        ``(q, p) -> Evaluation``.
+        ``(x, p) -> evaluation`` with ``x``, ``residual``, ``scale``, ``forces``,
+        ``finger_torque`` and ``jacobian()`` (:class:`.coupling.Evaluation`, the joint angles,
+        or :class:`.extensible.ExtensibleEvaluation`, angles and bottom strains).
     ops : backend of :mod:`._backend`
-    strain_per_angle : tuple of 3
-        H_k/ℓ̂_k: the top-fibre strain per radian of each joint, for the domain check.
-    first : Evaluation
+    first : evaluation
         The evaluation at the start (a warm start may re-price a previous solution's final
         evaluation, see :meth:`.Evaluation.at_pressure`).
+    linear_solve : callable
+        ``(jacobian, rhs) -> step`` for the evaluation's nested Jacobian.
+    allowed : callable
+        ``x -> bool (or mask)``: whether a trial state lies where the material law is defined.
     """
     evaluation = first
-    q, residual = first.q, first.residual
+    q, residual = first.x, first.residual
+    size_of_x = len(q)
     forces, finger_torque = first.forces, first.finger_torque
     norm = _norm(residual)
     status = ops.where(norm <= RTOL * first.scale, CONVERGED, ITERATION_LIMIT)
@@ -100,7 +105,7 @@ def newton(
     for _ in range(MAX_ITERATIONS):
         if not ops.any(active):
             break
-        step = solve3(jacobian, [-r for r in residual])
+        step = linear_solve(jacobian, [-r for r in residual])
         size = _norm(step)
         usable = ops.isfinite(size)
         status = ops.where(active & ops.logical_not(usable), NOT_FINITE, status)
@@ -108,19 +113,14 @@ def newton(
         small = active & (size <= XTOL)
         alpha = 1.0
         for _ in range(MAX_HALVINGS):
-            trial = [q[0] + alpha * step[0], q[1] + alpha * step[1], q[2] + alpha * step[2]]
-            allowed = (
-                active
-                & (trial[0] * strain_per_angle[0] >= MIN_TOP_STRAIN)
-                & (trial[1] * strain_per_angle[1] >= MIN_TOP_STRAIN)
-                & (trial[2] * strain_per_angle[2] >= MIN_TOP_STRAIN)
-            )
-            trial = ops.select(allowed, trial, q)
+            trial = [q[k] + alpha * step[k] for k in range(size_of_x)]
+            inside = active & allowed(trial)
+            trial = ops.select(inside, trial, q)
             candidate = evaluate(trial, p)
             candidate_norm = _norm(candidate.residual)
             # A step below XTOL is taken whole: at the root, rounding may not let F decrease.
             accepted = (
-                allowed
+                inside
                 & (small | (candidate_norm <= (1.0 - ARMIJO * alpha) * norm))
                 & ops.isfinite(candidate_norm)
             )

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import JOINT_NAMES, BatchSolution, GloveModel
+from ..model import VALID_STRETCH
 from ._deps import ToolError
 
 EXPERIMENTS = (*JOINT_NAMES, 'all')
@@ -185,6 +186,7 @@ def write_markers_csv(markers: dict[tuple[str, str], NDArray], pressure, path: P
 def summary(sweeps: list[Sweep]) -> list[str]:
     """Warnings about rows that did not converge or left the model (stretch, range of motion)."""
     lines = []
+    low, high = VALID_STRETCH
     for sweep in sweeps:
         failed = int(np.count_nonzero(~sweep.solution.converged))
         outside = int(np.count_nonzero(~sweep.solution.in_valid_range))
@@ -193,7 +195,7 @@ def summary(sweeps: list[Sweep]) -> list[str]:
             lines.append(f'warning: {where}: {failed} pressures did not converge')
         if outside:
             lines.append(
-                f'warning: {where}: {outside} pressures outside 1 <= stretch <= 1.5 '
+                f'warning: {where}: {outside} pressures outside {low:g} <= stretch <= {high:g} '
                 '(a joint overstretched or bent backwards)'
             )
         beyond = int(np.count_nonzero(~sweep.solution.in_range_of_motion))
