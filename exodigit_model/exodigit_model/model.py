@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import optimize
 
 from ._backend import ArrayOps, ScalarOps
 from .coupling import (
@@ -41,6 +42,8 @@ from .section import SectionResultants, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS, newton
 from .structural import StructuralTorque
 
+STRAIN_XTOL = 1e-13
+"""Relative step tolerance of the bottom-strain roots of the extensible inverse and estimator."""
 VALID_STRETCH = (0.95, 1.5)
 """Fibre stretches the model is validated for (paper §2.1.3; MODEL.md §12: a bottom face
 slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
@@ -600,12 +603,60 @@ class GloveModel:
     ) -> NDArray[np.float64]:
         """Pressures that hold the glove at angles ``q`` on the finger, Pa (eq 11.4 for p).
 
-        p = B_R^{-1} ((J_R*)ᵀ (J_H*)^{-T} τ_H(q, q̇, u) − τ_s(q)); exact, no iteration. The
-        result may be negative where holding ``q`` would need suction.
+        p = B_R^{-1} ((J_R*)ᵀ (J_H*)^{-T} τ_H(q, q̇, u) − τ_s(q)); exact, no iteration (with
+        extensible segments the bottom strains are solved for too: :meth:`hold`). The result
+        may be negative where holding ``q`` would need suction.
         """
+        return self.hold(q, qdot, effort)[0]
+
+    def hold(
+        self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The inverse: pressures (Pa) and bottom-face lengths ℓ (m) that hold angles ``q``.
+
+        Constant-length segments: exact. Extensible ones (MODEL.md §12): (12.4) gives p for
+        given strains exactly, and (12.5) with that p is solved for the strains (Newton with the
+        analytic Jacobian of the 6×6 system, by ``scipy.optimize.root``).
+        """
+        angles = as_joint_list('q', q)
         load = self._load(ScalarOps, qdot=qdot, effort=effort)
-        residual_at_zero = self._evaluate(q, np.zeros(3), load).residual
-        return -np.array(residual_at_zero) / np.asarray(self.geometry.pressure_moments)
+        moments = np.asarray(self.geometry.pressure_moments)
+        if not self.extensible:
+            residual_at_zero = self._evaluate_at(angles, [0.0, 0.0, 0.0], load).residual
+            return -np.array(residual_at_zero) / moments, np.asarray(self.geometry.arc_lengths)
+        layers = self.layers
+        weight = np.array(
+            [
+                layers.rest_lengths[k] * layers.areas[k] / moments[k]
+                if layers.extensible[k]
+                else 0.0
+                for k in range(3)
+            ]
+        )
+
+        def stretch_balance(strain):
+            evaluation = self._evaluate_at([*angles, *strain], [0.0, 0.0, 0.0], load)
+            residual, jacobian = np.array(evaluation.residual), np.array(evaluation.jacobian())
+            value = residual[3:] - weight * residual[:3]
+            slope = jacobian[3:, 3:] - weight[:, None] * jacobian[:3, 3:]
+            return value, slope
+
+        strain = self._root(stretch_balance, 'hold', jacobian=True)
+        evaluation = self._evaluate_at([*angles, *strain], [0.0, 0.0, 0.0], load)
+        pressure = -np.array(evaluation.residual[:3]) / moments
+        return pressure, np.asarray(layers.rest_lengths) * (1.0 + strain)
+
+    @staticmethod
+    def _root(function, what: str, *, jacobian: bool) -> NDArray[np.float64]:
+        """The bottom strains where ``function`` vanishes (``jacobian``: it gives its own)."""
+        result = optimize.root(
+            function, np.zeros(3), jac=jacobian, method='hybr', options={'xtol': STRAIN_XTOL}
+        )
+        if not result.success:
+            raise ValueError(
+                f'{what}: no bottom-face strain balances the segments ({result.message})'
+            )
+        return result.x
 
     def finger_forces(
         self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
@@ -618,16 +669,60 @@ class GloveModel:
     def estimate_forces(self, q: ArrayLike, p: ArrayLike) -> NDArray[np.float64]:
         """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (MODEL.md §7).
 
-        Needs no finger model: from measured angles and pressures only.
+        Needs no finger model: from measured angles and pressures only (with extensible
+        segments the bottom strains are solved for too: :meth:`estimate`).
+        """
+        return self.estimate(q, p)[0]
+
+    def estimate(
+        self, q: ArrayLike, p: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).
+
+        From measured angles and pressures, no finger model: (12.4) gives f for given strains,
+        (12.5) with that f is solved for the strains (MODEL.md §12; ``scipy.optimize.root``).
         """
         angles = as_joint_vector('q', q)
-        torque = self.structural_torque(angles) + self.pressure_torque(as_joint_vector('p', p))
-        j_robot, _ = self.contact_jacobians(angles)
-        return np.array(transpose_solve(j_robot.tolist(), torque))
+        pressure = as_joint_vector('p', p)
+        if not self.extensible:
+            torque = self.structural_torque(angles) + self.pressure_torque(pressure)
+            j_robot, _ = self.contact_jacobians(angles)
+            forces = np.array(transpose_solve(j_robot.tolist(), torque))
+            return forces, np.asarray(self.geometry.arc_lengths)
+        free = self._load(ScalarOps, free=True)
+        angle_list, pressure_list = angles.tolist(), pressure.tolist()
+
+        def forces_at(strain):
+            # the glove alone (no finger): its residual is what the contacts must hold
+            evaluation = self._evaluate_at([*angle_list, *strain], pressure_list, free)
+            robot = evaluation._robot.matrix
+            forces = transpose_solve(robot, evaluation.residual[:3])
+            return evaluation, forces
+
+        def stretch_balance(strain):
+            evaluation, forces = forces_at(strain)
+            lengthwise = transpose_product(evaluation._lengthwise[0], forces)
+            rest = self.layers.rest_lengths
+            return np.array(
+                [
+                    evaluation.residual[3 + k] - rest[k] * lengthwise[k]
+                    if self.layers.extensible[k]
+                    else strain[k]
+                    for k in range(3)
+                ]
+            )
+
+        strain = self._root(stretch_balance, 'estimate', jacobian=False)
+        _, forces = forces_at(strain.tolist())
+        return np.array(forces), np.asarray(self.layers.rest_lengths) * (1.0 + strain)
 
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
+        if self.extensible:
+            return np.array(
+                [self.estimate(q, p)[0] for q, p in zip(angles, pressure, strict=True)]
+            )
         torque = self.structural_torque(angles) + self.pressure_torque(pressure)
         j_robot, _ = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
         return np.column_stack(transpose_solve(j_robot, list(torque.T)))
@@ -670,12 +765,19 @@ class GloveModel:
 
     # -- geometry -------------------------------------------------------------------------
 
-    def pose(self, q: ArrayLike, arc_samples: int = 12) -> GlovePose:
-        """Positions of blocks, arcs, contacts and finger at angles ``q`` (eqs 1-4, 33)."""
+    def pose(
+        self, q: ArrayLike, lengths: ArrayLike | None = None, arc_samples: int = 12
+    ) -> GlovePose:
+        """Positions of blocks, arcs, contacts and finger at angles ``q`` (eqs 1-4, 33).
+
+        ``lengths`` are the arcs' bottom-face lengths ℓ (m, MODEL.md §12; a ``Solution``'s
+        ``lengths``); the rest lengths when omitted.
+        """
         angles = as_joint_vector('q', q).tolist()
         geometry = self.geometry
         half = geometry.block_half_lengths
-        frames = chain(chords(angles, ScalarOps), geometry.arc_lengths, half)
+        arcs = geometry.arc_lengths if lengths is None else as_joint_list('lengths', lengths)
+        frames = chain(chords(angles, ScalarOps), arcs, half)
         joints, contacts = finger_chain(angles, ScalarOps, geometry.finger_half_lengths)
         return GlovePose(
             block_origins=_xy(frames.origins),
@@ -687,7 +789,7 @@ class GloveModel:
             ),
             contact_points=_xy(frames.centres),
             contact_normals=_xy([1j * t for t in frames.turns[1:]]),
-            arcs=_xy(arc_points(angles, geometry.arc_lengths, half, arc_samples, ScalarOps)),
+            arcs=_xy(arc_points(angles, arcs, half, arc_samples, ScalarOps)),
             finger_joints=_xy(joints),
             finger_contacts=_xy(contacts),
         )
