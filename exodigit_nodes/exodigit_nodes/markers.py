@@ -42,7 +42,7 @@ class GloveMarkers:
 
     def __init__(self, model: GloveModel) -> None:
         self.model = model
-        rest = model.pose(np.zeros(3), ARC_SAMPLES)
+        rest = model.pose(np.zeros(3), arc_samples=ARC_SAMPLES)
         self.finger_offset = np.array([rest.arcs[0][ARC_SAMPLES // 2][0], FINGER_GAP])
         backbone = _marker('exo_digit', 0, Marker.LINE_STRIP, 0.003, _EXO_COLOUR)
         finger = _marker('finger', 1, Marker.LINE_STRIP, 0.006, _FINGER_COLOUR)
@@ -66,7 +66,7 @@ class GloveMarkers:
 
     def update(self, angles, forces, stamp, frame_id: str) -> MarkerArray:
         """The markers at joint angles ``angles`` (rad) with contact forces ``forces`` (N)."""
-        pose = self.model.pose(angles, ARC_SAMPLES)
+        pose = self.model.pose(angles, arc_samples=ARC_SAMPLES)
         backbone, finger, *arrows = self.array.markers
         for point, (x, y) in zip(backbone.points, self._backbone(pose), strict=True):
             point.x, point.y = float(x), float(y)
