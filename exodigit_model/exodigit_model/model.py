@@ -35,7 +35,7 @@ from .coupling import (
 )
 from .extensible import ExtensibleEvaluation, Layers, allowed_stretch, solve_linear
 from .identification import StiffnessFit, fit_stiffness
-from .kinematics import arc_points, chain, chords, finger_chain
+from .kinematics import arc_points, chain, chords, finger_chain, robot_jacobian
 from .params import GloveParams, load_params
 from .patient import FingerLoad, JointLaw
 from .section import SectionResultants, pressure_area, pressure_moment
@@ -323,7 +323,9 @@ class GloveModel:
     def residual(self, q: ArrayLike, p: ArrayLike, **solve_options) -> NDArray[np.float64]:
         """F(q, p) of eq 36 / 11.4, N·m.
 
-        Keyword options ``free``, ``effort``, ``q_previous`` and ``dt`` as :meth:`solve`.
+        Keyword options ``free``, ``effort``, ``q_previous`` and ``dt`` as :meth:`solve`. With
+        extensible segments the residual has six rows, (12.4) and ℓ̂ × (12.5), at bottom-face
+        ``lengths`` (m; the rest lengths when omitted).
         """
         return np.array(self._evaluation(q, p, **solve_options).residual)
 
@@ -334,10 +336,20 @@ class GloveModel:
         return np.array(self._evaluation(q, p, **solve_options).jacobian(), dtype=float)
 
     def _evaluation(
-        self, q, p, *, free=False, effort=None, q_previous=None, dt=None
+        self, q, p, *, free=False, effort=None, q_previous=None, dt=None, lengths=None
     ) -> Evaluation:
         load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
-        return self._evaluate(q, p, load)
+        return self._evaluate(q, p, load, lengths)
+
+    def length_jacobian(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray:
+        """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (MODEL.md §12), (3, 3) lower triangular.
+
+        At angles ``q`` and bottom-face ``lengths`` (m; the rest lengths when omitted).
+        """
+        angles = as_joint_list('q', q)
+        arcs = self.geometry.arc_lengths if lengths is None else as_joint_list('lengths', lengths)
+        robot = robot_jacobian(chords(angles, ScalarOps), arcs, self.geometry.block_half_lengths)
+        return np.array(robot.length_terms(arcs)[0])
 
     def _load(
         self, ops, *, free=False, effort=None, q_previous=None, dt=None, qdot=None
@@ -810,8 +822,8 @@ class GloveModel:
         The extreme fibres are the bottom face and the top.
         """
         low, high = VALID_STRETCH
-        bottom = 1.0 + np.asarray(strain, dtype=float) + 0.0 * np.asarray(q, dtype=float)
         top = self.top_fibre_stretch(q, strain)
+        bottom = np.broadcast_to(1.0 + np.asarray(strain, dtype=float), top.shape)
         inside = (bottom >= low) & (bottom <= high) & (top >= low) & (top <= high)
         return np.all(inside, axis=-1)
 
