@@ -47,6 +47,7 @@ def assert_same(state, reference):
     np.testing.assert_array_equal(state.effort, reference.finger_torque)
     np.testing.assert_array_equal(state.pressure, reference.pressure_measured)
     np.testing.assert_array_equal(state.forces, reference.forces)
+    np.testing.assert_array_equal(state.lengths, reference.lengths)
 
 
 def sine(k, peak=40e3):
@@ -213,6 +214,7 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove_sim, del
             np.testing.assert_array_equal(record.q[i], state.q_measured)
             np.testing.assert_array_equal(record.pressure[i], state.pressure_measured)
             np.testing.assert_array_equal(record.forces[i], state.forces)
+            np.testing.assert_array_equal(record.lengths[i], state.lengths)
             np.testing.assert_array_equal(record.command[i], command)
 
 

@@ -412,6 +412,50 @@ def test_markers_draw_the_finger_links_at_their_length_and_forces_to_scale(model
     assert all(m.header.frame_id == 'base' for m in markers.array.markers)
 
 
+def drawn_arcs(array, samples):
+    """The soft arcs of a marker array's backbone, each as (samples, 2) rows.
+
+    The backbone is the base block, then each arc followed by the two ends of the block it carries.
+    """
+    points = np.array([[p.x, p.y] for p in array.markers[0].points])
+    starts = [2 + k * (samples + 2) for k in range(3)]
+    return [points[start : start + samples] for start in starts]
+
+
+def test_markers_draw_the_arcs_at_the_given_lengths(monkeypatch):
+    from exodigit_nodes import markers as markers_module
+
+    data = load_params().to_dict()
+    data['exo_digit']['segments'][0]['layer_axial_stiffness'] = 0.0  # MCP stretches (§12)
+    extensible = GloveModel(params_from_dict(data))
+    solution = extensible.solve([40e3, 40e3, 40e3])
+    rest = np.array([s.arc_length for s in extensible.params.exo_digit.segments])
+    assert solution.lengths[0] > rest[0] + 1e-3  # the MCP arc is visibly longer than at rest
+    np.testing.assert_array_equal(solution.lengths[1:], rest[1:])
+    for lengths, expected in ((None, rest), (solution.lengths, solution.lengths)):
+        # A circular arc of length ℓ bent by q has the chord 2ℓ·sin(q/2)/q (closed form).
+        samples = markers_module.ARC_SAMPLES
+        array = markers_module.GloveMarkers(extensible).update(
+            solution.q, solution.forces, None, 'base', lengths
+        )
+        for arc, length, angle in zip(
+            drawn_arcs(array, samples), expected, solution.q, strict=True
+        ):
+            chord = np.linalg.norm(arc[-1] - arc[0])
+            assert chord == pytest.approx(2.0 * length * math.sin(angle / 2.0) / angle, rel=EXACT)
+        # Finely sampled, the drawn polyline's length approaches ℓ: n chords of an arc of
+        # angle q fall short by ℓ·(1 − sin(q/2n)/(q/2n)) ≈ ℓ·q²/(24 n²).
+        samples = 2001
+        monkeypatch.setattr(markers_module, 'ARC_SAMPLES', samples)
+        array = markers_module.GloveMarkers(extensible).update(
+            solution.q, solution.forces, None, 'base', lengths
+        )
+        monkeypatch.undo()
+        for arc, length in zip(drawn_arcs(array, samples), expected, strict=True):
+            drawn = np.linalg.norm(np.diff(arc, axis=0), axis=1).sum()
+            assert drawn == pytest.approx(length, rel=1e-7)
+
+
 # -- packaging of the logic ----------------------------------------------------------------
 
 

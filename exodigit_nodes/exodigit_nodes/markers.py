@@ -37,7 +37,7 @@ class GloveMarkers:
     Parameters
     ----------
     model : GloveModel
-        Gives the pose (eqs 1-4, 33) at the joint angles.
+        Gives the pose (eqs 1-4, 33) at the joint angles and the arcs' lengths (MODEL.md §12).
     """
 
     def __init__(self, model: GloveModel) -> None:
@@ -64,9 +64,13 @@ class GloveMarkers:
             rows.extend((pose.block_origins[i + 1], pose.block_ends[i + 1]))
         return rows
 
-    def update(self, angles, forces, stamp, frame_id: str) -> MarkerArray:
-        """The markers at joint angles ``angles`` (rad) with contact forces ``forces`` (N)."""
-        pose = self.model.pose(angles, arc_samples=ARC_SAMPLES)
+    def update(self, angles, forces, stamp, frame_id: str, lengths=None) -> MarkerArray:
+        """The markers at joint angles ``angles`` (rad) with contact forces ``forces`` (N).
+
+        ``lengths`` are the soft arcs' bottom-face lengths ℓ_i (m, MODEL.md §12: the plant's
+        ``segment_lengths``); the rest lengths when None.
+        """
+        pose = self.model.pose(angles, lengths=lengths, arc_samples=ARC_SAMPLES)
         backbone, finger, *arrows = self.array.markers
         for point, (x, y) in zip(backbone.points, self._backbone(pose), strict=True):
             point.x, point.y = float(x), float(y)

@@ -2,9 +2,11 @@
 
 A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (MODEL.md §13: chambers, coupled
 solve, sensors): each step applies the latest valid ``pressure_command`` and publishes
-``joint_states``, ``chamber_pressure`` and ``contact_forces``; ``markers`` and ``/diagnostics`` at
-lower rates. ``reset`` (std_srvs/Trigger) puts pressures and angles back to rest. With no command
-for ``command_timeout`` it vents.
+``joint_states``, ``chamber_pressure``, ``contact_forces`` and ``segment_lengths`` (ℓ_i, the
+segments' bottom-face arc lengths, m: the rest lengths unless a segment is extensible, MODEL.md
+§12); ``markers`` (the arcs drawn at those lengths) and ``/diagnostics`` at lower rates.
+``reset`` (std_srvs/Trigger) puts pressures, angles and lengths back to rest. With no command for
+``command_timeout`` it vents.
 
 Time (INTERFACES.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
 ``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
@@ -49,6 +51,7 @@ from .messages import (
     PATIENT_EFFORT,
     PRESSURE_COMMAND,
     RESET,
+    SEGMENT_LENGTHS,
     SET_PAUSED,
     STEP,
     fill,
@@ -237,6 +240,7 @@ class Plant(GloveNode):
         self.joint_state.name = [values['joint_prefix'] + name for name in JOINT_NAMES]
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
+        self.length_message = joint_vector_message()
         self.clock_message = ClockMessage()
         # Outputs first, then the input: a controller that sees our command subscription has
         # seen the outputs announced too.
@@ -245,10 +249,14 @@ class Plant(GloveNode):
         )
         self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, GLOVE_QOS)
         self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, GLOVE_QOS)
+        self.length_publisher = self.create_publisher(
+            Float64MultiArray, SEGMENT_LENGTHS, GLOVE_QOS
+        )
         self.outputs = (
             (self.pressure_publisher, CHAMBER_PRESSURE),
             (self.joint_publisher, JOINT_STATES),
             (self.force_publisher, CONTACT_FORCES),
+            (self.length_publisher, SEGMENT_LENGTHS),
         )
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, GLOVE_QOS)
         self.command_subscription = self.create_subscription(
@@ -532,7 +540,7 @@ class Plant(GloveNode):
         return state
 
     def publish_state(self, state: GloveState, stamp) -> None:
-        """Publish joint_states, chamber_pressure and contact_forces of ``state``."""
+        """Publish the step's chamber_pressure, joint_states, contact_forces, segment_lengths."""
         message = self.joint_state
         message.header.stamp = stamp
         message.position = array('d', state.q_measured)
@@ -540,10 +548,12 @@ class Plant(GloveNode):
         message.effort = array('d', state.finger_torque)
         fill(self.pressure_message, state.pressure_measured)
         fill(self.force_message, state.forces)
+        fill(self.length_message, state.lengths)
         # Back to back: the estimator pairs these two by their publication times.
         self.pressure_publisher.publish(self.pressure_message)
         self.joint_publisher.publish(message)
         self.force_publisher.publish(self.force_message)
+        self.length_publisher.publish(self.length_message)
 
     # -- simulated time helpers ------------------------------------------------------------
 
@@ -626,9 +636,10 @@ class Plant(GloveNode):
         """Publish the glove's markers at the current state (only when someone listens)."""
         if self.marker_publisher.get_subscription_count() == 0:
             return
+        state = self.state
         self.marker_publisher.publish(
             self.markers.update(
-                self.state.q, self.state.forces, self.stamp(), self.settings.frame_id
+                state.q, state.forces, self.stamp(), self.settings.frame_id, state.lengths
             )
         )
 

@@ -77,6 +77,9 @@ class SimState:
         Chamber pressures (``chamber_pressure``), Pa.
     forces : ndarray, shape (3,)
         Simulated contact forces (``contact_forces``), N.
+    lengths : ndarray, shape (3,)
+        ℓ_i, the segments' bottom-face arc lengths (``segment_lengths``), m: the rest lengths
+        unless a segment is extensible (MODEL.md §12).
     estimated_forces : ndarray, shape (3,), or None
         The estimator's robot-side estimate of this step, N (None without the estimator).
     """
@@ -87,6 +90,7 @@ class SimState:
     effort: NDArray[np.float64]
     pressure: NDArray[np.float64]
     forces: NDArray[np.float64]
+    lengths: NDArray[np.float64]
     estimated_forces: NDArray[np.float64] | None = None
 
 
@@ -95,7 +99,8 @@ class SimRecord:
     """The states of a :meth:`GloveSim.run` and the commands that answered them, as arrays.
 
     Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
-    plant applies in the next step). Shapes (n,) for ``t`` and (n, 3) for the others.
+    plant applies in the next step). Shapes (n,) for ``t`` and (n, 3) for the others; units as
+    in :class:`SimState` (``lengths`` m), ``command`` in Pa.
     """
 
     t: NDArray[np.float64]
@@ -103,6 +108,7 @@ class SimRecord:
     qdot: NDArray[np.float64]
     pressure: NDArray[np.float64]
     forces: NDArray[np.float64]
+    lengths: NDArray[np.float64]
     command: NDArray[np.float64]
 
 
@@ -348,6 +354,7 @@ class GloveSim:
             qdot=np.array([s.qdot for s in states]),
             pressure=np.array([s.pressure for s in states]),
             forces=np.array([s.forces for s in states]),
+            lengths=np.array([s.lengths for s in states]),
             command=np.array(commands),
         )
 

@@ -23,6 +23,7 @@ from ..messages import (
     JOINT_STATES,
     PRESSURE_COMMAND,
     RESET,
+    SEGMENT_LENGTHS,
     SET_PAUSED,
     STEP,
     fill,
@@ -52,6 +53,7 @@ class GloveClient(Node):
             JOINT_STATES: deque(),
             CHAMBER_PRESSURE: deque(),
             CONTACT_FORCES: deque(),
+            SEGMENT_LENGTHS: deque(),
         }
         if estimator:
             self.queues[ESTIMATED_CONTACT_FORCES] = deque()
@@ -133,6 +135,7 @@ class GloveClient(Node):
             effort=np.array(joint.effort),
             pressure=self.queues[CHAMBER_PRESSURE].popleft(),
             forces=self.queues[CONTACT_FORCES].popleft(),
+            lengths=self.queues[SEGMENT_LENGTHS].popleft(),
             estimated_forces=estimate,
         )
 

@@ -1,0 +1,136 @@
+"""An extensible glove over DDS (MODEL.md §12): the plant's ``segment_lengths`` through the kit.
+
+The MCP segment has no separate strain-limiting layer (``layer_axial_stiffness: 0.0``), the PIP
+and DIP keep the default ``.inf`` (inextensible). With the kit's default chamber lag 0 each
+published state is the coupled solve at its command, so the lengths are compared with an
+independent ``GloveModel(load_params(file)).solve(p)``.
+"""
+
+import math
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from exodigit_nodes.markers import ARC_SAMPLES
+from exodigit_nodes.testing import GloveSim
+from lockstep_controller import command_at
+from ros_harness import RosProbe
+from visualization_msgs.msg import MarkerArray
+
+from exodigit_model import GloveModel, load_params
+
+CONTROLLER = Path(__file__).with_name('lockstep_controller.py')
+#: Length tolerance of the plant against an independent solve, m.
+LENGTH_TOLERANCE = 1e-9
+#: Angle tolerance of the plant against an independent solve, rad.
+ANGLE_TOLERANCE = 1e-9
+#: Relative tolerance of closed-form geometry (floating-point rounding only).
+EXACT = 1e-12
+COMMANDS = [
+    [10e3, 10e3, 10e3],
+    [30e3, 20e3, 10e3],
+    [50e3, 40e3, 30e3],
+    [0.0, 0.0, 0.0],
+    [20e3, 0.0, 40e3],
+]
+"""Pressures stepped through, Pa (a return to zero and an MCP-only-ish case included)."""
+EXTENSIBLE_MCP = """\
+exo_digit:
+  segments:
+    - {layer_axial_stiffness: 0.0}   # N per unit strain: MCP without a layer (MODEL.md §12)
+    - {}
+    - {}
+"""
+
+
+@pytest.fixture
+def params_file(tmp_path):
+    path = tmp_path / 'extensible_mcp.yaml'
+    path.write_text(EXTENSIBLE_MCP)
+    return path
+
+
+@pytest.fixture
+def model(params_file):
+    return GloveModel(load_params(params_file))
+
+
+@pytest.fixture
+def rest(model):
+    return np.array([segment.arc_length for segment in model.params.exo_digit.segments])
+
+
+def assert_lengths_of_the_solve(lengths, solution, rest):
+    """Lengths as solved independently; the inextensible segments exactly at rest."""
+    np.testing.assert_allclose(lengths, solution.lengths, rtol=0.0, atol=LENGTH_TOLERANCE)
+    np.testing.assert_array_equal(lengths[1:], rest[1:])
+
+
+def test_the_plant_publishes_the_segment_lengths_of_the_solve(params_file, model, rest, tmp_path):
+    with GloveSim(params_file, log_dir=tmp_path / 'logs') as glove:
+        np.testing.assert_array_equal(glove.state.lengths, rest)
+        for command in COMMANDS:
+            state = glove.step(command)
+            np.testing.assert_array_equal(state.pressure, command)  # no chamber lag, no noise
+            solution = model.solve(command)
+            assert solution.converged
+            assert_lengths_of_the_solve(state.lengths, solution, rest)
+            np.testing.assert_allclose(state.q, solution.q, rtol=0.0, atol=ANGLE_TOLERANCE)
+            if command[0] > 0.0:
+                assert state.lengths[0] > rest[0] + 1e-4  # the MCP stretches under pressure
+        np.testing.assert_array_equal(glove.reset().lengths, rest)
+
+
+def test_a_run_records_the_segment_lengths_of_each_step(params_file, model, rest, tmp_path):
+    with GloveSim(params_file, log_dir=tmp_path / 'logs') as glove:
+        glove.reset()
+        controller = subprocess.Popen(
+            [sys.executable, str(CONTROLLER), '--ros-args', '-r', f'__ns:={glove.namespace}'],
+            env=glove.env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        try:
+            record = glove.run(0.3)
+        finally:
+            controller.send_signal(signal.SIGINT)
+            try:
+                controller.wait(5)
+            except subprocess.TimeoutExpired:
+                controller.kill()
+                controller.wait()
+    assert record.lengths.shape == (30, 3)
+    assert record.lengths[:, 0].max() > rest[0] + 1e-4  # the run pressurised the MCP
+    for t, pressure, lengths, command in zip(
+        record.t, record.pressure, record.lengths, record.command, strict=True
+    ):
+        np.testing.assert_array_equal(command, command_at(t))
+        assert_lengths_of_the_solve(lengths, model.solve(pressure), rest)
+
+
+def test_markers_draw_the_arcs_at_the_published_lengths(params_file, rest, tmp_path):
+    with GloveSim(params_file, plant={'marker_rate_hz': 20.0}, log_dir=tmp_path / 'logs') as glove:
+        probe = RosProbe(glove.domain_id, name='extensible_probe')
+        try:
+            markers = probe.subscribe(f'{glove.namespace}/markers', MarkerArray)
+            state = glove.step([40e3, 40e3, 40e3])  # lockstep: the plant holds this state
+
+            def stamped_now(array):
+                stamp = array.markers[0].header.stamp
+                return round(state.t * 1e9) == stamp.sec * 10**9 + stamp.nanosec
+
+            array = markers.wait_for(stamped_now, 10.0)
+        finally:
+            probe.close()
+    assert array is not None, 'no markers of the stepped state'
+    assert state.lengths[0] > rest[0] + 1e-4
+    # The backbone: base block, then each arc (ARC_SAMPLES points) and the two ends of its block.
+    points = np.array([[p.x, p.y] for p in array.markers[0].points])
+    for k, (length, angle) in enumerate(zip(state.lengths, state.q, strict=True)):
+        arc = points[2 + k * (ARC_SAMPLES + 2) :][:ARC_SAMPLES]
+        chord = np.linalg.norm(arc[-1] - arc[0])
+        # A circular arc of length ℓ bent by q has the chord 2ℓ·sin(q/2)/q (closed form).
+        assert chord == pytest.approx(2.0 * length * math.sin(angle / 2.0) / angle, rel=EXACT)
