@@ -15,8 +15,10 @@ by λ(y) = 1 + y q / ℓ̂ when the segment bends by q (eqs 24-26).
   N(q, λ_b) = ∫ σ dA (12.2); the pressure pushes the end faces apart on A_p (12.3).
 
 :class:`SectionQuadrature` turns :math:`\int_A g(y)\,dA` into a weighted sum over fixed
-Gauss-Legendre points of the three zones; the integrand is smooth, so the sum converges
-geometrically and reaches 1e-13 relative with the default orders.
+Gauss-Legendre points of the three zones. Every integrand depends on y alone, so the arch is
+integrated in y against its width; the substitutions u = r0 sin θ and u = R sin θ (u = y − b − h)
+make both pieces smooth, the sum converges geometrically, and the default 52 points per section
+agree with adaptive 2-D quadrature to about 1e-14 relative.
 """
 
 from __future__ import annotations
@@ -67,24 +69,29 @@ class SectionQuadrature:
     weights: NDArray[np.float64]
 
     @classmethod
-    def of(
-        cls, segment: Segment, order: int = 12, radial_order: int = 8, angular_order: int = 28
-    ) -> SectionQuadrature:
-        """Gauss-Legendre rule for the three zones of ``segment`` (eq 27's three integrals)."""
+    def of(cls, segment: Segment, order: int = 8, arch_order: int = 18) -> SectionQuadrature:
+        """Gauss-Legendre rule for the three zones of ``segment`` (eq 27's three integrals).
+
+        The half annulus has width 2(√(R² − u²) − √(r0² − u²)) at u = y − b − h < r0 and
+        2√(R² − u²) above; u = r0 sin θ (θ in [0, π/2]) and u = R sin θ (θ in [asin(r0/R), π/2])
+        remove the square-root ends. ``order`` points per rectangle, ``arch_order`` per piece.
+        """
         r0, t = segment.inner_radius, segment.wall_thickness
+        outer = segment.outer_radius
         h, b = segment.wall_height, segment.base_thickness
         y_base, w_base = _gauss(order, 0.0, b)
         y_wall, w_wall = _gauss(order, b, b + h)
-        radius, w_radius = _gauss(radial_order, r0, r0 + t)
-        angle, w_angle = _gauss(angular_order, 0.0, 0.5 * math.pi)
-        y_arch = b + h + np.outer(radius, np.sin(angle))
-        # Two quarter annuli (eq 27's factor 2); the polar area element is r dr dφ.
-        w_arch = 2.0 * np.outer(w_radius * radius, w_angle)
+        angle, w_angle = _gauss(arch_order, 0.0, 0.5 * math.pi)
+        u_inner, cos_inner = r0 * np.sin(angle), np.cos(angle)
+        w_inner = (
+            w_angle * 2.0 * (np.sqrt(outer**2 - u_inner**2) - r0 * cos_inner) * r0 * cos_inner
+        )
+        angle, w_angle = _gauss(arch_order, math.asin(r0 / outer), 0.5 * math.pi)
+        u_outer = outer * np.sin(angle)
+        w_outer = w_angle * 2.0 * (outer * np.cos(angle)) ** 2
         return cls(
-            heights=np.concatenate([y_base, y_wall, y_arch.ravel()]),
-            weights=np.concatenate(
-                [2.0 * segment.outer_radius * w_base, 2.0 * t * w_wall, w_arch.ravel()]
-            ),
+            heights=np.concatenate([y_base, y_wall, b + h + u_inner, b + h + u_outer]),
+            weights=np.concatenate([2.0 * outer * w_base, 2.0 * t * w_wall, w_inner, w_outer]),
         )
 
     def integrate(self, integrand: NDArray) -> NDArray:
