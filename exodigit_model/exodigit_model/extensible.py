@@ -61,6 +61,10 @@ def solve_linear(matrix, rhs):
         return np.linalg.solve(a, b).tolist()
     # a batch: (n, n, N) -> (N, n, n); a singular row gives NaN there, not an exception.
     stacked, right = np.moveaxis(a, -1, 0), np.moveaxis(b, -1, 0)
+    try:
+        return list(np.linalg.solve(stacked, right[..., None])[..., 0].T)
+    except np.linalg.LinAlgError:
+        pass
     determinant = np.linalg.det(stacked)
     usable = np.isfinite(determinant) & (determinant != 0.0)
     solution = np.full(right.shape, np.nan)
