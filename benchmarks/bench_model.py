@@ -5,6 +5,7 @@ Measures, on this machine, in one run:
 - cold solve from q = 0 at 50 kPa;
 - tau_s for three joints (the solver's hot path, and the numpy API);
 - batch forward solve of 10,000 random pressure triples (0-60 kPa);
+- the same with every segment extensible (issue 10): warm solve and batch;
 - the naive solve a researcher would write (scipy quad/dblquad for tau_s, finite-difference
   Jacobians of the kinematics, scipy.optimize.fsolve), the speed-up ratio and the agreement.
 """
@@ -139,6 +140,36 @@ class NaiveModel:
         return optimize.fsolve(self.residual, q0, args=(p,), xtol=1e-13)
 
 
+def _bench_extensible(staircase) -> None:
+    """Issue 10: every segment extensible (MODEL.md §12), six unknowns per solve."""
+    segments = [{'layer_axial_stiffness': e} for e in (0.0, 50.0, 20.0)]
+    model = GloveModel(params_from_dict({'exo_digit': {'segments': segments}}))
+    times, iterations = [], []
+    for _ in range(10):
+        previous = None
+        for level in staircase:
+            elapsed, previous = _timed(model.solve, np.full(3, level), previous)
+            times.append(elapsed)
+            iterations.append(previous.iterations)
+    median, p99 = _percentiles(times)
+    print(
+        f'warm extensible coupled solve (E_L = 0, 50, 20 N), the same staircase: median '
+        f'{median:.1f} us, p99 {p99:.1f} us, median iterations {np.median(iterations):g}'
+        '  [median <= 150 us]'
+    )
+    rng = np.random.default_rng(3)
+    pressures = rng.uniform(0.0, 60e3, (10_000, 3))
+    model.solve_batch(pressures[:100])
+    cold_time, cold = _timed(model.solve_batch, pressures)
+    stepped = pressures + rng.uniform(-500.0, 500.0, pressures.shape)
+    warm_time, warm = _timed(model.solve_batch, stepped, cold.q, lengths0=cold.lengths)
+    print(
+        f'extensible batch of 10,000 random triples: from rest {10_000 / cold_time:,.0f} '
+        f'solves/s; the next 0.5 kPa step from those {10_000 / warm_time:,.0f} solves/s; all '
+        f'converged: {bool(cold.converged.all() and warm.converged.all())}  [>= 100,000/s]'
+    )
+
+
 def bench(naive_steps: int) -> None:
     params = load_params()
     build_time, model = _timed(GloveModel, params)
@@ -209,6 +240,8 @@ def bench(naive_steps: int) -> None:
         f'{10_000 / batch_time:,.0f} solves/s, all converged: {bool(batch.converged.all())}'
         '  [>= 200,000/s]'
     )
+
+    _bench_extensible(staircase)
 
     cold = [_timed(model.solve, np.full(3, 50e3))[0] for _ in range(300)]
     print(f'cold solve from q = 0 at 50 kPa: median {_percentiles(cold)[0]:.1f} us  [<= 500 us]')
