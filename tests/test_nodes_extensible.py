@@ -134,3 +134,16 @@ def test_markers_draw_the_arcs_at_the_published_lengths(params_file, rest, tmp_p
         chord = np.linalg.norm(arc[-1] - arc[0])
         # A circular arc of length ℓ bent by q has the chord 2ℓ·sin(q/2)/q (closed form).
         assert chord == pytest.approx(2.0 * length * math.sin(angle / 2.0) / angle, rel=EXACT)
+
+
+def test_the_estimator_recovers_the_contact_forces_of_an_extensible_glove(
+    params_file, model, tmp_path
+):
+    # The robot-side estimate from the published q and p, solved for its own bottom strains
+    # (MODEL.md §12), is the plant's contact force when both run the same glove.
+    with GloveSim(params_file, estimator=True, log_dir=tmp_path / 'logs') as glove:
+        for command in COMMANDS[:3]:
+            state = glove.step(command)
+            expected = model.solve(command)
+            assert expected.converged
+            np.testing.assert_allclose(state.estimated_forces, expected.forces, atol=1e-8)

@@ -17,7 +17,7 @@ from exodigit_nodes.controllers import (
     Sine,
     Staircase,
 )
-from exodigit_nodes.estimation import Pair, SamplePairer, StiffnessWindow
+from exodigit_nodes.estimation import SamplePairer, StiffnessWindow
 from exodigit_nodes.inputs import (
     InvalidInputError,
     RejectionTally,
@@ -379,14 +379,15 @@ def test_pairer_drops_samples_that_lost_their_partner():
 
 def test_window_identifies_the_finger_stiffness_and_slides(model):
     other = stiffer_finger_model(2.0)
-    window = StiffnessWindow(model, 50)
+    window = StiffnessWindow(50)
     with pytest.raises(ValueError, match='at least two'):
         window.fit()
     rng = np.random.default_rng(1)
     for plant in (model, other):
         for _ in range(50):
             pressure = rng.uniform(5e3, 50e3, 3)
-            window.add(Pair(plant.solve(pressure).q, pressure))
+            angles = plant.solve(pressure).q
+            window.add(angles, model.estimate_finger_torque(angles, pressure))
         stiffness = np.array([j.stiffness for j in plant.params.finger.joints])
         np.testing.assert_allclose(window.fit().stiffness, stiffness, rtol=1e-9)
 

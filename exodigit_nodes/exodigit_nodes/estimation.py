@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from exodigit_model import GloveModel, StiffnessFit
+from exodigit_model import StiffnessFit, fit_stiffness
 
 PAIR_DEPTH = 16
 """Unpaired samples kept per topic while waiting for their partner."""
@@ -71,28 +71,29 @@ class SamplePairer:
 
 
 class StiffnessWindow:
-    """The last ``size`` pairs, and the finger stiffness K_H identified from them.
+    """The last ``size`` estimates (angles and τ̂_H), and the finger stiffness fitted to them.
+
+    Each pair is estimated once, when it arrives (the node publishes that estimate); the window
+    keeps its angles and estimated finger torque, so a fit costs a least-squares solve, not
+    ``size`` force estimates (with extensible segments each is a root-find, MODEL.md §12).
 
     Parameters
     ----------
-    model : GloveModel
-        Model of the exo-digit used for the robot-side force estimate.
     size : int
-        Number of pairs kept (the oldest is dropped first).
+        Number of estimates kept (the oldest is dropped first).
     """
 
-    def __init__(self, model: GloveModel, size: int) -> None:
-        self.model = model
+    def __init__(self, size: int) -> None:
         self.size = size
         self._angles = np.zeros((size, 3))
-        self._pressure = np.zeros((size, 3))
+        self._torque = np.zeros((size, 3))
         self.count = 0
         self._next = 0
 
-    def add(self, pair: Pair) -> None:
-        """Put one pair in, dropping the oldest when full."""
-        self._angles[self._next] = pair.angles
-        self._pressure[self._next] = pair.pressure
+    def add(self, angles: NDArray[np.float64], finger_torque: NDArray[np.float64]) -> None:
+        """Put in one estimate: angles q (rad) and τ̂_H (N·m); drops the oldest when full."""
+        self._angles[self._next] = angles
+        self._torque[self._next] = finger_torque
         self._next = (self._next + 1) % self.size
         self.count = min(self.count + 1, self.size)
 
@@ -101,11 +102,11 @@ class StiffnessWindow:
         self.count = self._next = 0
 
     def fit(self) -> StiffnessFit:
-        """Least-squares K_H over the window (``GloveModel.fit_stiffness``).
+        """The least-squares spring τ̂_H,k = k_k (q_k − q_r,k) over the window.
 
         Raises
         ------
         ValueError
             If the window is empty or a joint never moved in it.
         """
-        return self.model.fit_stiffness(self._angles[: self.count], self._pressure[: self.count])
+        return fit_stiffness(self._angles[: self.count], self._torque[: self.count])

@@ -83,7 +83,7 @@ class Estimator(GloveNode):
         super().__init__()
         self.model = load_model(self.values['params_file'])
         self.pairer = SamplePairer()
-        self.window = StiffnessWindow(self.model, self.values['identification_window'])
+        self.window = StiffnessWindow(self.values['identification_window'])
         self.pairs = 0
         self.forces = np.zeros(3)
         self.fit = None
@@ -118,7 +118,7 @@ class Estimator(GloveNode):
     def apply(self, settings, changed: set[str]) -> None:
         """Use a new window size or identification period (max_sample_age is read live)."""
         if 'identification_window' in changed:
-            self.window = StiffnessWindow(self.model, self.values['identification_window'])
+            self.window = StiffnessWindow(self.values['identification_window'])
         if 'identification_period' in changed:
             self.destroy_timer(self.identify_timer)
             self.identify_timer = self.create_timer(
@@ -157,7 +157,7 @@ class Estimator(GloveNode):
         self.forces = forces
         self.force_publisher.publish(fill(self.force_message, forces))
         self.torque_publisher.publish(fill(self.torque_message, torque))
-        self.window.add(pair)
+        self.window.add(pair.angles, torque)
 
     def identify(self) -> None:
         """Fit the effective spring over the window; publish k (N·m/rad) and q_r (rad)."""
