@@ -145,6 +145,9 @@ def test_bag_states_are_the_models_solution_of_the_commands(session):
     assert np.allclose(chamber[-1], COMMANDS[-1])
     forces = np.array([m.data for _, m in found[f'{NAMESPACE}/contact_forces']])
     np.testing.assert_allclose(forces[-1], model.solve(COMMANDS[-1]).forces, atol=1e-6)
+    lengths = np.array([m.data for _, m in found[f'{NAMESPACE}/segment_lengths']])
+    rest = [segment.arc_length for segment in model.params.exo_digit.segments]
+    np.testing.assert_array_equal(lengths[-1], rest)  # the default glove is inextensible
     stamps = [stamp for stamp, _ in found[f'{NAMESPACE}/joint_states']]
     assert stamps == sorted(stamps)
 

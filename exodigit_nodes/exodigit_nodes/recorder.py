@@ -5,10 +5,12 @@ Usage::
     python -m exodigit_nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
 
 Subscribes, in its namespace, to every glove topic of INTERFACES.md (``joint_states``,
-``chamber_pressure``, ``pressure_command``, ``contact_forces``, ``estimated_contact_forces``,
-``estimated_finger_stiffness``, ``joint_targets``, ``markers``) and to ``/diagnostics`` and
-``/clock``, and writes the serialized (CDR) messages as they arrive, stamped with the node clock
-(simulated time under ``use_sim_time``), to the bag folder ``DIR`` with the ``rosbags`` library.
+``chamber_pressure``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
+``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
+``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to
+``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive,
+stamped with the node clock (simulated time under ``use_sim_time``), to the bag folder ``DIR``
+with the ``rosbags`` library.
 The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
 Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
 written); a topic nobody publishes is listed with 0 messages.
@@ -38,8 +40,12 @@ TOPICS = {
     messages.CHAMBER_PRESSURE: Float64MultiArray,
     messages.PRESSURE_COMMAND: Float64MultiArray,
     messages.CONTACT_FORCES: Float64MultiArray,
+    messages.SEGMENT_LENGTHS: Float64MultiArray,
+    messages.PATIENT_EFFORT: Float64MultiArray,
     messages.ESTIMATED_CONTACT_FORCES: Float64MultiArray,
     messages.ESTIMATED_FINGER_STIFFNESS: Float64MultiArray,
+    messages.ESTIMATED_FINGER_TORQUE: Float64MultiArray,
+    messages.ESTIMATED_REST_ANGLE: Float64MultiArray,
     messages.JOINT_TARGETS: Float64MultiArray,
     messages.MARKERS: MarkerArray,
     messages.DIAGNOSTICS: DiagnosticArray,
