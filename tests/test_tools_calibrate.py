@@ -1,6 +1,7 @@
 """``exodigit calibrate``: round trips from known parameters plus noise, and refused fits."""
 
 import csv
+import math
 
 import numpy as np
 import pytest
@@ -14,6 +15,9 @@ from exodigit_model import JOINT_NAMES, GloveModel, dump_params, load_params, pa
 STANDARD_ERRORS = 3.0
 ANGLE_NOISE_DEG = 0.3
 FORCE_NOISE_N = 0.01
+LENGTH_NOISE_MM = 0.2
+#: Residuals against independent single solves (deg or mm, solver tolerance).
+RESIDUAL_TOLERANCE = 1e-6
 
 HEADER = [
     *(f'p_{n}_kpa' for n in JOINT_NAMES),
@@ -21,13 +25,17 @@ HEADER = [
     *(f'f_{n}_n' for n in JOINT_NAMES),
     'condition',
 ]
+LENGTHS = [f'l_{n}_mm' for n in JOINT_NAMES]
+HEADER_WITH_LENGTHS = [*HEADER[:-1], *LENGTHS, 'condition']
 
 
-def true_params(c=(1.35e5, 1.2e4, 2e3), k=(0.055, 0.022, 0.012)):
+def true_params(c=(1.35e5, 1.2e4, 2e3), k=(0.055, 0.022, 0.012), layers=(math.inf,) * 3):
     data = load_params().to_dict()
     data['material'].update(c1=c[0], c2=c[1], c3=c[2])
     for joint, stiffness in zip(data['finger']['joints'], k, strict=True):
         joint['stiffness'] = stiffness
+    for segment, layer in zip(data['exo_digit']['segments'], layers, strict=True):
+        segment['layer_axial_stiffness'] = layer
     return params_from_dict(data)
 
 
@@ -53,6 +61,20 @@ def synthetic_rows(params, samples, free_every=3, seed=1):
     return rows
 
 
+def with_lengths(params, rows, measured=(0, 1, 2), seed=2):
+    """``rows`` (from synthetic_rows) with the bottom-face lengths, mm, of GloveModel.solve."""
+    model = GloveModel(params)
+    rng = np.random.default_rng(seed)
+    out = []
+    for row in rows:
+        pressure = np.array(row[:3], dtype=float) * 1e3
+        solution = model.solve(pressure, free=row[-1] == 'free')
+        lengths = solution.lengths * 1e3 + rng.normal(0, LENGTH_NOISE_MM, 3)
+        cells = [lengths[k] if k in measured else '' for k in range(3)]
+        out.append([*row[:-1], *cells, row[-1]])
+    return out
+
+
 def write_csv(path, rows, header=HEADER):
     with open(path, 'w', newline='') as handle:
         writer = csv.writer(handle)
@@ -69,12 +91,15 @@ def reported(stdout, name):
 
 
 def check_round_trip(stdout, out, truth, names):
-    """Reported values within STANDARD_ERRORS of ``truth`` (display units: kPa, N·m/rad)."""
+    """Reported values within STANDARD_ERRORS of ``truth`` (display units: kPa, N·m/rad, N)."""
     data = load_params(out).to_dict()
     for name, true_value in zip(names, truth, strict=True):
         value, error = reported(stdout, name)
         if name.startswith('k_'):
             written = data['finger']['joints'][JOINT_NAMES.index(name[2:])]['stiffness']
+        elif name.startswith('EL_'):
+            segment = data['exo_digit']['segments'][JOINT_NAMES.index(name[3:])]
+            written = segment['layer_axial_stiffness']
         else:
             written = data['material'][name] / 1e3
         assert written == pytest.approx(value, rel=1e-4, abs=1e-9)
@@ -149,7 +174,7 @@ def zero_pressure_rows(count):
     ('mode', 'rows', 'fragment'),
     [
         ('material', lambda: zero_pressure_rows(10), 'samples with a pressure > 0, got 0'),
-        ('material', lambda: synthetic_rows(true_params(), 3), 'at least 4 samples'),
+        ('material', lambda: synthetic_rows(true_params(), 1), 'at least 4 measured values'),
         ('stiffness', lambda: synthetic_rows(true_params(), 6, free_every=1), '2 finger samples'),
         ('both', lambda: synthetic_rows(true_params(), 6, free_every=1), '2 finger samples'),
         (
@@ -194,3 +219,127 @@ def test_bad_csv_is_one_line(header, row, fragment, tmp_path, capsys):
     assert main(['calibrate', str(data), '--out', str(tmp_path / 'x.yaml')]) == 2
     err = capsys.readouterr().err.strip()
     assert fragment in err and '\n' not in err
+
+
+def run_calibrate(tmp_path, rows, mode, header=HEADER_WITH_LENGTHS, params=None):
+    data = write_csv(tmp_path / 'bench.csv', rows, header)
+    out = tmp_path / f'{mode}.yaml'
+    extra = [] if params is None else ['--params', str(params)]
+    code = main(['calibrate', str(data), '--fit', mode, '--out', str(out), *extra])
+    return code, out
+
+
+def rmse_after(stdout, what):
+    return float(stdout.split(f'{what} RMSE: ')[1].split(' before, ')[1].split()[0])
+
+
+def test_layer_round_trip(tmp_path, capsys):
+    """E_L of three segments from lengths and angles; --params has them inextensible (.inf)."""
+    material = true_params(k=(0.04, 0.03, 0.015))  # the default finger, the true material
+    truth = true_params(k=(0.04, 0.03, 0.015), layers=(40.0, 60.0, 25.0))
+    params_file = tmp_path / 'material.yaml'
+    dump_params(material, params_file)
+    rows = with_lengths(truth, synthetic_rows(truth, 18))
+    code, out = run_calibrate(tmp_path, rows, 'layer', params=params_file)
+    stdout = capsys.readouterr().out
+    assert code == 0
+    names = [f'EL_{n}' for n in JOINT_NAMES]
+    check_round_trip(stdout, out, [40.0, 60.0, 25.0], names)
+    assert [line.split()[1] for line in stdout.splitlines() if line.split()[0] in names] == [
+        'inf'
+    ] * 3
+    assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
+    assert rmse_after(stdout, 'angle') < 2 * ANGLE_NOISE_DEG
+    assert (tmp_path / 'layer_fit.png').is_file()
+
+
+def test_layer_and_material_round_trip(tmp_path, capsys):
+    """Yeoh C1..C3 and the MCP layer together; only the MCP length is measured."""
+    truth = true_params(k=(0.04, 0.03, 0.015), layers=(30.0, math.inf, math.inf))
+    rows = with_lengths(truth, synthetic_rows(truth, 18), measured=(0,))
+    code, out = run_calibrate(tmp_path, rows, 'layer+material')
+    stdout = capsys.readouterr().out
+    assert code == 0
+    check_round_trip(stdout, out, [135.0, 12.0, 2.0, 30.0], ['c1', 'c2', 'c3', 'EL_mcp'])
+    segments = load_params(out).exo_digit.segments
+    assert [s.layer_axial_stiffness for s in segments[1:]] == [math.inf, math.inf]
+    assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
+
+
+def test_layer_and_scale_round_trip(tmp_path, capsys):
+    """One factor on the Yeoh coefficients and the MCP layer, from MCP-only samples."""
+    truth = true_params(c=(0.5 * 1.1e5, 0.5 * 2e4, 0.0), layers=(15.0, math.inf, math.inf))
+    model = GloveModel(truth)
+    rng = np.random.default_rng(3)
+    rows = []
+    for kpa in (10, 20, 30, 40, 50):
+        for condition in ('free', 'finger'):
+            solution = model.solve([kpa * 1e3, 0, 0], free=condition == 'free')
+            angle = np.degrees(solution.q[0]) + rng.normal(0, ANGLE_NOISE_DEG)
+            length = solution.lengths[0] * 1e3 + rng.normal(0, LENGTH_NOISE_MM)
+            rows.append([kpa, 0, 0, angle, '', '', '', '', '', length, '', '', condition])
+    code, out = run_calibrate(tmp_path, rows, 'layer+scale')
+    stdout = capsys.readouterr().out
+    assert code == 0
+    value, error = reported(stdout, 'scale')
+    assert abs(value - 0.5) <= STANDARD_ERRORS * error
+    value, error = reported(stdout, 'EL_mcp')
+    assert abs(value - 15.0) <= STANDARD_ERRORS * error
+    material = load_params(out).material
+    assert material.c1 == pytest.approx(1.1e5 * reported(stdout, 'scale')[0], rel=1e-4)
+    assert material.c2 / material.c1 == pytest.approx(2e4 / 1.1e5, rel=1e-12)
+
+
+def test_residuals_weigh_lengths_in_mm_against_single_solves(tmp_path):
+    """residuals(): angle misfits in deg, then lengths in mm / LENGTH_PER_DEGREE."""
+    truth = true_params(layers=(30.0, 50.0, math.inf))
+    rows = with_lengths(truth, synthetic_rows(truth, 5), measured=(0, 1))
+    for row in rows:
+        row[6:9] = ['', '', '']  # no forces
+    samples = calibration.read_samples(write_csv(tmp_path / 'b.csv', rows, HEADER_WITH_LENGTHS))
+    model = GloveModel(true_params(layers=(20.0, 80.0, math.inf)))
+    expected_angles, expected_lengths = [], []
+    for row in rows:
+        solution = model.solve(np.array(row[:3], dtype=float) * 1e3, free=row[-1] == 'free')
+        expected_angles += list(np.degrees(solution.q) - np.array(row[3:6], dtype=float))
+        expected_lengths += list(solution.lengths[:2] * 1e3 - np.array(row[9:11], dtype=float))
+    residual = calibration.residuals(model, samples)
+    np.testing.assert_allclose(
+        residual,
+        [*expected_angles, *(np.array(expected_lengths) / calibration.LENGTH_PER_DEGREE)],
+        atol=RESIDUAL_TOLERANCE,
+    )
+
+
+@pytest.mark.parametrize('mode', ['layer', 'layer+scale', 'layer+material'])
+def test_layer_fit_without_lengths_is_refused(mode, tmp_path, capsys):
+    rows = synthetic_rows(true_params(), 8)
+    code, out = run_calibrate(tmp_path, rows, mode, header=HEADER)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and '\n' not in err
+    assert err.endswith(
+        f'--fit {mode} needs measured bottom-face lengths (mm): '
+        'missing column(s) l_mcp_mm, l_pip_mm, l_dip_mm'
+    )
+    assert not out.exists()
+    empty = [[*row[:-1], '', row[-1]] for row in rows]
+    code, out = run_calibrate(tmp_path, empty, mode, header=[*HEADER[:-1], 'l_pip_mm', HEADER[-1]])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and '\n' not in err
+    assert err.endswith('column(s) l_pip_mm have no values')
+
+
+def test_unmeasured_cells_are_skipped_and_empty_rows_refused(tmp_path, capsys):
+    header = [*HEADER[:-1], 'l_mcp_mm', 'condition']
+    rows = [
+        [50, 0, 0, '', '', '', '', '', '', 52.0, 'finger'],
+        [50, 0, 0, 61, '', '', '', '', '', '', 'free'],
+    ]
+    samples = calibration.read_samples(write_csv(tmp_path / 'a.csv', rows, header))
+    assert samples.measured().tolist() == [1, 1]
+    assert np.isnan(samples.angles[0]).all() and samples.lengths[0, 0] == pytest.approx(0.052)
+    rows.append([10, 0, 0, '', '', '', '', '', '', '', 'finger'])
+    data = write_csv(tmp_path / 'b.csv', rows, header)
+    assert main(['calibrate', str(data), '--out', str(tmp_path / 'x.yaml')]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith('line 4: nothing measured (no angle, force or length)')

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import PATIENT_PRESETS, GloveModel, ParameterError, load_params, patient_file
 from ._deps import ToolError, progress
+from .calibration import FIT_MODES
 
 EXIT_USAGE = 2
 """Exit status for bad input (as argparse uses for a bad command line)."""
@@ -30,17 +31,19 @@ EXAMPLES = {
 SUMMARIES = {
     'curves': "simulate the paper's bench experiments: CSV files and PNG plots",
     'draw': 'draw the finger and the exo-digit at one pressure',
-    'calibrate': 'fit Yeoh coefficients and/or finger stiffness to measurements',
+    'calibrate': 'fit the material, finger stiffness and/or layer stiffness to measurements',
     'plot': 'plot a recorded session (rosbag2 bag)',
 }
 
 DESCRIPTIONS = {
     'curves': "Simulate the paper's bench experiments (free bending of each module, bending on "
-    'the finger, contact forces, tip markers) and write CSV files and PNG plots.',
+    'the finger, contact forces, segment lengths, tip markers) and write CSV files and PNG '
+    'plots.',
     'draw': 'Draw the finger and the exo-digit at one pressure, to scale, with contact forces '
     'and joint angles.',
-    'calibrate': 'Fit the Yeoh coefficients and/or the finger stiffness to measured samples and '
-    'write a parameter file, with standard errors and a measured-against-model plot.',
+    'calibrate': 'Fit the Yeoh coefficients, the finger stiffness and/or the axial stiffness of '
+    "the segments' bottom layers (E_L, MODEL.md §12) to measured samples and write a parameter "
+    'file, with standard errors and a measured-against-model plot.',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
     'exodigit_nodes.recorder (or ros2 bag record).',
 }
@@ -106,14 +109,19 @@ def build_parser() -> argparse.ArgumentParser:
         'data',
         metavar='DATA.csv',
         help='samples: p_mcp_kpa,p_pip_kpa,p_dip_kpa,q_mcp_deg,q_pip_deg,q_dip_deg '
-        '[,f_mcp_n,f_pip_n,f_dip_n] [,condition (free|finger)]',
+        '[,f_mcp_n,f_pip_n,f_dip_n] [,l_mcp_mm,l_pip_mm,l_dip_mm] [,condition (free|finger)]; '
+        'empty cells are not measured',
     )
     _params_argument(calibrate, patient=False)
     calibrate.add_argument(
         '--fit',
-        choices=('material', 'stiffness', 'both'),
+        choices=tuple(FIT_MODES),
         default='both',
-        help='what to fit: Yeoh c1,c2,c3 (material), finger k_H (stiffness) or both (default)',
+        metavar='WHAT',
+        help='what to fit (docs/tools.md): Yeoh c1,c2,c3 (material), one factor on them (scale), '
+        'finger k_H (stiffness), material and stiffness (both, the default), E_L of the '
+        'segments with length data (layer), or E_L with the material (layer+material, '
+        'layer+scale)',
     )
     calibrate.add_argument(
         '--out',
@@ -172,7 +180,7 @@ def run_curves(args: argparse.Namespace) -> None:
     pressure = curves.parse_pressures(args.pressures)
     model = _model(args)
     folder = _out_dir(args.out)
-    steps = progress(total=5, desc='curves', unit='step')
+    steps = progress(total=6, desc='curves', unit='step')
     sweeps = curves.simulate(model, pressure)
     steps.update()
     markers = {
@@ -181,11 +189,14 @@ def run_curves(args: argparse.Namespace) -> None:
         if sweep.experiment != 'all'
     }
     curves.write_angles_csv(sweeps, folder / 'angles.csv')
+    curves.write_lengths_csv(sweeps, folder / 'lengths.csv')
     curves.write_markers_csv(markers, pressure, folder / 'markers.csv')
     steps.update()
     figures.angle_figure(sweeps, folder / 'angles.png')
     steps.update()
     figures.force_figure(sweeps, folder / 'forces.png')
+    steps.update()
+    figures.length_figure(sweeps, model.geometry.arc_lengths, folder / 'lengths.png')
     steps.update()
     figures.marker_figure(markers, pressure, folder / 'markers.png')
     steps.update()
@@ -193,8 +204,9 @@ def run_curves(args: argparse.Namespace) -> None:
     for line in curves.summary(sweeps):
         print(line, file=sys.stderr)
     print(
-        f'wrote {folder}/angles.csv, markers.csv, angles.png, forces.png, markers.png '
-        f'({pressure.size} pressures, {pressure[0] / 1e3:g}-{pressure[-1] / 1e3:g} kPa)'
+        f'wrote {folder}/angles.csv, lengths.csv, markers.csv, angles.png, forces.png, '
+        f'lengths.png, markers.png ({pressure.size} pressures, '
+        f'{pressure[0] / 1e3:g}-{pressure[-1] / 1e3:g} kPa)'
     )
 
 

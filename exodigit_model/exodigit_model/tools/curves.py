@@ -9,6 +9,9 @@ Markers (paper §3.1, Fig. 8): markers 1 and 2 sit at the proximal and distal en
 before a module's soft segment (the fixed link), markers 3 and 4 at the proximal and distal
 ends of the block after it (the moving link). Positions are given in the fixed block's frame:
 origin at the start of the soft segment, x along the fixed block, y towards the bending side.
+
+Lengths (MODEL.md §12, the paper's Fig. 12): the bottom-face arc length ℓ of each soft segment
+as solved; constant (the rest length) for an inextensible segment, the paper's model.
 """
 
 from __future__ import annotations
@@ -48,7 +51,7 @@ class Sweep:
     pressure : ndarray, shape (M,)
         The swept pressure, Pa.
     solution : BatchSolution
-        Solver output per pressure (angles rad, contact forces N).
+        Solver output per pressure (angles rad, contact forces N, bottom-face lengths m).
     """
 
     experiment: str
@@ -106,12 +109,15 @@ def simulate(model: GloveModel, pressure: NDArray) -> list[Sweep]:
     ]
 
 
-def module_markers(model: GloveModel, q: NDArray, module: int) -> NDArray[np.float64]:
+def module_markers(
+    model: GloveModel, q: NDArray, module: int, lengths: NDArray | None = None
+) -> NDArray[np.float64]:
     """Markers 1-4 of module ``module`` (0 = MCP) at angles ``q``, m, shape (4, 2).
 
-    In the frame of the block before the module's soft segment (see the module docstring).
+    ``lengths`` are the segments' bottom-face lengths ℓ (m; the rest lengths when omitted). In
+    the frame of the block before the module's soft segment (see the module docstring).
     """
-    pose = model.pose(q)
+    pose = model.pose(q, lengths)
     fixed_start, fixed_end = pose.block_origins[module], pose.block_ends[module]
     axis = (fixed_end - fixed_start) / np.linalg.norm(fixed_end - fixed_start)
     normal = np.array([-axis[1], axis[0]])
@@ -125,7 +131,13 @@ def module_markers(model: GloveModel, q: NDArray, module: int) -> NDArray[np.flo
 def sweep_markers(model: GloveModel, sweep: Sweep) -> NDArray[np.float64]:
     """Markers of the module of a single-chamber sweep, m, shape (M, 4, 2)."""
     module = JOINT_NAMES.index(sweep.experiment)
-    return np.array([module_markers(model, q, module) for q in sweep.solution.q])
+    solution = sweep.solution
+    return np.array(
+        [
+            module_markers(model, q, module, lengths)
+            for q, lengths in zip(solution.q, solution.lengths, strict=True)
+        ]
+    )
 
 
 ANGLE_HEADER = (
@@ -136,6 +148,13 @@ ANGLE_HEADER = (
     *(f'f_{name}_n' for name in JOINT_NAMES),
     'converged',
     'in_valid_range',
+)
+LENGTH_HEADER = (
+    'experiment',
+    'condition',
+    'pressure_kpa',
+    *(f'l_{name}_mm' for name in JOINT_NAMES),
+    'converged',
 )
 MARKER_HEADER = (
     'module',
@@ -162,6 +181,25 @@ def write_angles_csv(sweeps: list[Sweep], path: Path) -> None:
                         *(f'{v:.9g}' for v in solution.forces[row]),
                         int(solution.converged[row]),
                         int(solution.in_valid_range[row]),
+                    ]
+                )
+
+
+def write_lengths_csv(sweeps: list[Sweep], path: Path) -> None:
+    """Bottom-face arc lengths ℓ (mm) of every sweep, one row per pressure (MODEL.md §12)."""
+    with open(path, 'w', newline='') as handle:
+        writer = csv.writer(handle)
+        writer.writerow(LENGTH_HEADER)
+        for sweep in sweeps:
+            solution = sweep.solution
+            for row in range(sweep.pressure.size):
+                writer.writerow(
+                    [
+                        sweep.experiment,
+                        sweep.condition,
+                        f'{sweep.pressure[row] / 1e3:.6g}',
+                        *(f'{v:.9g}' for v in solution.lengths[row] * 1e3),
+                        int(solution.converged[row]),
                     ]
                 )
 

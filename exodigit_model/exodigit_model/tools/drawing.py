@@ -1,10 +1,12 @@
 """``exodigit draw``: the finger and the exo-digit at one pressure, to scale (mm).
 
-The exo-digit is drawn from :meth:`GloveModel.pose`: its base block starts at the origin, the
-inextensible layer is the line the pose gives and the segment body (height b + h + R) lies on
-the far side from the finger. The finger hangs under it (the +y side), its MCP joint under the
-middle of the MCP soft segment, one link radius below the layer; contact points, force arrows
-(on the finger, along the contact normals) and joint angles are written on the picture.
+The exo-digit is drawn from :meth:`GloveModel.pose` at the solved bottom-face lengths ℓ (the
+rest lengths unless a segment is extensible, MODEL.md §12): its base block starts at the
+origin, the bottom face (strain-limiting layer) is the line the pose gives and the segment
+body (height b + h + R) lies on the far side from the finger. The finger hangs under it (the
++y side), its MCP joint under the middle of the MCP soft segment at rest, one link radius below
+the layer; contact points, force arrows (on the finger, along the contact normals), joint
+angles and, for an extensible glove, the lengths are written on the picture.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import GloveModel, Solution
+from .. import GloveModel, GlovePose, Solution
 from ._deps import pyplot
 from .figures import DPI, JOINT_LABELS
 
@@ -30,20 +32,27 @@ FORCE_ARROW_SCALE = 0.02
 
 @dataclass(frozen=True)
 class Drawing:
-    """What a picture shows: the solution and the caption written on it."""
+    """What a picture shows: the solution, the pose drawn and the caption written on it."""
 
     solution: Solution
+    pose: GlovePose
     caption: str
 
 
-def caption(solution: Solution) -> str:
-    """One line with the pressures (kPa), angles (deg) and contact forces (N)."""
+def caption(solution: Solution, lengths: bool = False) -> str:
+    """One line with the pressures (kPa), angles (deg), lengths (mm) and contact forces (N).
+
+    The segments' bottom-face lengths ℓ are written only when ``lengths`` is true (a glove with
+    an extensible segment); otherwise they are the constant rest lengths.
+    """
     pressure = '/'.join(f'{v / 1e3:g}' for v in solution.pressure)
     angles = ', '.join(
         f'{label} {v:.1f}°' for label, v in zip(JOINT_LABELS, np.degrees(solution.q), strict=True)
     )
     forces = ', '.join(f'{v:.2f}' for v in solution.forces)
-    return f'p = {pressure} kPa: {angles}; f = {forces} N'
+    arcs = ', '.join(f'{v * 1e3:.1f}' for v in solution.lengths)
+    shown = f'; ℓ = {arcs} mm' if lengths else ''
+    return f'p = {pressure} kPa: {angles}{shown}; f = {forces} N'
 
 
 def _band(line: np.ndarray, normals: np.ndarray, height: float) -> np.ndarray:
@@ -60,7 +69,7 @@ def _normals(line: np.ndarray) -> np.ndarray:
 def draw(model: GloveModel, pressure, path: Path) -> Drawing:
     """Solve at ``pressure`` (Pa, shape (3,)) and write the picture to ``path`` (PNG)."""
     solution = model.solve(pressure)
-    pose = model.pose(solution.q, arc_samples=24)
+    pose = model.pose(solution.q, solution.lengths, arc_samples=24)
     segments = model.params.exo_digit.segments
     heights = [s.base_thickness + s.wall_height + s.outer_radius for s in segments]
     finger_base = np.array(
@@ -119,7 +128,7 @@ def draw(model: GloveModel, pressure, path: Path) -> Drawing:
     ax.grid(True, alpha=0.3)
     ax.set_xlabel('x (mm)')
     ax.set_ylabel('y (mm), finger side down')
-    text = caption(solution)
+    text = caption(solution, lengths=model.extensible)
     ax.set_title(text, fontsize=10)
     ax.legend(loc='lower left', fontsize='small')
     if not solution.converged:
@@ -127,4 +136,4 @@ def draw(model: GloveModel, pressure, path: Path) -> Drawing:
     figure.tight_layout()
     figure.savefig(path, dpi=DPI, metadata={'Title': 'exodigit draw', 'Description': text})
     plt.close(figure)
-    return Drawing(solution, text)
+    return Drawing(solution, pose, text)

@@ -23,6 +23,9 @@ CONDITION_STYLE = {
 }
 ALL_STYLE = {'marker': '^', 'color': 'tab:gray', 'linestyle': '--', 'label': 'on finger (all)'}
 
+PAPER_FIG12 = ((0.0, 46.0), (50.0, 62.2))
+"""The paper's Fig. 12: the six-ridge (MCP) module's length on the finger, (kPa, mm)."""
+
 
 def _panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
     plt = pyplot()
@@ -71,6 +74,31 @@ def force_figure(sweeps: list[Sweep], path: Path) -> None:
         ax.set_title(f'{JOINT_LABELS[joint]} contact')
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'f {JOINT_LABELS[joint]} (N)')
+    axes[0, 0].legend(fontsize='small')
+    _save(figure, path)
+
+
+def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
+    """Bottom-face arc length against pressure, one panel per segment (MODEL.md §12).
+
+    Free and on the finger (that module alone) and all chambers on the finger, the rest length
+    ``rest_lengths`` (m) dotted, and on the MCP panel the paper's Fig. 12 observation.
+    """
+    figure, axes = _panels('Bottom-face arc length against pressure: free and on the finger')
+    for joint, ax in enumerate(axes[0]):
+        name = JOINT_NAMES[joint]
+        for condition, style in CONDITION_STYLE.items():
+            sweep = _find(sweeps, name, condition)
+            ax.plot(sweep.pressure / 1e3, sweep.solution.lengths[:, joint] * 1e3, **style)
+        together = _find(sweeps, 'all', 'finger')
+        ax.plot(together.pressure / 1e3, together.solution.lengths[:, joint] * 1e3, **ALL_STYLE)
+        ax.axhline(rest_lengths[joint] * 1e3, color='k', linestyle=':', linewidth=1)
+        if joint == 0:
+            pressure, length = zip(*PAPER_FIG12, strict=True)
+            ax.plot(pressure, length, 'k*', markersize=10, label='paper Fig. 12 (on finger)')
+        ax.set_title(f'{JOINT_LABELS[joint]} segment (rest {rest_lengths[joint] * 1e3:g} mm)')
+        ax.set_xlabel('pressure (kPa)')
+        ax.set_ylabel(f'l {JOINT_LABELS[joint]} (mm)')
     axes[0, 0].legend(fontsize='small')
     _save(figure, path)
 
