@@ -79,8 +79,8 @@ class Estimator(GloveNode):
     executable = 'estimator'
     table = ESTIMATOR_PARAMETERS
 
-    def __init__(self) -> None:
-        super().__init__()
+    def __init__(self, **node_options) -> None:
+        super().__init__(**node_options)
         self.model = load_model(self.values['params_file'])
         self.pairer = SamplePairer()
         self.window = StiffnessWindow(self.values['identification_window'])

@@ -99,7 +99,8 @@ class GloveNode(Node):
     """Base of the three nodes: declared parameters, diagnostics and the rejection tally.
 
     A subclass names its executable (also the default node name) and its parameter table as class
-    attributes ``executable`` and ``table``.
+    attributes ``executable`` and ``table``. Keyword ``node_options`` go to rclpy's ``Node``
+    (``namespace``, ``parameter_overrides``, ``context``...: several nodes in one process).
 
     Raises
     ------
@@ -114,8 +115,8 @@ class GloveNode(Node):
     SingleThreadedExecutor at 100 Hz, measured here). Only for nodes whose callbacks do not take
     message info: in rclpy 7.1.6 such callbacks crash it ("null argument to internal routine")."""
 
-    def __init__(self) -> None:
-        super().__init__(self.executable)
+    def __init__(self, **node_options) -> None:
+        super().__init__(self.executable, **node_options)
         table = self.table
         given = {}
         try:

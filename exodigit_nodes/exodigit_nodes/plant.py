@@ -217,8 +217,8 @@ class Plant(GloveNode):
     executable = 'plant'
     table = PLANT_PARAMETERS
 
-    def __init__(self) -> None:
-        super().__init__()
+    def __init__(self, **node_options) -> None:
+        super().__init__(**node_options)
         values, settings = self.values, self.settings
         self.model = load_model(values['params_file'])
         self.simulation = GloveSimulation(self.model, settings.simulation)

@@ -166,8 +166,8 @@ class PressureCommand(GloveNode):
     executable = 'pressure_command'
     table = COMMAND_PARAMETERS
 
-    def __init__(self) -> None:
-        super().__init__()
+    def __init__(self, **node_options) -> None:
+        super().__init__(**node_options)
         self.model = load_model(self.values['params_file'])
         self.period = 1.0 / self.values['rate_hz']
         self.angles: tuple[float, np.ndarray] | None = None
