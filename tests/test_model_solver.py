@@ -364,6 +364,58 @@ def test_bad_batch_inputs_raise_value_error(value):
         MODEL.estimate_forces_batch(value, np.zeros((1, 3)))
 
 
+BAD_STATE_OR_ROWS = {
+    'six': np.full(6, 0.1),  # once answered with uninitialised memory in entries 3-5
+    'rows of six': np.full((2, 6), 0.1),
+    'three dimensions': np.ones((2, 3, 3)),
+    'a column': np.ones((3, 1)),
+    'ragged': [[1.0, 2.0, 3.0], [1.0]],
+    'two': [1.0, 2.0],
+    'a number': 0.1,
+    'text': 'abc',
+    'None': None,
+    'nan': [np.nan, 0.0, 0.0],
+    'inf in a row': [[0.0, np.inf, 0.0]],
+}
+
+
+@pytest.mark.parametrize('value', BAD_STATE_OR_ROWS.values(), ids=BAD_STATE_OR_ROWS.keys())
+def test_methods_of_a_state_or_rows_refuse_any_other_shape_naming_the_argument(value):
+    for call, name in (
+        (MODEL.structural_torque, 'q'),
+        (MODEL.structural_stiffness, 'q'),
+        (MODEL.pressure_torque, 'p'),
+        (MODEL.top_fibre_stretch, 'q'),
+        (MODEL.in_valid_range, 'q'),
+        (MODEL.in_range_of_motion, 'q'),
+        (lambda v: MODEL.contact_torque(v, np.zeros(3)), 'q'),
+        (lambda v: MODEL.contact_torque(np.zeros(3), v), 'forces'),
+        (lambda v: MODEL.estimate_finger_torque(v, np.zeros(3)), 'Q'),
+    ):
+        with pytest.raises(ValueError, match=rf'^{name} must'):
+            call(value)
+
+
+def test_the_structural_torque_table_refuses_a_shape_it_cannot_fill():
+    with pytest.raises(ValueError, match=r'\(2, 6\)'):
+        MODEL.structural.torque(np.full((2, 6), 0.1))
+
+
+def test_arguments_that_go_together_must_have_the_same_shape():
+    rows = np.zeros((4, 3))
+    with pytest.raises(ValueError, match=r'^strain must have the shape of q \(4, 3\)'):
+        MODEL.top_fibre_stretch(rows, np.zeros(3))
+    with pytest.raises(ValueError, match=r'^forces must have the shape of q \(4, 3\)'):
+        MODEL.contact_torque(rows, np.zeros((1, 3)))
+    with pytest.raises(ValueError, match=r'^forces must have the shape of q \(3,\)'):
+        MODEL.contact_torque(np.zeros(3), rows)
+    with pytest.raises(ValueError, match=r'^P must have the shape of Q \(4, 3\)'):
+        MODEL.estimate_forces_batch(rows, np.zeros((1, 3)))
+    with pytest.raises(ValueError, match=r'^P must have the shape of Q \(4, 3\)'):
+        MODEL.fit_stiffness(rows, np.zeros((2, 3)))
+    assert MODEL.top_fibre_stretch(rows, 0.01).shape == rows.shape  # one number: every row
+
+
 def test_batch_start_of_the_wrong_shape_is_rejected():
     with pytest.raises(ValueError, match='Q0'):
         MODEL.solve_batch(np.zeros((4, 3)), Q0=np.zeros((3, 3)))

@@ -212,12 +212,33 @@ def _joint_columns(name: str, value: ArrayLike) -> list[NDArray[np.float64]]:
 
 def as_joint_rows(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """``value`` as a finite float array of shape (N, 3), or a ValueError naming ``name``."""
-    array = np.asarray(value, dtype=float)
-    if array.ndim != 2 or array.shape[1] != 3:
-        raise ValueError(f'{name} must have shape (N, 3) (MCP, PIP, DIP), got {array.shape}')
+    return _joint_array(name, value, rows_only=True)
+
+
+def as_joint_array(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """``value`` as a finite float array of shape (3,) or (N, 3), or a ValueError naming it."""
+    return _joint_array(name, value, rows_only=False)
+
+
+def _joint_array(name: str, value: ArrayLike, rows_only: bool) -> NDArray[np.float64]:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        array = None
+    rows = array is not None and array.ndim == 2 and array.shape[1] == 3
+    if not (rows or (not rows_only and array is not None and array.shape == (3,))):
+        shapes = '(N, 3)' if rows_only else '(3,) or (N, 3)'
+        got = 'no array of numbers' if array is None else f'shape {array.shape}'
+        raise ValueError(f'{name} must have shape {shapes} (MCP, PIP, DIP), got {got}')
     if not np.all(np.isfinite(array)):
         raise ValueError(f'{name} must be finite')
     return array
+
+
+def _require_shape(name: str, array: NDArray, reference: str, shape: tuple) -> None:
+    """A ValueError naming ``name`` unless ``array`` has ``shape``, that of ``reference``."""
+    if array.shape != shape:
+        raise ValueError(f'{name} must have the shape of {reference} {shape}, got {array.shape}')
 
 
 class GloveModel:
@@ -285,16 +306,16 @@ class GloveModel:
     # -- torques and Jacobians ------------------------------------------------------------
 
     def structural_torque(self, q: ArrayLike) -> NDArray[np.float64]:
-        """τ_s(q), N·m, shape (3,) or (N, 3): negative for q > 0 (eqs 13, 27)."""
-        return self.structural.torque(q)[0]
+        """τ_s(q), N·m, shape (3,) or (N, 3) like ``q``: negative for q > 0 (eqs 13, 27)."""
+        return self.structural.torque(as_joint_array('q', q))[0]
 
     def structural_stiffness(self, q: ArrayLike) -> NDArray[np.float64]:
         """dτ_s/dq, N·m/rad, shape like ``q`` (negative: the segments resist bending)."""
-        return self.structural.torque(q)[1]
+        return self.structural.torque(as_joint_array('q', q))[1]
 
     def pressure_torque(self, p: ArrayLike) -> NDArray[np.float64]:
-        """τ_p = B_R p, N·m (eqs 11-12)."""
-        return np.asarray(self.geometry.pressure_moments) * np.asarray(p, dtype=float)
+        """τ_p = B_R p, N·m (eqs 11-12), shape (3,) or (N, 3) like ``p``."""
+        return np.asarray(self.geometry.pressure_moments) * as_joint_array('p', p)
 
     def finger_torque(
         self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
@@ -552,10 +573,8 @@ class GloveModel:
             ('Q_previous', Q_previous),
             ('lengths0', lengths0),
         ):
-            if value is not None and as_joint_rows(name, value).shape != pressure.shape:
-                raise ValueError(
-                    f'{name} must have the shape of P {pressure.shape}, got {np.shape(value)}'
-                )
+            if value is not None:
+                _require_shape(name, as_joint_rows(name, value), 'P', pressure.shape)
         load = self._load(ArrayOps, free=free, effort=effort, q_previous=Q_previous, dt=dt)
         if Q0 is not None:
             start = as_joint_rows('Q0', Q0)
@@ -731,6 +750,7 @@ class GloveModel:
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
+        _require_shape('P', pressure, 'Q', angles.shape)
         if self.extensible:
             return np.array(
                 [self.estimate(q, p)[0] for q, p in zip(angles, pressure, strict=True)]
@@ -744,10 +764,11 @@ class GloveModel:
 
         ``q`` and ``forces`` of shape (3,), or (N, 3) rows.
         """
-        if np.ndim(q) == 1:
-            _, j_finger = self.contact_jacobians(q)
-            return j_finger.T @ as_joint_vector('forces', forces)
-        angles, rows = as_joint_rows('q', q), as_joint_rows('forces', forces)
+        angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
+        _require_shape('forces', rows, 'q', angles.shape)
+        if angles.ndim == 1:
+            _, j_finger = self.contact_jacobians(angles)
+            return j_finger.T @ rows
         _, j_finger = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
         return np.column_stack(transpose_product(j_finger, list(rows.T)))
 
@@ -757,9 +778,10 @@ class GloveModel:
         The torque the finger actually resists with, from measured angles and pressures of
         shape (3,) or (N, 3).
         """
-        if np.ndim(Q) == 1:
-            return self.contact_torque(Q, self.estimate_forces(Q, P))
-        return self.contact_torque(Q, self.estimate_forces_batch(Q, P))
+        angles = as_joint_array('Q', Q)
+        if angles.ndim == 1:
+            return self.contact_torque(angles, self.estimate_forces(angles, P))
+        return self.contact_torque(angles, self.estimate_forces_batch(angles, P))
 
     def fit_stiffness(self, Q: ArrayLike, P: ArrayLike) -> StiffnessFit:
         """The effective linear patient τ̂_H,k = k_k (q_k − q_r,k) fitted to samples.
@@ -811,10 +833,14 @@ class GloveModel:
     def top_fibre_stretch(self, q: ArrayLike, strain: ArrayLike = 0.0) -> NDArray[np.float64]:
         """λ of each segment's top fibre, λ_b + q (b + h + R)/ℓ̂ (eqs 26, 12.1); shape like q.
 
-        ``strain`` is the bottom face's ε = λ_b − 1 (0: inextensible).
+        ``q`` of shape (3,) or (N, 3); ``strain`` is the bottom face's ε = λ_b − 1 (0:
+        inextensible), one number or shaped like ``q``.
         """
+        angles = as_joint_array('q', q)
         bottom = 1.0 + np.asarray(strain, dtype=float)
-        return bottom + np.asarray(q, dtype=float) * np.asarray(self._strain_per_angle)
+        if bottom.ndim:
+            _require_shape('strain', bottom, 'q', angles.shape)
+        return bottom + angles * np.asarray(self._strain_per_angle)
 
     def in_valid_range(self, q: ArrayLike, strain: ArrayLike = 0.0) -> NDArray[np.bool_]:
         """Whether every fibre's stretch (12.1) lies in VALID_STRETCH (per row for (N, 3)).
@@ -829,6 +855,6 @@ class GloveModel:
 
     def in_range_of_motion(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Whether every joint lies in [rom_min, rom_max] (scalar for (3,), per row for (N, 3))."""
-        angles = np.asarray(q, dtype=float)
+        angles = as_joint_array('q', q)
         low, high = self.range_of_motion
         return np.all((angles >= low) & (angles <= high), axis=-1)

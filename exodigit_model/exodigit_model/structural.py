@@ -122,15 +122,19 @@ class StructuralTorque:
         """Per joint: ``q_k -> (τ_s, dτ_s/dq)`` for a 1-D array of angles."""
 
     def torque(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """τ_s (N·m) and dτ_s/dq (N·m/rad) for angles of shape (3,) or (N, 3)."""
+        """τ_s (N·m) and dτ_s/dq (N·m/rad) for angles of shape (3,) or (N, 3).
+
+        Any other shape is a ValueError (``GloveModel.structural_torque`` names its argument).
+        """
         angles = np.asarray(q, dtype=float)
         if angles.shape == (3,):
             angle_list = angles.tolist()
             pairs = [joint(a) for joint, a in zip(self.scalar_joints, angle_list, strict=True)]
             return np.array([t for t, _ in pairs]), np.array([s for _, s in pairs])
-        flat = np.atleast_2d(angles)
-        torque = np.empty_like(flat)
-        slope = np.empty_like(flat)
+        if angles.ndim != 2 or angles.shape[1] != 3:
+            raise ValueError(f'angles must have shape (3,) or (N, 3), got {angles.shape}')
+        torque = np.empty_like(angles)
+        slope = np.empty_like(angles)
         for joint in range(3):
-            torque[:, joint], slope[:, joint] = self.array_joints[joint](flat[:, joint])
-        return torque.reshape(angles.shape), slope.reshape(angles.shape)
+            torque[:, joint], slope[:, joint] = self.array_joints[joint](angles[:, joint])
+        return torque, slope
