@@ -17,7 +17,15 @@ setup(
         (f'share/{PACKAGE}/config', glob('config/*.yaml')),
         (f'share/{PACKAGE}/config/hand', glob('config/hand/*.yaml')),
     ],
-    install_requires=['setuptools', 'exodigit_model', 'numpy'],
+    # matplotlib: the runner's session plot; rosbags: the recorder's bag (pip only, see package.xml)
+    install_requires=[
+        'setuptools',
+        'exodigit_model',
+        'numpy',
+        'PyYAML>=6',
+        'matplotlib>=3.7',
+        'rosbags>=0.10',
+    ],
     zip_safe=True,
     maintainer='exodigit developers',
     maintainer_email='exodigit@example.org',

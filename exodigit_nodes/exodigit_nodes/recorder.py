@@ -84,7 +84,7 @@ class BagWriter:
             from rosbags.typesys import Stores, get_typestore
         except ImportError:
             raise RecorderError(
-                'rosbags is not installed; install it with: pip install "./exodigit_model[tools]"'
+                'rosbags is not installed; install it with: pip install rosbags'
             ) from None
         if path.exists():
             raise RecorderError(f'--output {path}: exists already; the bag needs a new folder')
