@@ -2,6 +2,7 @@
 
 import csv
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,7 +269,9 @@ def test_layer_and_material_round_trip(tmp_path, capsys):
 
 def test_layer_and_scale_round_trip(tmp_path, capsys):
     """One factor on the Yeoh coefficients and the MCP layer, from MCP-only samples."""
-    truth = true_params(c=(0.5 * 1.1e5, 0.5 * 2e4, 0.0), layers=(15.0, math.inf, math.inf))
+    truth = true_params(
+        c=(0.5 * 1.1e5, 0.5 * 2e4, 0.0), k=(0.04, 0.03, 0.015), layers=(15.0, math.inf, math.inf)
+    )
     model = GloveModel(truth)
     rng = np.random.default_rng(3)
     rows = []
@@ -288,6 +291,8 @@ def test_layer_and_scale_round_trip(tmp_path, capsys):
     material = load_params(out).material
     assert material.c1 == pytest.approx(1.1e5 * reported(stdout, 'scale')[0], rel=1e-4)
     assert material.c2 / material.c1 == pytest.approx(2e4 / 1.1e5, rel=1e-12)
+    assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
+    assert rmse_after(stdout, 'angle') < 2 * ANGLE_NOISE_DEG
 
 
 def test_residuals_weigh_lengths_in_mm_against_single_solves(tmp_path):
@@ -343,3 +348,22 @@ def test_unmeasured_cells_are_skipped_and_empty_rows_refused(tmp_path, capsys):
     assert main(['calibrate', str(data), '--out', str(tmp_path / 'x.yaml')]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith('line 4: nothing measured (no angle, force or length)')
+
+
+def test_the_fig12_worked_example_is_what_the_docs_show(tmp_path, capsys):
+    """docs/extensible.md: its command writes its YAML, and the glove meets Fig. 12."""
+    docs = Path(__file__).resolve().parents[1] / 'docs'
+    out = tmp_path / 'fig12.yaml'
+    data = str(docs / 'fig12_mcp.csv')
+    assert main(['calibrate', data, '--fit', 'layer+scale', '--out', str(out)]) == 0
+    capsys.readouterr()
+    fitted, shipped = load_params(out), load_params(docs / 'extensible' / 'fig12_calibrated.yaml')
+    assert fitted.material.c1 == pytest.approx(shipped.material.c1, rel=1e-6)
+    assert fitted.material.c2 == pytest.approx(shipped.material.c2, rel=1e-6)
+    layers = [s.layer_axial_stiffness for s in fitted.exo_digit.segments]
+    assert layers == [s.layer_axial_stiffness for s in shipped.exo_digit.segments]
+    assert layers == [0.0, math.inf, math.inf]  # no layer: on its bound
+    model = GloveModel(fitted)
+    on_finger = model.solve([50e3, 0.0, 0.0])
+    assert abs(on_finger.lengths[0] * 1e3 - 62.2) < 1.0  # Fig. 12, within 1 mm
+    assert abs(np.degrees(model.solve([50e3, 0.0, 0.0], free=True).q[0]) - 61.0) < 1.0

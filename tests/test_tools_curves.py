@@ -16,6 +16,17 @@ ANGLE_TOLERANCE_DEG = 1e-6
 FORCE_TOLERANCE_N = 1e-8
 #: Marker positions (mm) against the closed-form arc chord of MODEL.md eq 4.
 MARKER_TOLERANCE_MM = 1e-5
+#: CSV lengths (mm, 9 significant digits) against single solves.
+LENGTH_TOLERANCE_MM = 1e-6
+
+#: A glove whose MCP and PIP bottom faces stretch (MODEL.md §12), N per unit strain.
+EXTENSIBLE_GLOVE = """\
+exo_digit:
+  segments:
+    - {layer_axial_stiffness: 20.0}
+    - {layer_axial_stiffness: 0.0}
+    - {}
+"""
 
 CLI = [sys.executable, '-m', 'exodigit_model.tools.cli']
 
@@ -34,6 +45,22 @@ def curves(tmp_path_factory):
     with open(folder / 'markers.csv', newline='') as handle:
         markers = list(csv.DictReader(handle))
     return folder, angles, markers
+
+
+def read_rows(path):
+    with open(path, newline='') as handle:
+        return list(csv.DictReader(handle))
+
+
+@pytest.fixture(scope='module')
+def extensible(tmp_path_factory):
+    """(folder, model) of ``exodigit curves`` for EXTENSIBLE_GLOVE."""
+    folder = tmp_path_factory.mktemp('extensible')
+    glove = folder / 'glove.yaml'
+    glove.write_text(EXTENSIBLE_GLOVE)
+    code = main(['curves', '--params', str(glove), '--out', str(folder), '--pressures', '0:50:25'])
+    assert code == 0
+    return folder, GloveModel(load_params(glove))
 
 
 def chamber_pressures(experiment, kpa):
@@ -107,7 +134,7 @@ def png_size(path):
 
 def test_curves_figures_are_written(curves):
     folder, _, _ = curves
-    for name in ('angles.png', 'forces.png', 'markers.png'):
+    for name in ('angles.png', 'forces.png', 'lengths.png', 'markers.png'):
         width, height = png_size(folder / name)
         assert width >= 800 and height >= 300
 
@@ -186,3 +213,60 @@ def test_curves_for_a_patient_preset_are_the_patients_solves(tmp_path, capsys):
     # the severe finger rests flexed: at 0 kPa on the finger the joints are bent
     rest = next(r for r in rows if float(r['pressure_kpa']) == 0.0)
     assert float(rest['q_mcp_deg']) > 20.0
+
+
+def test_inextensible_lengths_are_the_rest_lengths(curves, model):
+    """The paper's constant arc length: every row of lengths.csv is the rest length."""
+    folder, angles, _ = curves
+    rows = read_rows(folder / 'lengths.csv')
+    assert [(r['experiment'], r['condition'], r['pressure_kpa']) for r in rows] == [
+        (r['experiment'], r['condition'], r['pressure_kpa']) for r in angles
+    ]
+    rest = [s.arc_length * 1e3 for s in model.params.exo_digit.segments]
+    for row in rows:
+        assert [float(row[f'l_{name}_mm']) for name in JOINT_NAMES] == rest
+
+
+def test_lengths_csv_equals_single_solves(extensible):
+    folder, model = extensible
+    rows = read_rows(folder / 'lengths.csv')
+    assert len(rows) == 4 * 2 * 3
+    for row in rows:
+        pressure = chamber_pressures(row['experiment'], float(row['pressure_kpa']))
+        solution = model.solve(pressure, free=row['condition'] == 'free')
+        lengths = [float(row[f'l_{name}_mm']) for name in JOINT_NAMES]
+        np.testing.assert_allclose(lengths, solution.lengths * 1e3, atol=LENGTH_TOLERANCE_MM)
+        assert row['converged'] == str(int(solution.converged))
+    # the extensible segments do stretch, more on the finger than free (MODEL.md §12)
+    top = {
+        r['condition']: float(r['l_mcp_mm'])
+        for r in rows
+        if r['experiment'] == 'mcp' and r['pressure_kpa'] == '50'
+    }
+    assert 46.0 < top['free'] < top['finger']
+    assert all(float(r['l_dip_mm']) == 15.0 for r in rows)
+    width, height = png_size(folder / 'lengths.png')
+    assert width >= 800 and height >= 300
+
+
+def test_extensible_markers_follow_the_arc_chord_at_its_length(extensible):
+    """Marker 3 of a stretched module is the chord of an arc of the solved length ℓ."""
+    folder, model = extensible
+    rows = [r for r in read_rows(folder / 'markers.csv') if r['module'] in ('mcp', 'pip')]
+    assert len(rows) == 2 * 2 * 3
+    segments = model.params.exo_digit.segments
+    for row in rows:
+        module = JOINT_NAMES.index(row['module'])
+        pressure = chamber_pressures(row['module'], float(row['pressure_kpa']))
+        solution = model.solve(pressure, free=row['condition'] == 'free')
+        angle, length = solution.q[module], solution.lengths[module] * 1e3
+        if angle == 0.0:
+            chord = np.array([length, 0.0])
+        else:
+            chord = length / angle * np.array([np.sin(angle), 1 - np.cos(angle)])
+        block = 2 * segments[module].block_half_length * 1e3
+        tip = chord + block * np.array([np.cos(angle), np.sin(angle)])
+        marker3 = [float(row['marker3_x_mm']), float(row['marker3_y_mm'])]
+        marker4 = [float(row['marker4_x_mm']), float(row['marker4_y_mm'])]
+        np.testing.assert_allclose(marker3, chord, atol=MARKER_TOLERANCE_MM)
+        np.testing.assert_allclose(marker4, tip, atol=MARKER_TOLERANCE_MM)

@@ -625,7 +625,7 @@ def report(result: FitResult, samples: Samples) -> list[str]:
         )
         if bound:
             side = 'lower' if bound < 0 else 'upper'
-            bounded.append(f'{parameter.name} = {shown:g} {parameter.unit} ({side})')
+            bounded.append(f'{parameter.name} = {shown:g} {parameter.unit} ({side} bound)')
         elif error > abs(value):
             poorly.append(f'{parameter.name} (add {parameter.missing})')
     if any(p.name == 'scale' for p in result.parameters):
@@ -636,8 +636,8 @@ def report(result: FitResult, samples: Samples) -> list[str]:
         )
     if bounded:
         lines.append(
-            f'note: at a bound of its range (the data ask for a value beyond it; its standard '
-            f'error is one-sided): {"; ".join(bounded)}'
+            f'note: on a bound of its range (the best fit lies beyond it; the standard error is '
+            f'from the slope there): {"; ".join(bounded)}'
         )
     if poorly:
         lines.append(f'note: standard error larger than the value: {"; ".join(poorly)}')
