@@ -278,32 +278,35 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
 def serve(
     program: str,
     args: list[str] | None,
-    make_node: Callable[[], Node],
+    make_nodes: Callable[[], Node | list[Node]],
     last_words: Callable[[Node], None],
     executor_class: type = SingleThreadedExecutor,
     duration: float = math.inf,
     refused: tuple[type[Exception], ...] = (ConfigurationError,),
 ) -> int:
-    """Spin the node ``make_node`` builds until SIGINT / SIGTERM / shutdown / ``duration`` s.
+    """Spin the node(s) ``make_nodes`` builds until SIGINT / SIGTERM / shutdown / ``duration`` s.
 
     SIGINT and SIGTERM only set a flag that the spin loop checks every ``SPIN_PERIOD``, so no
-    KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs while the
-    node still exists. Returns the exit status: 0 after a normal stop, 2 when the configuration is
-    refused (an exception of ``refused``: one line on stderr, no traceback).
+    KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs for each
+    node, in the order built, while every node still exists. Returns the exit status: 0 after a
+    normal stop, 2 when the configuration is refused (an exception of ``refused``: one line on
+    stderr, no traceback).
     """
     stop = StopRequest()
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
-    node = None
+    nodes: list[Node] = []
     code = 0
     try:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except RuntimeError as error:  # rclpy's RCLError: malformed --ros-args
             raise ConfigurationError(' '.join(str(error).split())) from None
-        node = make_node()
+        made = make_nodes()
+        nodes = made if isinstance(made, list) else [made]
         executor = executor_class()
-        executor.add_node(node)
+        for node in nodes:
+            executor.add_node(node)
         deadline = time.monotonic() + duration
         while not stop.requested and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=SPIN_PERIOD)
@@ -315,8 +318,9 @@ def serve(
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        if node is not None:
+        for node in nodes:
             last_words(node)
+        for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return code

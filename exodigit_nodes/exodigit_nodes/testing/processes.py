@@ -143,6 +143,8 @@ class NodeProcess:
         ``__ns`` and ``__node`` remaps.
     extra : list of str, optional
         More ROS arguments, placed before the overrides (e.g. ``['--params-file', path]``).
+    arguments : list of str, optional
+        The program's own arguments, before ``--ros-args`` (e.g. ``hand_nodes --fingers``).
     """
 
     def __init__(
@@ -154,13 +156,14 @@ class NodeProcess:
         namespace: str | None = None,
         name: str | None = None,
         extra: list[str] | None = None,
+        arguments: list[str] | None = None,
     ) -> None:
         self.module = module
         workdir = Path(workdir)
         label = f'{module}{(namespace or "").replace("/", "_")}-{time.monotonic_ns()}'
         self.stdout_path = workdir / f'{label}.out'
         self.stderr_path = workdir / f'{label}.err'
-        command = [sys.executable, '-m', f'exodigit_nodes.{module}']
+        command = [sys.executable, '-m', f'exodigit_nodes.{module}', *(arguments or [])]
         command += ros_args(parameters, namespace, name, extra)
         with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
             self.process = subprocess.Popen(

@@ -1,0 +1,331 @@
+"""Simulated time of one plant or a whole hand: /clock, pacing, lockstep, pause (INTERFACES II).
+
+:class:`SimulatedTime` owns the simulated clock of one or more plants (its *members*): every
+member takes step k at t_k together, ``/clock`` is published once per step before the members'
+outputs, and the steps are paced at ``real_time_factor`` simulated seconds per wall second
+(0 = as fast as possible, :class:`.pacing.Pacer`). With ``lockstep`` each step waits until every
+member has its answer (a ``pressure_command``); a member whose controller stays silent for
+``lockstep_timeout`` wall seconds unlocks the clock: the silent members vent and every member
+steps on at real time until the silent ones answer again. ``set_paused`` (std_srvs/SetBool) and
+``step`` (std_srvs/Trigger, one step while paused) are served by the owner node, ``pause_at``
+pauses once simulated time reaches it.
+
+A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
+(:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
+
+A member is a :class:`.plant.Plant`; what is asked of it is :class:`Member`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Protocol
+
+from builtin_interfaces.msg import Time
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock as ClockMessage
+from std_srvs.srv import SetBool, Trigger
+
+from exodigit_model import GloveState
+
+from .messages import CLOCK, PRESSURE_COMMAND, SET_PAUSED, STEP
+from .pacing import CONTROLLERS_LABEL, Pacer
+from .qos import CLOCK_QOS
+
+POLL_LIMITS = (0.5e-3, 0.01)
+"""Shortest and longest period of the simulated-time loop's wall timer, s."""
+FREE_RUN_BUDGET = 2e-3
+"""Longest burst of unpaced steps before the executor takes new messages, wall s."""
+READER_WAIT = 2.0
+"""Longest wait of a service-triggered step for new subscribers to be matched, wall s."""
+
+
+@dataclass(frozen=True)
+class TimeSettings:
+    """How simulated time runs (the plant's parameters of the same names).
+
+    Attributes
+    ----------
+    real_time_factor : float
+        Simulated seconds per wall second; 0 = as fast as possible.
+    lockstep : bool
+        One step in flight: each step waits for every member's answer.
+    lockstep_timeout : float
+        Wall seconds without an answer before the clock unlocks (0 = wait forever).
+    start_paused : bool
+        Start paused (``set_paused`` false, or ``step``, to go).
+    pause_at : float
+        Pause once simulated time reaches this, s (0 = never).
+    """
+
+    real_time_factor: float = 1.0
+    lockstep: bool = False
+    lockstep_timeout: float = 1.0
+    start_paused: bool = False
+    pause_at: float = 0.0
+
+
+class Member(Protocol):
+    """What simulated time asks of a plant."""
+
+    period: float
+    state: GloveState
+
+    def controller_present(self) -> bool:
+        """Lockstep start: a controller publishes commands and every output reader is matched."""
+
+    def readers_matched(self) -> bool:
+        """Whether each output has matched every subscriber the graph knows of its topic."""
+
+    def lockstep_controllers(self) -> list[str]:
+        """Fully qualified names of the matched controllers."""
+
+    def take_step(self, *, vent: bool | None) -> GloveState:
+        """Advance one step (``vent`` None: the member's watchdog decides); do not publish."""
+
+    def publish_state(self, state: GloveState, stamp: Time) -> None:
+        """Publish the step's outputs stamped ``stamp``."""
+
+    def get_logger(self):
+        """The member's rclpy logger."""
+
+
+class SimulatedTime:
+    """The simulated clock of its members, served by the node ``owner``.
+
+    Parameters
+    ----------
+    owner : rclpy.node.Node
+        Publishes ``/clock``, serves ``set_paused`` and ``step`` (in its namespace) and runs
+        the loop's wall timer.
+    settings : TimeSettings
+    """
+
+    def __init__(self, owner: Node, settings: TimeSettings) -> None:
+        self.owner = owner
+        self.settings = settings
+        self.members: list[Member] = []
+        self.paused = settings.start_paused
+        self.started = False  # lockstep: the first step is published once every controller is here
+        self.awaiting: set[Member] = set()
+        self.silent: set[Member] = set()  # unlocked: the members whose controller went quiet
+        self.waiting_since = time.monotonic()
+        self.pacer = Pacer()
+        self.clock_message = ClockMessage()
+        self.clock_publisher = owner.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
+        self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
+        self.timer = None
+        self._report_marks = (time.monotonic(), 0.0)
+        owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
+        owner.create_service(Trigger, STEP, self.on_step)
+
+    # -- members ---------------------------------------------------------------------------
+
+    def add(self, member: Member) -> None:
+        """Step ``member`` with the others from now on (same rate, same simulated time).
+
+        Raises
+        ------
+        ValueError
+            If its period or its simulated time differs from the members' already there.
+        """
+        if self.members:
+            first = self.members[0]
+            if member.period != first.period or member.state.t != first.state.t:
+                raise ValueError(
+                    f'a plant at {1.0 / member.period:g} Hz, t = {member.state.t} s cannot share '
+                    f'simulated time with plants at {1.0 / first.period:g} Hz, t = '
+                    f'{first.state.t} s: give every finger the same rate_hz'
+                )
+        self.members.append(member)
+        if len(self.members) == 1:
+            self.restart_pacing()
+
+    @property
+    def t(self) -> float:
+        """Simulated time of the latest step, s."""
+        return self.members[0].state.t if self.members else 0.0
+
+    @property
+    def period(self) -> float:
+        """Simulated seconds per step."""
+        return self.members[0].period
+
+    @property
+    def unlocked(self) -> bool:
+        """Lockstep suspended: a controller did not answer within ``lockstep_timeout``."""
+        return bool(self.silent)
+
+    # -- events ----------------------------------------------------------------------------
+
+    def on_answer(self, member: Member) -> None:
+        """Lockstep: ``member`` has the answer to the latest step; step if everyone has."""
+        self.awaiting.discard(member)
+        if member in self.silent:
+            self.silent.discard(member)
+            member.get_logger().info(f'{PRESSURE_COMMAND} again: stepping in lockstep again')
+            if not self.silent:
+                self.restart_pacing()
+        self.try_step(time.monotonic())
+
+    def on_timer(self) -> None:
+        """Take the steps that are due (and watch the lockstep timeout)."""
+        wall = time.monotonic()
+        if self.paused or not self.members:
+            return
+        if self.settings.lockstep and self.awaiting and not self.unlocked:
+            timeout = self.settings.lockstep_timeout
+            if timeout == 0.0 or wall - self.waiting_since <= timeout:
+                return
+            newly_silent = self.awaiting - self.silent
+            self.silent |= self.awaiting
+            self.awaiting = set()
+            for member in newly_silent:
+                member.get_logger().warning(
+                    f'no {PRESSURE_COMMAND} within lockstep_timeout {timeout:g} s: venting and '
+                    'stepping on at real time until a command comes'
+                )
+            self.restart_pacing()
+        budget = wall + FREE_RUN_BUDGET
+        while self.try_step(wall) and wall < budget and not self.awaiting:
+            wall = time.monotonic()
+
+    def on_set_paused(
+        self, request: SetBool.Request, response: SetBool.Response
+    ) -> SetBool.Response:
+        """Pause (data true) or resume simulated time; a resumed lockstep waits for answers."""
+        if request.data != self.paused:
+            self.paused = request.data
+            if not self.paused:
+                self.restart_pacing()
+        response.success = True
+        state = 'paused' if self.paused else 'running'
+        controllers = [name for member in self.members for name in member.lockstep_controllers()]
+        response.message = (
+            f'{state} at t = {self.t:.9f} s (step {self._step_number()}); '
+            f'{CONTROLLERS_LABEL}{", ".join(controllers) or "none"}'
+        )
+        self.owner.get_logger().info(response.message)
+        if not self.paused:
+            self.try_step(time.monotonic())
+        return response
+
+    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """While paused: one step with the latest commands; answered after it is published."""
+        if not self.paused:
+            response.success = False
+            response.message = 'not paused: call set_paused (true) first'
+            return response
+        self.step_now()
+        response.success = True
+        response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
+        return response
+
+    # -- stepping --------------------------------------------------------------------------
+
+    def try_step(self, wall: float) -> bool:
+        """Take the next step if nothing holds it back; whether it was taken."""
+        if self.paused or not self.members:
+            return False
+        if self.settings.lockstep and not self.unlocked:
+            ready = self.started or all(m.controller_present() for m in self.members)
+            if self.awaiting or not ready:
+                return False
+        if not self.pacer.due(wall, self.t + self.period, self.pacing_factor()):
+            return False
+        self.step()
+        return True
+
+    def step_now(self) -> None:
+        """A step asked for by a service (``step``, ``reset``): new subscribers matched first."""
+        deadline = time.monotonic() + READER_WAIT
+        while not all(m.readers_matched() for m in self.members) and time.monotonic() < deadline:
+            time.sleep(1e-3)
+        self.step()
+
+    def step(self) -> None:
+        """One step of every member: /clock, then each member's outputs stamped with its time."""
+        lockstep = self.settings.lockstep
+        states = [
+            (member, member.take_step(vent=(member in self.silent) if lockstep else None))
+            for member in self.members
+        ]
+        time_ns = states[0][1].time_ns
+        self.clock_message.clock = Time(sec=time_ns // 10**9, nanosec=time_ns % 10**9)
+        self.clock_publisher.publish(self.clock_message)
+        for member, state in states:
+            member.publish_state(state, self.clock_message.clock)
+        if lockstep:
+            self.started = True
+            self.awaiting = set(self.members) - self.silent
+            self.waiting_since = time.monotonic()
+        # Pause on crossing pause_at (to the nearest step), not again on every later step.
+        pause_at, t = self.settings.pause_at, self.t
+        mark = pause_at - 0.5 * self.period
+        if pause_at > 0.0 and t - self.period < mark <= t:
+            self.paused = True
+            self.owner.get_logger().info(f'paused at t = {t:.9f} s (pause_at)')
+
+    def _step_number(self) -> int:
+        return self.members[0].state.step if self.members else 0
+
+    # -- pacing ----------------------------------------------------------------------------
+
+    def configure(self, **changes) -> None:
+        """New :class:`TimeSettings` values by keyword (a new pace takes effect at once)."""
+        before = self.settings.real_time_factor
+        self.settings = replace(self.settings, **changes)
+        if self.settings.real_time_factor != before:
+            self.restart_pacing()
+
+    def pacing_factor(self) -> float:
+        """Simulated seconds per wall second now: never faster than real time when unlocked."""
+        factor = self.settings.real_time_factor
+        if self.unlocked:
+            return 1.0 if factor == 0.0 else min(factor, 1.0)
+        return factor
+
+    def restart_pacing(self) -> None:
+        """Re-anchor the schedule at now and size the loop's wall timer to the pace."""
+        wall = time.monotonic()
+        self.pacer.restart(wall, self.t)
+        self.waiting_since = wall
+        factor = self.pacing_factor()
+        low, high = POLL_LIMITS
+        poll = high if factor == 0.0 and self.settings.lockstep and not self.unlocked else low
+        if factor > 0.0 and self.members:
+            poll = min(max(self.period / factor / 4.0, low), high)
+        if self.timer is not None:
+            if self.timer.timer_period_ns == round(poll * 1e9):
+                return
+            self.owner.destroy_timer(self.timer)
+        self.timer = self.owner.create_timer(poll, self.on_timer, clock=self.wall_clock)
+
+    # -- diagnostics -----------------------------------------------------------------------
+
+    def status(self) -> tuple[list[str], dict[str, str]]:
+        """Problems and key/values of simulated time for a /diagnostics report."""
+        wall, sim = time.monotonic(), self.t
+        last_wall, last_sim = self._report_marks
+        self._report_marks = (wall, sim)
+        measured = (sim - last_sim) / (wall - last_wall) if wall > last_wall else 0.0
+        if not self.settings.lockstep:
+            lockstep = 'off'
+        elif self.unlocked:
+            lockstep = 'unlocked: no answer within lockstep_timeout, vented'
+        elif not self.started:
+            lockstep = 'waiting for a controller'
+        else:
+            lockstep = 'waiting for the answer' if self.awaiting else 'locked'
+        problems = ['lockstep: no answer, vented, stepping at real time'] if self.unlocked else []
+        return problems, {
+            'clock': 'sim',
+            'simulated time (s)': f'{sim:.9f}',
+            'paused': str(self.paused),
+            'real time factor (set)': f'{self.settings.real_time_factor:g}',
+            'real time factor (measured)': f'{measured:.3g}',
+            'lockstep': lockstep,
+            'schedule restarts (late)': str(self.pacer.late_restarts),
+        }
