@@ -262,3 +262,18 @@ class RosProbe:
         request = GetParameters.Request(names=list(names))
         response = self.call(f'{node}/get_parameters', GetParameters, request)
         return [parameter_value_to_python(value) for value in response.values]
+
+    @contextlib.contextmanager
+    def parameters_restored(self, node: str, names: list[str]):
+        """Within the block ``node``'s parameters ``names`` may change; then they are put back.
+
+        For a node that a test module shares: what one test sets, the next does not inherit.
+        An AssertionError after the block if ``node`` refuses its own old values.
+        """
+        before = dict(zip(names, self.get_parameters(node, names), strict=True))
+        try:
+            yield before
+        finally:
+            results = self.set_parameters(node, before)
+        refused = [(n, r.reason) for n, r in zip(before, results, strict=True) if not r.successful]
+        assert not refused, f'{node} refused its own parameters back: {refused}'

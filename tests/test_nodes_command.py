@@ -2,6 +2,10 @@
 
 Position mode with targets from the ``joint_targets`` topic, force mode switched at run time,
 the range-of-motion back-off, and what the controller does when the plant goes away.
+
+One plant, controller and estimator serve the module; every test finds the controller in
+position mode at `TARGETS` (what a test sets is put back after it). The tests that leave the
+controller capped by a back-off, or stop the plant, have a plant and controller of their own.
 """
 
 import os
@@ -25,6 +29,10 @@ SETTLE_TIME = 15.0  # s
 MAX_PRESSURE = 60e3  # Pa, the node's default
 #: How far past a range-of-motion limit the lagging chambers may carry a joint, rad.
 OVERSHOOT = 0.01
+PLANT = {'pressure_time_constant': 0.05}
+TARGETS = [0.1, 0.1, 0.1]  # rad, the controller's joint_targets at start
+#: The controller's parameters that tests change (put back in this order: targets within limits).
+CHANGED = ['mode', 'joint_targets', 'force_targets']
 
 
 @pytest.fixture(scope='module')
@@ -32,38 +40,60 @@ def model():
     return GloveModel(load_params())
 
 
-@pytest.fixture(scope='module')
-def loop(launcher, probe):
+def start_loop(launcher, probe, namespace, estimator=True):
+    """Plant, position controller at `TARGETS` (and estimator) in ``namespace``, all heard.
+
+    Returns the nodes, the probe's inboxes of their topics and a ``joint_targets`` publisher.
+    """
     inboxes = {
-        'joint_states': probe.subscribe(f'{NS}/joint_states', JointState),
+        'joint_states': probe.subscribe(f'{namespace}/joint_states', JointState),
         'estimated_contact_forces': probe.subscribe(
-            f'{NS}/estimated_contact_forces', Float64MultiArray
+            f'{namespace}/estimated_contact_forces', Float64MultiArray
         ),
-        'pressure_command': probe.subscribe(f'{NS}/pressure_command', Float64MultiArray),
+        'pressure_command': probe.subscribe(f'{namespace}/pressure_command', Float64MultiArray),
         'diagnostics': probe.subscribe('/diagnostics', DiagnosticArray),
     }
     nodes = {
-        'plant': launcher.start('plant', {'pressure_time_constant': 0.05}, namespace=NS),
+        'plant': launcher.start('plant', PLANT, namespace=namespace),
         'pressure_command': launcher.start(
-            'pressure_command',
-            {'mode': 'position', 'joint_targets': [0.1, 0.1, 0.1]},
-            namespace=NS,
+            'pressure_command', {'mode': 'position', 'joint_targets': TARGETS}, namespace=namespace
         ),
-        'estimator': launcher.start('estimator', {}, namespace=NS),
     }
-    targets = probe.publisher(f'{NS}/joint_targets', Float64MultiArray)
-    assert inboxes['estimated_contact_forces'].wait_count(1, timeout=30.0), {
-        name: node.stderr() for name, node in nodes.items()
-    }
-    return nodes, targets, inboxes
+    if estimator:
+        nodes['estimator'] = launcher.start('estimator', {}, namespace=namespace)
+    heard = inboxes['estimated_contact_forces' if estimator else 'pressure_command']
+    assert heard.wait_count(1, timeout=30.0), {name: n.stderr() for name, n in nodes.items()}
+    return nodes, probe.publisher(f'{namespace}/joint_targets', Float64MultiArray), inboxes
 
 
-def command_status(inboxes, since):
+@pytest.fixture(scope='module')
+def running(launcher, probe):
+    return start_loop(launcher, probe, NS)
+
+
+@pytest.fixture
+def loop(running, probe):
+    """The module's loop, with the controller's parameters put back after the test."""
+    with probe.parameters_restored(f'{NS}/pressure_command', CHANGED):
+        yield running
+
+
+@pytest.fixture
+def own_loop(launcher, probe, request):
+    """A plant and a position controller for this test alone (no estimator), stopped after it."""
+    namespace = f'{NS}_{request.node.name}'
+    nodes, targets, inboxes = start_loop(launcher, probe, namespace, estimator=False)
+    yield namespace, nodes, targets, inboxes
+    for node in nodes.values():
+        node.stop()
+
+
+def command_status(inboxes, since, namespace=NS):
     return [
         s
         for array in inboxes['diagnostics'].messages(since)
         for s in array.status
-        if s.name == f'{NS}/pressure_command'
+        if s.name == f'{namespace}/pressure_command'
     ]
 
 
@@ -99,7 +129,7 @@ def test_targets_outside_the_range_of_motion_are_refused(loop):
         3.0,
     )
     assert refused
-    assert settles(inboxes['joint_states'], 'position', [0.35, 0.3, 0.2], ANGLE_SETTLED, mark)
+    assert settles(inboxes['joint_states'], 'position', TARGETS, ANGLE_SETTLED, mark)
 
 
 def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
@@ -118,16 +148,22 @@ def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
     np.testing.assert_allclose(inboxes['pressure_command'].latest().data, pressure, rtol=1e-2)
 
 
-def test_leaving_the_range_of_motion_makes_the_controller_back_off(loop, probe):
-    _, _, inboxes = loop
-    limits = {'joint_upper_limits': [0.15, 1.75, 1.4], 'mode': 'position'}
-    assert all(r.successful for r in probe.set_parameters(f'{NS}/pressure_command', limits))
+def test_leaving_the_range_of_motion_makes_the_controller_back_off(own_loop, probe):
+    namespace, _, targets, inboxes = own_loop
+    states = inboxes['joint_states']
+    mark = time.monotonic()
+    targets.publish(Float64MultiArray(data=[0.35, 0.3, 0.2]))
+    assert states.wait_for(lambda m: m.position[0] > 0.2, SETTLE_TIME, since=mark) is not None
+    limits = {'joint_upper_limits': [0.15, 1.75, 1.4]}  # the glove's MCP is now outside
+    assert all(r.successful for r in probe.set_parameters(f'{namespace}/pressure_command', limits))
     mark = time.monotonic()
     backing_off = wait_until(
-        lambda: [s for s in command_status(inboxes, mark) if 'backing off' in s.message], 5.0
+        lambda: [
+            s for s in command_status(inboxes, mark, namespace) if 'backing off' in s.message
+        ],
+        5.0,
     )
     assert backing_off and backing_off[-1].level == DiagnosticStatus.WARN
-    states = inboxes['joint_states']
     assert states.wait_for(lambda m: m.position[0] <= 0.15, 10.0, since=mark) is not None
     settled = time.monotonic()
     assert wait_until(lambda: len(states.messages(settled)) >= 150, 10.0)
@@ -135,8 +171,9 @@ def test_leaving_the_range_of_motion_makes_the_controller_back_off(loop, probe):
     assert overshoot < 0.15 + OVERSHOOT
 
 
-def test_without_the_plant_the_closed_loop_ramps_to_zero_and_says_so(loop):
-    nodes, _, inboxes = loop
+def test_without_the_plant_the_closed_loop_ramps_to_zero_and_says_so(own_loop):
+    namespace, nodes, _, inboxes = own_loop
+    assert inboxes['pressure_command'].wait_for(lambda m: min(m.data) > 0.0, SETTLE_TIME)
     nodes['plant'].signal(signal.SIGINT)
     assert nodes['plant'].wait(STOP_TIMEOUT) == 0
     mark = time.monotonic()
@@ -145,7 +182,11 @@ def test_without_the_plant_the_closed_loop_ramps_to_zero_and_says_so(loop):
     sent = np.array([m.data for m in inboxes['pressure_command'].messages(mark)])
     assert sent.min() >= 0.0 and sent.max() <= MAX_PRESSURE
     reported = wait_until(
-        lambda: [s for s in command_status(inboxes, mark) if 'no fresh joint_states' in s.message],
+        lambda: [
+            s
+            for s in command_status(inboxes, mark, namespace)
+            if 'no fresh joint_states' in s.message
+        ],
         3.0,
     )
     assert reported and reported[-1].level == DiagnosticStatus.WARN
