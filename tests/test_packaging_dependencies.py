@@ -8,6 +8,7 @@ A ROS package is declared in package.xml by its own name; a Python library by it
 """
 
 import ast
+import functools
 import re
 import sys
 import xml.etree.ElementTree as ElementTree
@@ -47,9 +48,15 @@ def normalized(name: str) -> str:
     return re.sub(r'[-_.]+', '-', name).lower()
 
 
+@functools.cache
+def installed() -> dict[str, list[str]]:
+    """Top-level module -> distributions installed here (reads every one: once a session)."""
+    return packages_distributions()
+
+
 def distributions(module: str) -> list[str]:
     """Names of the distributions that install ``module`` here (its own name if none does)."""
-    return [normalized(name) for name in packages_distributions().get(module, [module])]
+    return [normalized(name) for name in installed().get(module, [module])]
 
 
 def install_requires() -> set[str]:
