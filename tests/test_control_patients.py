@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 import pytest
+from exodigit_nodes.catalog import PRESSURE_COMMAND_NODE
 from exodigit_nodes.controllers import CommandLoop, Feedback, ForceController, PositionController
-from exodigit_nodes.pressure_command import COMMAND_PARAMETERS, safety_limits
+from exodigit_nodes.pressure_command import safety_limits
 from exodigit_nodes.safety import SafetyLimiter
 
 from exodigit_model import (
@@ -26,7 +27,7 @@ from exodigit_model import (
 )
 
 NOMINAL = GloveModel(load_params())
-DEFAULTS = COMMAND_PARAMETERS.defaults()
+DEFAULTS = PRESSURE_COMMAND_NODE.table.defaults()
 LIMITS = safety_limits(DEFAULTS)
 SECONDS = 5.0
 #: Steady-state errors accepted (issue 9): angle, rad; contact force, N.

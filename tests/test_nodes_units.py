@@ -3,12 +3,11 @@
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from builtin_interfaces.msg import Time
+from exodigit_nodes.catalog import NODES
 from exodigit_nodes.controllers import (
     Feedback,
     ForceController,
@@ -35,7 +34,6 @@ from sensor_msgs.msg import JointState
 
 from exodigit_model import GloveModel, load_params, params_from_dict
 
-CONFIG = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'config'
 #: Relative tolerance of closed-form comparisons (floating-point rounding only).
 EXACT = 1e-12
 #: Angle tolerance of checks that go through the coupled solver, rad.
@@ -146,8 +144,8 @@ def test_rejection_tally_counts_per_topic_and_reason():
 
 # -- parameters ----------------------------------------------------------------------------
 
-RATE = ParamSpec('rate_hz', 100.0, 'rate, Hz', 1.0, 1000.0)
-TARGETS = ParamSpec('joint_targets', (0.1, 0.2, 0.3), 'targets, rad', -3.0, 3.0)
+RATE = ParamSpec('rate_hz', 100.0, 'rate, Hz', low=1.0, high=1000.0)
+TARGETS = ParamSpec('joint_targets', (0.1, 0.2, 0.3), 'targets, rad', low=-3.0, high=3.0)
 MODE = ParamSpec('mode', 'sine', 'session', choices=('sine', 'hold'))
 FRAME = ParamSpec('frame_id', 'base', 'marker frame', required=True)
 
@@ -180,30 +178,6 @@ def test_good_values_are_converted_to_the_parameter_type():
     assert MODE.check('hold') == 'hold'
     with pytest.raises(ValueError, match='not a parameter'):
         ParamTable([RATE]).check({'rate': 1.0})
-
-
-def node_tables():
-    from exodigit_nodes.estimator import ESTIMATOR_PARAMETERS
-    from exodigit_nodes.plant import PLANT_PARAMETERS
-    from exodigit_nodes.pressure_command import COMMAND_PARAMETERS
-
-    return {
-        'plant': PLANT_PARAMETERS,
-        'pressure_command': COMMAND_PARAMETERS,
-        'estimator': ESTIMATOR_PARAMETERS,
-    }
-
-
-@pytest.mark.parametrize('node', ['plant', 'pressure_command', 'estimator'])
-def test_each_config_file_lists_every_parameter_at_its_default(node):
-    table = node_tables()[node]
-    text = (CONFIG / f'{node}.yaml').read_text()
-    values = yaml.safe_load(text)['/**']['ros__parameters']
-    assert table.check(values) == table.defaults()
-    for line in text.splitlines():
-        value = line.split(':', 1)[1].split('#')[0].strip() if ':' in line else ''
-        if any(c.isdigit() for c in value):
-            assert '#' in line, f'number without a unit comment: {line}'
 
 
 # -- controllers ---------------------------------------------------------------------------
@@ -461,7 +435,7 @@ def test_markers_draw_the_arcs_at_the_given_lengths(monkeypatch):
 
 
 def test_the_plain_logic_imports_no_ros():
-    modules = 'controllers, estimation, inputs, pacing, parameters, safety, watchdog'
+    modules = 'catalog, controllers, estimation, inputs, pacing, parameters, safety, watchdog'
     code = (
         'import sys\n'
         f'from exodigit_nodes import {modules}\n'
@@ -473,15 +447,14 @@ def test_the_plain_logic_imports_no_ros():
     assert result.returncode == 0, result.stdout + result.stderr
 
 
-@pytest.mark.parametrize('node', ['plant', 'pressure_command', 'estimator'])
+@pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
 def test_help_lists_every_parameter_and_exits_0(node, tmp_path):
     result = subprocess.run(
-        [sys.executable, '-m', f'exodigit_nodes.{node}', '--help'],
+        [sys.executable, '-m', node.module, '--help'],
         capture_output=True,
         text=True,
         cwd=tmp_path,
         timeout=60,
     )
     assert result.returncode == 0, result.stderr
-    for name in node_tables()[node].specs:
-        assert f'  {name} = ' in result.stdout
+    assert 'parameters:\n' + node.table.help() in result.stdout

@@ -1,7 +1,8 @@
 """The launch file: it compiles, names the package's executables and existing config files, and
 evaluated against recording stand-ins of the launch API it declares every argument it uses, passes
-the simulated-time arguments to the nodes the venv runner passes them to, and ends the whole launch
-when any node exits (failing it when the node failed)."""
+the simulated-time arguments to the nodes the venv runner passes them to, takes its modes and
+defaults from the node table, and ends the whole launch when any node exits (failing it when the
+node failed)."""
 
 import argparse
 import ast
@@ -14,7 +15,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from exodigit_nodes.glove import MODES, sim_time_arguments
+from exodigit_nodes.catalog import NODES
+from exodigit_nodes.controllers import MODES
+from exodigit_nodes.glove import sim_time_arguments
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'
 LAUNCH_FILE = PACKAGE_DIR / 'launch' / 'glove.launch.py'
@@ -55,21 +58,14 @@ def data_file_globs() -> list[str]:
     ]
 
 
-def launch_strings() -> set[str]:
-    tree = ast.parse(LAUNCH_FILE.read_text())
-    return {
-        n.value for n in ast.walk(tree) if isinstance(n, ast.Constant) and isinstance(n.value, str)
-    }
-
-
 def test_launch_file_compiles(tmp_path):
     py_compile.compile(str(LAUNCH_FILE), cfile=str(tmp_path / 'launch.pyc'), doraise=True)
 
 
-def test_launch_file_starts_the_three_node_executables_of_setup_py():
+def test_launch_file_starts_the_three_node_executables_of_setup_py(entities, launch_api):
     scripts = console_scripts()
     assert scripts >= NODE_EXECUTABLES
-    assert launch_strings() >= NODE_EXECUTABLES
+    assert set(nodes_by_executable(entities, launch_api)) == NODE_EXECUTABLES
 
 
 def test_launch_and_config_files_are_installed_by_setup_py():
@@ -234,6 +230,21 @@ def test_launch_description_declares_every_argument_it_uses(entities, launch_api
             assert Path(path).parent == PACKAGE_DIR / 'config'
     assert declared['mode']['choices'] == list(MODES)
     assert declared['mode']['default_value'] == 'sine'
+
+
+def test_each_node_loads_its_config_file_and_the_arguments_default_to_its_table(
+    entities, launch_api
+):
+    # Launched without arguments, every node runs at its table's defaults: the overrides the
+    # launch file adds to each node's config file change nothing.
+    nodes = nodes_by_executable(entities, launch_api)
+    parameters = node_parameters(entities, launch_api)
+    for entry in NODES:
+        files = [p for p in nodes[entry.executable].kwargs['parameters'] if isinstance(p, str)]
+        assert files == [str(PACKAGE_DIR / 'config' / entry.config_file)], entry.executable
+        ours = {k: v for k, v in parameters[entry.executable].items() if k != 'use_sim_time'}
+        assert ours, entry.executable
+        assert entry.table.check(ours) == {k: entry.table.defaults()[k] for k in ours}
 
 
 def test_sim_time_arguments_have_the_documented_defaults_and_choices(entities, launch_api):

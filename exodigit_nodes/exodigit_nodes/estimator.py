@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from .catalog import ESTIMATOR_NODE
 from .estimation import Pair, SamplePairer, StiffnessWindow
 from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
 from .messages import (
@@ -32,41 +33,13 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import GloveNode, load_model, run
-from .parameters import ParamSpec, ParamTable, describe_files, params_file_spec
+from .parameters import describe_files
 from .qos import GLOVE_QOS
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
 MAX_PRESSURE_READING = 10e6
 """Largest |chamber pressure| accepted as a measurement, Pa."""
-
-ESTIMATOR_PARAMETERS = ParamTable(
-    [
-        params_file_spec('the estimate (the nominal glove and finger)'),
-        ParamSpec(
-            'max_sample_age',
-            0.5,
-            'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
-            1e-4,
-            10.0,
-        ),
-        ParamSpec(
-            'identification_window',
-            500,
-            'Pairs used to identify the finger stiffness (sliding window), samples',
-            10.0,
-            100000.0,
-        ),
-        ParamSpec(
-            'identification_period',
-            1.0,
-            'Time between two stiffness identifications, s',
-            0.05,
-            3600.0,
-        ),
-    ]
-)
-
 
 def step_number(info: dict) -> int:
     """The publisher's sequence number of a received message (rclpy's message info)."""
@@ -76,8 +49,8 @@ def step_number(info: dict) -> int:
 class Estimator(GloveNode):
     """The estimator node: wires ROS to :class:`.SamplePairer` and :class:`.StiffnessWindow`."""
 
-    executable = 'estimator'
-    table = ESTIMATOR_PARAMETERS
+    executable = ESTIMATOR_NODE.executable
+    table = ESTIMATOR_NODE.table
 
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)

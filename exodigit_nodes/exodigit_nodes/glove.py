@@ -24,17 +24,22 @@ from pathlib import Path
 
 from exodigit_model.params import PATIENT_PRESETS
 
-from exodigit_nodes.pacing import CLOCKS, MAX_REAL_TIME_FACTOR
+from exodigit_nodes import catalog
+from exodigit_nodes.controllers import MODES
+from exodigit_nodes.pacing import MAX_REAL_TIME_FACTOR
 from exodigit_nodes.ros_env import discovery_settings
 from exodigit_nodes.run_record import RunRecord, new_run_directory
 from exodigit_nodes.summary import SIGNALS, GloveSignals, SummaryDisplay
 from exodigit_nodes.supervisor import Supervisor
 
 #: The glove's node executables, in start order (the plant first, commands last).
-NODES = ('plant', 'estimator', 'pressure_command')
+NODES = tuple(node.executable for node in catalog.NODES)
 #: Stop order: commands first (the node publishes zero pressure as it stops), recorder last.
-STOP_ORDER = ('pressure_command', 'estimator', 'plant', 'recorder')
-MODES = ('sine', 'staircase', 'hold', 'position', 'force')
+STOP_ORDER = (*reversed(NODES), 'recorder')
+#: The runner's defaults of the node parameters it has options for: the nodes' own.
+MODE = catalog.PRESSURE_COMMAND_NODE.table['mode']
+CLOCK = catalog.PLANT_NODE.table['clock']
+REAL_TIME_FACTOR = catalog.PLANT_NODE.table['real_time_factor']
 #: The finger the default session's plant simulates (the controller assumes the nominal one).
 DEFAULT_PATIENT = 'stroke_moderate'
 #: --patient value for "the glove file alone" (the nominal finger).
@@ -79,18 +84,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         '--clock',
-        choices=CLOCKS,
-        default='wall',
-        help='wall (default): the system clock; sim: the plant owns simulated time (/clock) and '
-        'the other nodes use it',
+        choices=CLOCK.choices,
+        default=CLOCK.default,
+        help=f'wall: the system clock; sim: the plant owns simulated time (/clock) and the other '
+        f'nodes use it (default {CLOCK.default})',
     )
     parser.add_argument(
         '--real-time-factor',
         type=float,
-        default=1.0,
+        default=REAL_TIME_FACTOR.default,
         metavar='X',
         help='with --clock sim: simulated seconds per wall second; 0 = as fast as possible '
-        '(default 1)',
+        f'(default {REAL_TIME_FACTOR.default:g})',
     )
     parser.add_argument(
         '--lockstep',
@@ -103,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         '--mode',
-        choices=MODES,
-        default='sine',
-        help='pressure_command mode (default sine: continuous passive motion)',
+        choices=MODE.choices,
+        default=MODE.default,
+        help=f'pressure_command mode (default {MODE.default}: {MODES[MODE.default]})',
     )
     parser.add_argument(
         '--params-file',
@@ -158,7 +163,9 @@ def check_arguments(args: argparse.Namespace) -> None:
             f'--real-time-factor {args.real_time_factor}: must lie in [0, '
             f'{MAX_REAL_TIME_FACTOR:g}] (0 = as fast as possible)'
         )
-    if args.clock != 'sim' and (args.lockstep or args.real_time_factor != 1.0):
+    if args.clock != 'sim' and (
+        args.lockstep or args.real_time_factor != REAL_TIME_FACTOR.default
+    ):
         raise UsageError('--lockstep and --real-time-factor need --clock sim')
     if not NAMESPACE_PATTERN.match(args.namespace):
         raise UsageError(

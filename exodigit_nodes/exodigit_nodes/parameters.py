@@ -1,15 +1,16 @@
 """Declared node parameters as plain data: name, default, unit, range, and their validation.
 
-Each node lists its parameters once as :class:`ParamSpec` rows. The same rows give the ROS
-``ParameterDescriptor`` (see :mod:`.node_base`), the ``--help`` text, and the checks that refuse a
-bad value with a reason naming the parameter. No rclpy here, so the rules are unit-testable.
+Each node lists its parameters once as :class:`ParamSpec` rows (in :mod:`.catalog`). The same
+rows give the ROS ``ParameterDescriptor`` (see :mod:`.node_base`), the ``--help`` text, the
+``config/*.yaml`` parameter files, and the checks that refuse a bad value with a reason naming the
+parameter. No rclpy here, so the rules are unit-testable.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any
 
 ParamValue = bool | int | float | str | tuple[float, ...] | tuple[str, ...]
@@ -17,7 +18,7 @@ ParamValue = bool | int | float | str | tuple[float, ...] | tuple[str, ...]
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One node parameter.
+    """One node parameter: name, default and description, then keyword-only rules.
 
     Attributes
     ----------
@@ -44,6 +45,7 @@ class ParamSpec:
     name: str
     default: ParamValue
     description: str
+    _: KW_ONLY
     low: float | None = None
     high: float | None = None
     read_only: bool = False
@@ -102,14 +104,18 @@ class ParamSpec:
             )
         return kind(value)
 
-    def help_line(self) -> str:
-        """One line of ``--help``: name, default, range, meaning."""
-        rule = f' [{self.low:g} .. {self.high:g}]' if self.low is not None else ''
+    def rule(self) -> str:
+        """The rule a value follows, as ``--help`` shows it: ``[1 .. 5000] (read-only)``."""
+        allowed = f'[{self.low:g} .. {self.high:g}]' if self.low is not None else ''
         if self.choices:
-            rule = f' {{{", ".join(self.choices)}}}'
+            allowed = f'{{{", ".join(self.choices)}}}'
+        return ' '.join(filter(None, (allowed, '(read-only)' if self.read_only else '')))
+
+    def help_line(self) -> str:
+        """One entry of ``--help``: name, default and rule, then the meaning on a second line."""
         default = list(self.default) if isinstance(self.default, tuple) else self.default
-        fixed = ' (read-only)' if self.read_only else ''
-        return f'  {self.name} = {default!r}{rule}{fixed}\n      {self.description}'
+        head = ' '.join(filter(None, (f'{self.name} = {default!r}', self.rule())))
+        return f'  {head}\n      {self.description}'
 
 
 class ParamTable:
@@ -123,6 +129,10 @@ class ParamTable:
 
     def __init__(self, specs: Iterable[ParamSpec]) -> None:
         self.specs = {spec.name: spec for spec in specs}
+
+    def __getitem__(self, name: str) -> ParamSpec:
+        """The parameter ``name`` (KeyError if the node has none of that name)."""
+        return self.specs[name]
 
     def defaults(self) -> dict[str, ParamValue]:
         """Every parameter at its default, as :meth:`check` gives it."""

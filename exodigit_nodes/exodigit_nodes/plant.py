@@ -40,6 +40,7 @@ from visualization_msgs.msg import MarkerArray
 
 from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationSettings
 
+from .catalog import PLANT_NODE
 from .inputs import InvalidInputError, joint_vector
 from .markers import GloveMarkers
 from .messages import (
@@ -58,8 +59,8 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import CLOCKS, CONTROLLERS_LABEL, MAX_REAL_TIME_FACTOR, Pacer, known_node
-from .parameters import ParamSpec, ParamTable, describe_files, params_file_spec
+from .pacing import CONTROLLERS_LABEL, Pacer, known_node
+from .parameters import describe_files
 from .qos import CLOCK_QOS, GLOVE_QOS
 from .watchdog import Watchdog
 
@@ -75,127 +76,6 @@ READER_WAIT = 2.0
 """Longest wait of the ``step`` service for new subscribers to be matched, wall s."""
 MAX_EFFORT = 10.0
 """Largest |patient effort| accepted, N·m (a finger joint makes well under 1 N·m)."""
-SIM_DEFAULTS = SimulationSettings()
-"""The stepper's defaults, which are the plant's."""
-
-PLANT_PARAMETERS = ParamTable(
-    [
-        params_file_spec('the simulated glove and patient'),
-        ParamSpec(
-            'rate_hz',
-            SIM_DEFAULTS.rate_hz,
-            'Simulation and publishing rate, Hz (simulated steps per simulated second)',
-            low=1.0,
-            high=5000.0,
-            read_only=True,
-        ),
-        ParamSpec(
-            'pressure_time_constant',
-            SIM_DEFAULTS.pressure_time_constant,
-            'First-order chamber lag T, s (0 = ideal: chambers follow the command at once)',
-            low=0.0,
-            high=10.0,
-        ),
-        ParamSpec(
-            'max_supply_pressure',
-            SIM_DEFAULTS.max_supply_pressure,
-            'Supply saturation: commands are clipped to [0, this], Pa (reported)',
-            low=1e3,
-            high=1e6,
-        ),
-        ParamSpec(
-            'command_timeout',
-            0.5,
-            'No valid pressure_command for this long: the chambers vent to zero, s '
-            '(simulated s with clock sim; lockstep uses lockstep_timeout instead)',
-            low=0.01,
-            high=60.0,
-        ),
-        ParamSpec(
-            'effort_timeout',
-            0.5,
-            'patient_effort older than this counts as none (zero effort), s (simulated with '
-            'clock sim)',
-            low=0.01,
-            high=60.0,
-        ),
-        ParamSpec(
-            'angle_noise_std',
-            SIM_DEFAULTS.angle_noise_std,
-            'Joint-angle sensor noise (std), rad',
-            low=0.0,
-            high=0.1,
-        ),
-        ParamSpec(
-            'pressure_noise_std',
-            SIM_DEFAULTS.pressure_noise_std,
-            'Pressure sensor noise (std), Pa',
-            low=0.0,
-            high=10e3,
-        ),
-        ParamSpec(
-            'seed',
-            SIM_DEFAULTS.seed,
-            'Seed of the sensor noise',
-            low=0.0,
-            high=2.0**31 - 1,
-            read_only=True,
-        ),
-        ParamSpec(
-            'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True
-        ),
-        ParamSpec(
-            'frame_id', 'exodigit_base', 'Frame of the markers (exo-digit base)', required=True
-        ),
-        ParamSpec(
-            'marker_rate_hz', 10.0, 'Rate of the markers topic, Hz (0 = off)', low=0.0, high=100.0
-        ),
-        ParamSpec(
-            'clock',
-            'wall',
-            'Time source: wall (system clock) or sim (the plant owns simulated time and '
-            'publishes /clock; run the other nodes with use_sim_time)',
-            choices=CLOCKS,
-            read_only=True,
-        ),
-        ParamSpec(
-            'real_time_factor',
-            1.0,
-            'sim: simulated seconds per wall second (0 = as fast as possible)',
-            low=0.0,
-            high=MAX_REAL_TIME_FACTOR,
-        ),
-        ParamSpec(
-            'lockstep',
-            False,
-            'sim: one step in flight: after each step wait for a pressure_command (the answer)',
-            read_only=True,
-        ),
-        ParamSpec(
-            'lockstep_timeout',
-            1.0,
-            'lockstep: no answer within this many wall seconds: vent and step on at real time '
-            'until a command comes, s (0 = wait forever)',
-            low=0.0,
-            high=3600.0,
-        ),
-        ParamSpec(
-            'start_paused',
-            False,
-            'sim: start paused (set_paused false, or step, to go)',
-            read_only=True,
-        ),
-        ParamSpec(
-            'pause_at',
-            0.0,
-            'sim: pause once simulated time reaches this, s (0 = never)',
-            low=0.0,
-            high=1e9,
-        ),
-    ]
-)
-
-
 @dataclass(frozen=True)
 class PlantSettings:
     """The plant's run-time settings (SI), from its parameters."""
@@ -214,8 +94,8 @@ class Plant(GloveNode):
     """The glove plant node: wires ROS to :class:`exodigit_model.GloveSimulation`."""
 
     events_executor = True
-    executable = 'plant'
-    table = PLANT_PARAMETERS
+    executable = PLANT_NODE.executable
+    table = PLANT_NODE.table
 
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)

@@ -27,6 +27,7 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from .catalog import PRESSURE_COMMAND_NODE
 from .controllers import (
     CommandLoop,
     Controller,
@@ -47,7 +48,6 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .parameters import ParamSpec, ParamTable, params_file_spec
 from .qos import GLOVE_QOS
 from .safety import SafetyLimiter, SafetyLimits
 
@@ -58,7 +58,6 @@ MAX_FORCE_READING = 1e3
 ZERO_ACK_TIMEOUT = 0.5
 """How long the final zero command waits to be acknowledged by subscribers, s."""
 
-MODES = ('staircase', 'sine', 'hold', 'position', 'force')
 LIMIT_NAMES = frozenset(
     {
         'max_pressure',
@@ -69,76 +68,6 @@ LIMIT_NAMES = frozenset(
         'feedback_timeout',
     }
 )
-
-COMMAND_PARAMETERS = ParamTable(
-    [
-        params_file_spec('the feed-forward (the nominal glove and finger)'),
-        ParamSpec('mode', 'sine', 'Command session', choices=MODES),
-        ParamSpec('rate_hz', 100.0, 'Command rate, Hz', low=1.0, high=1000.0, read_only=True),
-        ParamSpec(
-            'lockstep',
-            False,
-            'Answer each joint_states with one command instead of commanding on a timer '
-            '(the plant in lockstep, clock sim)',
-            read_only=True,
-        ),
-        ParamSpec('staircase_step', 10e3, 'staircase: pressure step, Pa', 100.0, 1e6),
-        ParamSpec('staircase_peak', 50e3, 'staircase: highest level, Pa', 100.0, 1e6),
-        ParamSpec('step_duration', 2.0, 'staircase: time on each level, s', 0.01, 3600.0),
-        ParamSpec('sine_low', 0.0, 'sine: lowest pressure, Pa', 0.0, 1e6),
-        ParamSpec('sine_high', 40e3, 'sine: highest pressure, Pa', 0.0, 1e6),
-        ParamSpec('sine_period', 4.0, 'sine: period of one flex-extend cycle, s', 0.1, 3600.0),
-        ParamSpec('hold_pressure', (20e3, 20e3, 20e3), 'hold: chamber pressures, Pa', 0.0, 1e6),
-        ParamSpec(
-            'joint_targets',
-            (0.3, 0.3, 0.2),
-            'position: desired joint angles, rad (the joint_targets topic overrides)',
-            -3.14,
-            3.14,
-        ),
-        ParamSpec('position_kp', 5e4, 'position: proportional gain, Pa/rad', 0.0, 1e7),
-        ParamSpec('position_ki', 3e5, 'position: integral gain, Pa/(rad·s)', 0.0, 1e8),
-        ParamSpec(
-            'force_targets', (0.1, 0.1, 0.1), 'force: desired contact forces, N', -100.0, 100.0
-        ),
-        ParamSpec('force_kp', 5e4, 'force: proportional gain, Pa/N', 0.0, 1e7),
-        ParamSpec('force_ki', 5e5, 'force: integral gain, Pa/(N·s)', 0.0, 1e8),
-        ParamSpec('max_pressure', 60e3, 'Safety: highest pressure ever sent, Pa', 1e3, 1e6),
-        ParamSpec('max_pressure_rate', 100e3, 'Safety: fastest command change, Pa/s', 1.0, 1e8),
-        ParamSpec(
-            'joint_lower_limits',
-            (-0.1, -0.1, -0.1),
-            'Safety: range of motion, lower ends, rad',
-            -3.14,
-            3.14,
-        ),
-        ParamSpec(
-            'joint_upper_limits',
-            (1.57, 1.75, 1.4),
-            'Safety: range of motion, upper ends, rad',
-            -3.14,
-            3.14,
-        ),
-        # 10 N: the vented glove strapped on the stroke_severe preset's flexed finger already
-        # carries 6 N at a contact; a lower default would leave that patient no way to move.
-        ParamSpec(
-            'max_contact_force',
-            10.0,
-            'Safety: largest |contact force| tolerated, N',
-            low=0.01,
-            high=100.0,
-        ),
-        ParamSpec(
-            'feedback_timeout',
-            0.5,
-            'Feedback older than this is missing (closed loops ramp down to zero); also the '
-            'largest joint_states stamp age accepted, s',
-            0.01,
-            60.0,
-        ),
-    ]
-)
-
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
     """The safety limits of a set of pressure_command parameter values."""
@@ -163,8 +92,8 @@ class PressureCommand(GloveNode):
     """The command node: wires ROS to a controller and :class:`.SafetyLimiter`."""
 
     events_executor = True
-    executable = 'pressure_command'
-    table = COMMAND_PARAMETERS
+    executable = PRESSURE_COMMAND_NODE.executable
+    table = PRESSURE_COMMAND_NODE.table
 
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)

@@ -5,8 +5,10 @@
     ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
     ros2 launch exodigit_nodes glove.launch.py clock:=sim lockstep:=true real_time_factor:=0.0
 
-Each node reads its defaults from its ``config/*.yaml`` in the package share directory; the
-launch arguments below override them. Simulated time (INTERFACES.md Part II) is what
+Each node reads its defaults from its ``config/<executable>.yaml`` in the package share
+directory; the launch arguments below override them. The nodes, the modes and the arguments'
+defaults come from the node table, ``exodigit_nodes.catalog`` (the installed package), from which
+those config files are generated. Simulated time (INTERFACES.md Part II) is what
 ``python -m exodigit_nodes.glove --clock sim --real-time-factor X --lockstep`` sets: the plant
 owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
 ``use_sim_time`` and pressure_command answers each joint_states in lockstep.
@@ -21,6 +23,7 @@ import os
 import signal
 
 from ament_index_python.packages import get_package_share_directory
+from exodigit_nodes.catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
 from launch.event_handlers import OnProcessExit
@@ -34,9 +37,9 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 PACKAGE = 'exodigit_nodes'
-MODES = ['sine', 'staircase', 'hold', 'position', 'force']
-CLOCKS = ['wall', 'sim']
 BOOLEANS = ['true', 'false']
+PLANT = PLANT_NODE.table
+COMMAND = PRESSURE_COMMAND_NODE.table
 
 
 class GloveNodeError(RuntimeError):
@@ -52,6 +55,11 @@ class ClockIsSim(EqualsSubstitution):
     def describe(self):
         """What ``ros2 launch --show-args`` prints as the default."""
         return "'true' if clock is sim, else 'false'"
+
+
+def argument_text(value) -> str:
+    """A parameter default as a launch argument's default: ``'true'``, ``'1.0'``, ``'sine'``."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 def exit_status(returncode: int) -> str:
@@ -109,39 +117,38 @@ def generate_launch_description():
         ),
         DeclareLaunchArgument(
             'mode',
-            default_value='sine',
-            choices=MODES,
-            description='pressure_command mode: sine (continuous passive motion), staircase '
-            '(10 kPa steps), hold, position (joint targets), force (contact-force targets)',
+            default_value=COMMAND['mode'].default,
+            choices=list(COMMAND['mode'].choices),
+            description=COMMAND['mode'].description,
         ),
         DeclareLaunchArgument(
             'params_file',
-            default_value='',
+            default_value=PLANT['params_file'].default,
             description='model parameter YAML (MODEL.md section 10) for plant, estimator and '
             'pressure_command; empty = built-in defaults',
         ),
         DeclareLaunchArgument(
             'joint_prefix',
-            default_value='',
+            default_value=PLANT['joint_prefix'].default,
             description='prefix of the joint names in joint_states (<prefix>mcp, <prefix>pip, '
             '<prefix>dip)',
         ),
         DeclareLaunchArgument(
             'clock',
-            default_value='wall',
-            choices=CLOCKS,
+            default_value=PLANT['clock'].default,
+            choices=list(PLANT['clock'].choices),
             description='time source: wall (system clock) or sim (the plant owns simulated '
             'time and publishes /clock; the other nodes follow it)',
         ),
         DeclareLaunchArgument(
             'real_time_factor',
-            default_value='1.0',
+            default_value=argument_text(PLANT['real_time_factor'].default),
             description='clock sim: simulated seconds per wall second, >= 0 (0 = as fast as '
             'possible); settable at run time on the plant',
         ),
         DeclareLaunchArgument(
             'lockstep',
-            default_value='false',
+            default_value=argument_text(PLANT['lockstep'].default),
             choices=BOOLEANS,
             description='clock sim: one step in flight; the plant waits for pressure_command '
             'to answer each joint_states, and pressure_command answers each one',
@@ -155,21 +162,20 @@ def generate_launch_description():
         ),
     ]
 
-    def glove_node(executable, config_file, overrides):
+    def glove_node(entry, overrides):
         return Node(
             package=PACKAGE,
-            executable=executable,
-            name=executable,
+            executable=entry.executable,
+            name=entry.executable,
             namespace=namespace,
             output='screen',
             emulate_tty=True,
-            parameters=[os.path.join(config_dir, config_file), overrides],
+            parameters=[os.path.join(config_dir, entry.config_file), overrides],
         )
 
     nodes = [
         glove_node(
-            'plant',
-            'plant.yaml',
+            PLANT_NODE,
             {
                 'use_sim_time': plant_sim_time,
                 'params_file': params_file,
@@ -180,13 +186,11 @@ def generate_launch_description():
             },
         ),
         glove_node(
-            'estimator',
-            'estimator.yaml',
+            ESTIMATOR_NODE,
             {'use_sim_time': node_sim_time, 'params_file': params_file},
         ),
         glove_node(
-            'pressure_command',
-            'pressure_command.yaml',
+            PRESSURE_COMMAND_NODE,
             {
                 'use_sim_time': node_sim_time,
                 'params_file': params_file,

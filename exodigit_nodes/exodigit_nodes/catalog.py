@@ -1,0 +1,431 @@
+"""The glove's nodes in one table: executables, entry points, parameters and their defaults.
+
+Every way of starting a node reads this module: the node classes take their executable name and
+parameter table from it, the venv runner (:mod:`.glove`) and the hand runner start what
+:data:`NODES` lists, the launch file (``launch/glove.launch.py``) takes its nodes, modes and
+argument defaults from it, and the ROS parameter files ``config/<executable>.yaml`` are generated
+from it (a test checks the committed files against it)::
+
+    python -m exodigit_nodes.catalog --write-config exodigit_nodes/config
+
+The README's parameter blocks are each node's ``--help`` (:meth:`.ParamTable.help`), also checked
+by a test. No rclpy here, so the launch file and the tests read the table without ROS;
+:meth:`NodeEntry.node_class` imports a node's module only when asked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from exodigit_model import SimulationSettings
+
+from .controllers import MODES
+from .pacing import CLOCKS, MAX_REAL_TIME_FACTOR
+from .parameters import ParamSpec, ParamTable, params_file_spec
+
+PACKAGE = 'exodigit_nodes'
+SIM_DEFAULTS = SimulationSettings()
+"""The stepper's defaults, which are the plant's."""
+CONFIG_WIDTH = 99
+"""Longest line of a generated parameter file's comments, characters."""
+
+
+@dataclass(frozen=True)
+class NodeEntry:
+    """One node executable of the glove.
+
+    Attributes
+    ----------
+    executable : str
+        Console script (``ros2 run exodigit_nodes <executable>``), the node's default name, and
+        the name of its module (:attr:`module`) and parameter file (:attr:`config_file`).
+    class_name : str
+        Its :class:`~.node_base.GloveNode` subclass in ``module``.
+    summary : str
+        What the node is, a few words.
+    table : ParamTable
+        Its declared parameters, with their defaults.
+    """
+
+    executable: str
+    class_name: str
+    summary: str
+    table: ParamTable
+
+    @property
+    def module(self) -> str:
+        """The module that runs it (``python -m exodigit_nodes.plant``), whose ``main`` it is."""
+        return f'{PACKAGE}.{self.executable}'
+
+    @property
+    def entry_point(self) -> str:
+        """The console script's target in setup.py: ``exodigit_nodes.plant:main``."""
+        return f'{self.module}:main'
+
+    @property
+    def config_file(self) -> str:
+        """Name of its ROS parameter file in the package's ``config`` directory."""
+        return f'{self.executable}.yaml'
+
+    def node_class(self) -> type:
+        """The node class (imports its module, and with it rclpy)."""
+        return getattr(importlib.import_module(self.module), self.class_name)
+
+
+PLANT_NODE = NodeEntry(
+    executable='plant',
+    class_name='Plant',
+    summary='the simulated glove',
+    table=ParamTable(
+        [
+            params_file_spec('the simulated glove and patient'),
+            ParamSpec(
+                'rate_hz',
+                SIM_DEFAULTS.rate_hz,
+                'Simulation and publishing rate, Hz (simulated steps per simulated second)',
+                low=1.0,
+                high=5000.0,
+                read_only=True,
+            ),
+            ParamSpec(
+                'pressure_time_constant',
+                SIM_DEFAULTS.pressure_time_constant,
+                'First-order chamber lag T, s (0 = ideal: chambers follow the command at once)',
+                low=0.0,
+                high=10.0,
+            ),
+            ParamSpec(
+                'max_supply_pressure',
+                SIM_DEFAULTS.max_supply_pressure,
+                'Supply saturation: commands are clipped to [0, this], Pa (reported)',
+                low=1e3,
+                high=1e6,
+            ),
+            ParamSpec(
+                'command_timeout',
+                0.5,
+                'No valid pressure_command for this long: the chambers vent to zero, s '
+                '(simulated s with clock sim; lockstep uses lockstep_timeout instead)',
+                low=0.01,
+                high=60.0,
+            ),
+            ParamSpec(
+                'effort_timeout',
+                0.5,
+                'patient_effort older than this counts as none (zero effort), s (simulated with '
+                'clock sim)',
+                low=0.01,
+                high=60.0,
+            ),
+            ParamSpec(
+                'angle_noise_std',
+                SIM_DEFAULTS.angle_noise_std,
+                'Joint-angle sensor noise (std), rad',
+                low=0.0,
+                high=0.1,
+            ),
+            ParamSpec(
+                'pressure_noise_std',
+                SIM_DEFAULTS.pressure_noise_std,
+                'Pressure sensor noise (std), Pa',
+                low=0.0,
+                high=10e3,
+            ),
+            ParamSpec(
+                'seed',
+                SIM_DEFAULTS.seed,
+                'Seed of the sensor noise',
+                low=0.0,
+                high=2.0**31 - 1,
+                read_only=True,
+            ),
+            ParamSpec(
+                'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True
+            ),
+            ParamSpec(
+                'frame_id', 'exodigit_base', 'Frame of the markers (exo-digit base)', required=True
+            ),
+            ParamSpec(
+                'marker_rate_hz',
+                10.0,
+                'Rate of the markers topic, Hz (0 = off)',
+                low=0.0,
+                high=100.0,
+            ),
+            ParamSpec(
+                'clock',
+                'wall',
+                'Time source: wall (system clock) or sim (the plant owns simulated time and '
+                'publishes /clock; run the other nodes with use_sim_time)',
+                choices=CLOCKS,
+                read_only=True,
+            ),
+            ParamSpec(
+                'real_time_factor',
+                1.0,
+                'sim: simulated seconds per wall second (0 = as fast as possible)',
+                low=0.0,
+                high=MAX_REAL_TIME_FACTOR,
+            ),
+            ParamSpec(
+                'lockstep',
+                False,
+                'sim: one step in flight: after each step wait for a pressure_command '
+                '(the answer)',
+                read_only=True,
+            ),
+            ParamSpec(
+                'lockstep_timeout',
+                1.0,
+                'lockstep: no answer within this many wall seconds: vent and step on at real '
+                'time until a command comes, s (0 = wait forever)',
+                low=0.0,
+                high=3600.0,
+            ),
+            ParamSpec(
+                'start_paused',
+                False,
+                'sim: start paused (set_paused false, or step, to go)',
+                read_only=True,
+            ),
+            ParamSpec(
+                'pause_at',
+                0.0,
+                'sim: pause once simulated time reaches this, s (0 = never)',
+                low=0.0,
+                high=1e9,
+            ),
+        ]
+    ),
+)
+
+ESTIMATOR_NODE = NodeEntry(
+    executable='estimator',
+    class_name='Estimator',
+    summary="robot-side contact forces and the patient's effective spring",
+    table=ParamTable(
+        [
+            params_file_spec('the estimate (the nominal glove and finger)'),
+            ParamSpec(
+                'max_sample_age',
+                0.5,
+                'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
+                low=1e-4,
+                high=10.0,
+            ),
+            ParamSpec(
+                'identification_window',
+                500,
+                'Pairs used to identify the finger stiffness (sliding window), samples',
+                low=10.0,
+                high=100000.0,
+            ),
+            ParamSpec(
+                'identification_period',
+                1.0,
+                'Time between two stiffness identifications, s',
+                low=0.05,
+                high=3600.0,
+            ),
+        ]
+    ),
+)
+
+PRESSURE_COMMAND_NODE = NodeEntry(
+    executable='pressure_command',
+    class_name='PressureCommand',
+    summary='the reference controller and command source',
+    table=ParamTable(
+        [
+            params_file_spec('the feed-forward (the nominal glove and finger)'),
+            ParamSpec(
+                'mode',
+                'sine',
+                'Command session: '
+                + '; '.join(f'{mode} ({what})' for mode, what in MODES.items()),
+                choices=tuple(MODES),
+            ),
+            ParamSpec('rate_hz', 100.0, 'Command rate, Hz', low=1.0, high=1000.0, read_only=True),
+            ParamSpec(
+                'lockstep',
+                False,
+                'Answer each joint_states with one command instead of commanding on a timer '
+                '(the plant in lockstep, clock sim)',
+                read_only=True,
+            ),
+            ParamSpec('staircase_step', 10e3, 'staircase: pressure step, Pa', low=100.0, high=1e6),
+            ParamSpec('staircase_peak', 50e3, 'staircase: highest level, Pa', low=100.0, high=1e6),
+            ParamSpec(
+                'step_duration', 2.0, 'staircase: time on each level, s', low=0.01, high=3600.0
+            ),
+            ParamSpec('sine_low', 0.0, 'sine: lowest pressure, Pa', low=0.0, high=1e6),
+            ParamSpec('sine_high', 40e3, 'sine: highest pressure, Pa', low=0.0, high=1e6),
+            ParamSpec(
+                'sine_period',
+                4.0,
+                'sine: period of one flex-extend cycle, s',
+                low=0.1,
+                high=3600.0,
+            ),
+            ParamSpec(
+                'hold_pressure',
+                (20e3, 20e3, 20e3),
+                'hold: chamber pressures, Pa',
+                low=0.0,
+                high=1e6,
+            ),
+            ParamSpec(
+                'joint_targets',
+                (0.3, 0.3, 0.2),
+                'position: desired joint angles, rad (the joint_targets topic overrides)',
+                low=-3.14,
+                high=3.14,
+            ),
+            ParamSpec(
+                'position_kp', 5e4, 'position: proportional gain, Pa/rad', low=0.0, high=1e7
+            ),
+            ParamSpec(
+                'position_ki', 3e5, 'position: integral gain, Pa/(rad·s)', low=0.0, high=1e8
+            ),
+            ParamSpec(
+                'force_targets',
+                (0.1, 0.1, 0.1),
+                'force: desired contact forces, N',
+                low=-100.0,
+                high=100.0,
+            ),
+            ParamSpec('force_kp', 5e4, 'force: proportional gain, Pa/N', low=0.0, high=1e7),
+            ParamSpec('force_ki', 5e5, 'force: integral gain, Pa/(N·s)', low=0.0, high=1e8),
+            ParamSpec(
+                'max_pressure',
+                60e3,
+                'Safety: highest pressure ever sent, Pa',
+                low=1e3,
+                high=1e6,
+            ),
+            ParamSpec(
+                'max_pressure_rate',
+                100e3,
+                'Safety: fastest command change, Pa/s',
+                low=1.0,
+                high=1e8,
+            ),
+            ParamSpec(
+                'joint_lower_limits',
+                (-0.1, -0.1, -0.1),
+                'Safety: range of motion, lower ends, rad',
+                low=-3.14,
+                high=3.14,
+            ),
+            ParamSpec(
+                'joint_upper_limits',
+                (1.57, 1.75, 1.4),
+                'Safety: range of motion, upper ends, rad',
+                low=-3.14,
+                high=3.14,
+            ),
+            # 10 N: the vented glove strapped on the stroke_severe preset's flexed finger already
+            # carries 6 N at a contact; a lower default would leave that patient no way to move.
+            ParamSpec(
+                'max_contact_force',
+                10.0,
+                'Safety: largest |contact force| tolerated, N',
+                low=0.01,
+                high=100.0,
+            ),
+            ParamSpec(
+                'feedback_timeout',
+                0.5,
+                'Feedback older than this is missing (closed loops ramp down to zero); also the '
+                'largest joint_states stamp age accepted, s',
+                low=0.01,
+                high=60.0,
+            ),
+        ]
+    ),
+)
+
+NODES = (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE)
+"""The glove's nodes in start order: the plant first, the commands last."""
+
+
+def config_text(entry: NodeEntry) -> str:
+    """A node's ROS parameter file (``/**: ros__parameters:``), every parameter at its default.
+
+    Each parameter comes after a comment with its meaning (SI unit included) and its rule.
+    """
+    path = f'config/{entry.config_file}'
+    lines = [
+        *comment(
+            f'ROS 2 parameters of the {entry.executable} node ({entry.summary}), each at its '
+            'default; SI units, joint vectors [MCP, PIP, DIP]. Use: ros2 run exodigit_nodes '
+            f'{entry.executable} --ros-args --params-file {path} (or python -m {entry.module} '
+            '...).'
+        ),
+        '# Generated from exodigit_nodes/catalog.py: edit the table there, then run',
+        '#   python -m exodigit_nodes.catalog --write-config exodigit_nodes/config',
+        '/**:',
+        '  ros__parameters:',
+    ]
+    for spec in entry.table.specs.values():
+        lines += comment(' '.join(filter(None, (spec.description, spec.rule()))), '    ', '  ')
+        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+        # Flow style on one line; a plain scalar's document end marker ('...') follows it.
+        value = yaml.safe_dump(default, default_flow_style=True).splitlines()[0]
+        lines.append(f'    {spec.name}: {value}')
+    return '\n'.join(lines) + '\n'
+
+
+def comment(text: str, indent: str = '', hang: str = '') -> list[str]:
+    """``text`` as YAML comment lines of at most ``CONFIG_WIDTH`` characters.
+
+    Each line starts with ``indent``; lines after the first are indented by ``hang`` more.
+    """
+    return textwrap.wrap(
+        text,
+        CONFIG_WIDTH,
+        initial_indent=f'{indent}# ',
+        subsequent_indent=f'{indent}# {hang}',
+        break_on_hyphens=False,
+    )
+
+
+def write_config(directory: Path) -> list[Path]:
+    """Write every node's :func:`config_text` into ``directory``; the paths written."""
+    paths = [directory / entry.config_file for entry in NODES]
+    for entry, path in zip(NODES, paths, strict=True):
+        path.write_text(config_text(entry))
+    return paths
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m exodigit_nodes.catalog --write-config DIR``: (re)generate the config files."""
+    parser = argparse.ArgumentParser(
+        prog='python -m exodigit_nodes.catalog',
+        description="Write each glove node's ROS parameter file (<executable>.yaml, every "
+        'parameter at its default) from the node table.',
+    )
+    parser.add_argument(
+        '--write-config',
+        type=Path,
+        required=True,
+        metavar='DIR',
+        help='directory to write into (the package: exodigit_nodes/config)',
+    )
+    args = parser.parse_args(argv)
+    if not args.write_config.is_dir():
+        parser.error(f'--write-config {args.write_config}: no such directory')
+    for path in write_config(args.write_config):
+        print(f'wrote {path}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
