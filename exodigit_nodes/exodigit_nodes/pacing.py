@@ -9,6 +9,8 @@ lockstep) is re-anchored instead of publishing a burst of steps to catch up.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 CLOCKS = ('wall', 'sim')
 """Time sources of the plant: the system clock, or its own simulated time."""
 MAX_REAL_TIME_FACTOR = 1000.0
@@ -18,6 +20,31 @@ CONTROLLERS_LABEL = 'lockstep controllers: '
 kit reads it before it publishes a state that a just-started controller must not miss)."""
 MAX_CATCH_UP = 0.1
 """Largest lag behind the schedule that is caught up with back-to-back steps, wall s."""
+
+
+@dataclass(frozen=True)
+class TimeSettings:
+    """How simulated time runs (the plant's parameters of the same names).
+
+    Attributes
+    ----------
+    real_time_factor : float
+        Simulated seconds per wall second; 0 = as fast as possible.
+    lockstep : bool
+        One step in flight: each step waits for every member's answer.
+    lockstep_timeout : float
+        Wall seconds without an answer before the clock unlocks (0 = wait forever).
+    start_paused : bool
+        Start paused (``set_paused`` false, or ``step``, to go).
+    pause_at : float
+        Pause once simulated time reaches this, s (0 = never).
+    """
+
+    real_time_factor: float = 1.0
+    lockstep: bool = False
+    lockstep_timeout: float = 1.0
+    start_paused: bool = False
+    pause_at: float = 0.0
 
 
 class Pacer:

@@ -28,14 +28,12 @@ from array import array
 from dataclasses import dataclass
 
 import numpy as np
-from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_model.model import state_warnings
 from rclpy.clock import Clock, ClockType
-from rosgraph_msgs.msg import Clock as ClockMessage
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationSettings
@@ -53,29 +51,24 @@ from .messages import (
     PRESSURE_COMMAND,
     RESET,
     SEGMENT_LENGTHS,
-    SET_PAUSED,
-    STEP,
     fill,
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import CONTROLLERS_LABEL, Pacer, known_node
+from .pacing import TimeSettings, known_node
 from .parameters import describe_files
-from .qos import CLOCK_QOS, GLOVE_QOS
+from .qos import GLOVE_QOS
+from .sim_time import SimulatedTime
 from .watchdog import Watchdog
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
 LATE_FACTOR = 1.5
 """A wall-clock cycle is late when it starts more than this many periods after the previous."""
-POLL_LIMITS = (0.5e-3, 0.01)
-"""Shortest and longest period of the simulated-time loop's wall timer, s."""
-FREE_RUN_BUDGET = 2e-3
-"""Longest burst of unpaced steps before the executor takes new messages, wall s."""
-READER_WAIT = 2.0
-"""Longest wait of the ``step`` service for new subscribers to be matched, wall s."""
 MAX_EFFORT = 10.0
 """Largest |patient effort| accepted, N·m (a finger joint makes well under 1 N·m)."""
+
+
 @dataclass(frozen=True)
 class PlantSettings:
     """The plant's run-time settings (SI), from its parameters."""
@@ -85,9 +78,7 @@ class PlantSettings:
     effort_timeout: float
     frame_id: str
     marker_rate_hz: float
-    real_time_factor: float
-    lockstep_timeout: float
-    pause_at: float
+    time: TimeSettings
 
 
 class Plant(GloveNode):
@@ -97,7 +88,8 @@ class Plant(GloveNode):
     executable = PLANT_NODE.executable
     table = PLANT_NODE.table
 
-    def __init__(self, **node_options) -> None:
+    def __init__(self, *, sim_time: SimulatedTime | None = None, **node_options) -> None:
+        """``sim_time``: the simulated time this plant shares (the hand's); None: its own."""
         super().__init__(**node_options)
         values, settings = self.values, self.settings
         self.model = load_model(values['params_file'])
@@ -121,7 +113,6 @@ class Plant(GloveNode):
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
         self.length_message = joint_vector_message()
-        self.clock_message = ClockMessage()
         # Outputs first, then the input: a controller that sees our command subscription has
         # seen the outputs announced too.
         self.pressure_publisher = self.create_publisher(
@@ -145,33 +136,26 @@ class Plant(GloveNode):
         self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, GLOVE_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
         self.marker_timer = None
-        self.sim_timer = None
         self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.report_clock = self.wall_clock if self.sim_clock else self.get_clock()
+        self.time: SimulatedTime | None = None
         if self.sim_clock:
-            self.clock_publisher = self.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
-            self.outputs += ((self.clock_publisher, CLOCK),)
-            self.create_service(SetBool, SET_PAUSED, self.on_set_paused)
-            self.create_service(Trigger, STEP, self.on_step)
-            self.pacer = Pacer()
-            self.paused = values['start_paused']
-            self.started = False  # lockstep: the first step is published once a controller is here
-            self.awaiting_answer = False
-            self.unlocked = False
-            self.waiting_since = time.monotonic()
-            self._report_marks = (time.monotonic(), self.state.t)
+            self.time = sim_time or SimulatedTime(self, settings.time)
+            self.outputs += ((self.time.clock_publisher, CLOCK),)
         else:
             self.create_timer(self.period, self.on_wall_timer)
-        self.apply(settings, {'marker_rate_hz', 'real_time_factor'})
+        self.apply(settings, {'marker_rate_hz'})
+        if self.time is not None:
+            self.time.add(self)
         # After the step's timer (fired together, the report shows that step). With clock sim on
         # the wall clock: a paused plant still reports, whatever its use_sim_time.
         self.create_timer(DIAGNOSTIC_PERIOD, self.report, clock=self.report_clock)
-        if self.lockstep and settings.lockstep_timeout > 0.0:
-            timeout = f'{settings.lockstep_timeout:g} s'
+        if self.lockstep and settings.time.lockstep_timeout > 0.0:
+            timeout = f'{settings.time.lockstep_timeout:g} s'
         else:
             timeout = 'none'
         time_source = (
-            f'simulated time (real-time factor {settings.real_time_factor:g}, lockstep '
+            f'simulated time (real-time factor {settings.time.real_time_factor:g}, lockstep '
             f'{"on, answer timeout " + timeout if self.lockstep else "off"})'
             if self.sim_clock
             else 'the wall clock'
@@ -204,9 +188,13 @@ class Plant(GloveNode):
             effort_timeout=values['effort_timeout'],
             frame_id=values['frame_id'],
             marker_rate_hz=values['marker_rate_hz'],
-            real_time_factor=values['real_time_factor'],
-            lockstep_timeout=values['lockstep_timeout'],
-            pause_at=values['pause_at'],
+            time=TimeSettings(
+                real_time_factor=values['real_time_factor'],
+                lockstep=values['lockstep'],
+                lockstep_timeout=values['lockstep_timeout'],
+                start_paused=values['start_paused'],
+                pause_at=values['pause_at'],
+            ),
         )
 
     def apply(self, settings: PlantSettings, changed: set[str]) -> None:
@@ -227,8 +215,16 @@ class Plant(GloveNode):
                 self.marker_timer = self.create_timer(
                     1.0 / settings.marker_rate_hz, self.publish_markers, clock=self.report_clock
                 )
-        if self.sim_clock and 'real_time_factor' in changed:
-            self.restart_pacing()
+        if self.time is not None and changed & {
+            'real_time_factor',
+            'lockstep_timeout',
+            'pause_at',
+        }:
+            self.time.configure(
+                real_time_factor=settings.time.real_time_factor,
+                lockstep_timeout=settings.time.lockstep_timeout,
+                pause_at=settings.time.pause_at,
+            )
 
     # -- inputs ----------------------------------------------------------------------------
 
@@ -245,7 +241,7 @@ class Plant(GloveNode):
             if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{PRESSURE_COMMAND} again: venting stopped')
         if self.lockstep:
-            self.on_answer()
+            self.time.on_answer(self)
 
     def on_effort(self, message: Float64MultiArray) -> None:
         """Keep a valid patient effort (N·m per joint, u of eq 11.1) with its arrival time."""
@@ -266,15 +262,6 @@ class Plant(GloveNode):
             return None
         return self.effort[1]
 
-    def on_answer(self) -> None:
-        """Lockstep: the latest step has its answer; take the next step if it is due."""
-        if self.unlocked:
-            self.unlocked = False
-            self.get_logger().info(f'{PRESSURE_COMMAND} again: stepping in lockstep again')
-            self.restart_pacing()
-        self.awaiting_answer = False
-        self.try_step(time.monotonic())
-
     def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """Pressures, angles and the last command back to rest (until a new command comes).
 
@@ -286,42 +273,10 @@ class Plant(GloveNode):
         self.watchdog.clear()
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
-        if self.sim_clock:
-            self.wait_for_readers()
-            self.sim_step()
+        if self.time is not None:
+            self.time.step_now()
             response.message += f' (rest state published at t = {self.state.t:.9f} s)'
         self.get_logger().info(response.message)
-        return response
-
-    def on_set_paused(
-        self, request: SetBool.Request, response: SetBool.Response
-    ) -> SetBool.Response:
-        """Pause (data true) or resume simulated time; a resumed lockstep waits for an answer."""
-        if request.data != self.paused:
-            self.paused = request.data
-            if not self.paused:
-                self.restart_pacing()
-        response.success = True
-        state = 'paused' if self.paused else 'running'
-        response.message = (
-            f'{state} at t = {self.state.t:.9f} s (step {self.state.step}); '
-            f'{CONTROLLERS_LABEL}{", ".join(self.lockstep_controllers()) or "none"}'
-        )
-        self.get_logger().info(response.message)
-        if not self.paused:
-            self.try_step(time.monotonic())
-        return response
-
-    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """While paused: one step with the latest command; answered after it is published."""
-        if not self.paused:
-            response.success = False
-            response.message = 'not paused: call set_paused (true) first'
-            return response
-        self.wait_for_readers()
-        self.sim_step()
-        response.success = True
-        response.message = f'stepped to t = {self.state.t:.9f} s (step {self.state.step})'
         return response
 
     # -- the steps -------------------------------------------------------------------------
@@ -337,58 +292,12 @@ class Plant(GloveNode):
         vent = self.check_watchdog(stamp.nanoseconds * 1e-9)
         self.advance(stamp.to_msg(), vent=vent)
 
-    def on_sim_timer(self) -> None:
-        """Simulated time: take the steps that are due (and watch the lockstep timeout)."""
-        wall = time.monotonic()
-        if self.paused:
-            return
-        if self.lockstep and self.awaiting_answer and not self.unlocked:
-            timeout = self.settings.lockstep_timeout
-            if timeout == 0.0 or wall - self.waiting_since <= timeout:
-                return
-            self.unlocked = True
-            self.get_logger().warning(
-                f'no {PRESSURE_COMMAND} within lockstep_timeout {timeout:g} s: venting and '
-                'stepping on at real time until a command comes'
-            )
-            self.restart_pacing()
-        budget = wall + FREE_RUN_BUDGET
-        while self.try_step(wall) and wall < budget and not self.awaiting_answer:
-            wall = time.monotonic()
-
-    def try_step(self, wall: float) -> bool:
-        """Take the next simulated step if nothing holds it back; whether it was taken."""
-        if self.paused or not self.sim_clock:
-            return False
-        locked = self.lockstep and not self.unlocked
-        if locked and (self.awaiting_answer or not (self.started or self.controller_present())):
-            return False
-        next_t = self.state.t + self.period
-        if not self.pacer.due(wall, next_t, self.pacing_factor()):
-            return False
-        self.sim_step()
-        return True
-
-    def sim_step(self) -> None:
-        """One simulated step: /clock, then the step's outputs stamped with its time."""
-        if self.lockstep:
-            venting = self.unlocked
-        else:
-            venting = self.check_watchdog(self.state.t + self.period)
-        state = self.advance(None, vent=venting)
+    def take_step(self, *, vent: bool | None) -> GloveState:
+        """One simulated step, not yet published (``vent`` None: the watchdog decides)."""
+        if vent is None:
+            vent = self.check_watchdog(self.state.t + self.period)
         self.cycles += 1
-        self.clock_message.clock = Time(sec=state.time_ns // 10**9, nanosec=state.time_ns % 10**9)
-        self.clock_publisher.publish(self.clock_message)
-        self.publish_state(state, self.clock_message.clock)
-        if self.lockstep:
-            self.started = True
-            self.awaiting_answer = True
-            self.waiting_since = time.monotonic()
-        # Pause on crossing pause_at (to the nearest step), not again on every later step.
-        mark = self.settings.pause_at - 0.5 * self.period
-        if self.settings.pause_at > 0.0 and state.t - self.period < mark <= state.t:
-            self.paused = True
-            self.get_logger().info(f'paused at t = {state.t:.9f} s (pause_at)')
+        return self.advance(None, vent=vent)
 
     def check_watchdog(self, now: float) -> bool:
         """Whether the plant vents at ``now`` (s, node or simulated time); says so once."""
@@ -429,36 +338,15 @@ class Plant(GloveNode):
         fill(self.pressure_message, state.pressure_measured)
         fill(self.force_message, state.forces)
         fill(self.length_message, state.lengths)
-        # Back to back: the estimator pairs these two by their publication times.
+        # Pressure first, then the rest, back to back: the estimator, the live summary and
+        # exodigit plot pair a step's messages by the times they were sent, each with the
+        # chamber_pressure sent before it (exodigit_model.joining).
         self.pressure_publisher.publish(self.pressure_message)
         self.joint_publisher.publish(message)
         self.force_publisher.publish(self.force_message)
         self.length_publisher.publish(self.length_message)
 
-    # -- simulated time helpers ------------------------------------------------------------
-
-    def pacing_factor(self) -> float:
-        """Simulated seconds per wall second now: never faster than real time when unlocked."""
-        factor = self.settings.real_time_factor
-        if self.unlocked:
-            return 1.0 if factor == 0.0 else min(factor, 1.0)
-        return factor
-
-    def restart_pacing(self) -> None:
-        """Re-anchor the schedule at now and size the loop's wall timer to the pace."""
-        wall = time.monotonic()
-        self.pacer.restart(wall, self.state.t)
-        self.waiting_since = wall
-        factor = self.pacing_factor()
-        low, high = POLL_LIMITS
-        poll = high if factor == 0.0 and self.lockstep and not self.unlocked else low
-        if factor > 0.0:
-            poll = min(max(self.period / factor / 4.0, low), high)
-        if self.sim_timer is not None:
-            if self.sim_timer.timer_period_ns == round(poll * 1e9):
-                return
-            self.destroy_timer(self.sim_timer)
-        self.sim_timer = self.create_timer(poll, self.on_sim_timer, clock=self.wall_clock)
+    # -- lockstep (asked by SimulatedTime) ------------------------------------------------
 
     def controller_present(self) -> bool:
         """Lockstep start: a node publishes commands and every output reader is matched.
@@ -500,16 +388,10 @@ class Plant(GloveNode):
             if (namespace, name) in listening
         )
 
-    def wait_for_readers(self) -> None:
-        """Before a step asked for by a service: let just-started subscribers be matched."""
-        deadline = time.monotonic() + READER_WAIT
-        while not self.readers_matched() and time.monotonic() < deadline:
-            time.sleep(1e-3)
-
     def stamp(self):
         """The stamp of what the plant publishes now: simulated time, or the node clock."""
-        if self.sim_clock:
-            return self.clock_message.clock
+        if self.time is not None:
+            return self.time.clock_message.clock
         return self.get_clock().now().to_msg()
 
     def publish_markers(self) -> None:
@@ -525,38 +407,13 @@ class Plant(GloveNode):
 
     # -- diagnostics -----------------------------------------------------------------------
 
-    def time_status(self) -> tuple[list[str], dict[str, str]]:
-        """Problems and key/values of simulated time (none with the wall clock)."""
-        if not self.sim_clock:
-            return [], {'clock': 'wall'}
-        wall, sim = time.monotonic(), self.state.t
-        last_wall, last_sim = self._report_marks
-        self._report_marks = (wall, sim)
-        measured = (sim - last_sim) / (wall - last_wall) if wall > last_wall else 0.0
-        if not self.lockstep:
-            lockstep = 'off'
-        elif self.unlocked:
-            lockstep = 'unlocked: no answer within lockstep_timeout, vented'
-        elif not self.started:
-            lockstep = 'waiting for a controller'
-        else:
-            lockstep = 'waiting for the answer' if self.awaiting_answer else 'locked'
-        problems = ['lockstep: no answer, vented, stepping at real time'] if self.unlocked else []
-        return problems, {
-            'clock': 'sim',
-            'simulated time (s)': f'{sim:.9f}',
-            'paused': str(self.paused),
-            'real time factor (set)': f'{self.settings.real_time_factor:g}',
-            'real time factor (measured)': f'{measured:.3g}',
-            'lockstep': lockstep,
-            'schedule restarts (late)': str(self.pacer.late_restarts),
-        }
-
     def report(self) -> None:
         """One /diagnostics status: solver, validity, watchdog, saturation, timing."""
         now = self.state.t if self.sim_clock else self.now_seconds()
         state = self.state
-        problems, time_values = self.time_status()
+        problems, time_values = (
+            ([], {'clock': 'wall'}) if self.time is None else self.time.status()
+        )
         if self.watchdog.tripped:
             problems.append(f'watchdog: no command for {self.watchdog.age(now):.2f} s, vented')
         failures = self.simulation.solver_failures

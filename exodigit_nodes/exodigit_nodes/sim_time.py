@@ -19,7 +19,7 @@ A member is a :class:`.plant.Plant`; what is asked of it is :class:`Member`.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Protocol
 
 from builtin_interfaces.msg import Time
@@ -31,7 +31,7 @@ from std_srvs.srv import SetBool, Trigger
 from exodigit_model import GloveState
 
 from .messages import CLOCK, PRESSURE_COMMAND, SET_PAUSED, STEP
-from .pacing import CONTROLLERS_LABEL, Pacer
+from .pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
 from .qos import CLOCK_QOS
 
 POLL_LIMITS = (0.5e-3, 0.01)
@@ -40,31 +40,6 @@ FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 READER_WAIT = 2.0
 """Longest wait of a service-triggered step for new subscribers to be matched, wall s."""
-
-
-@dataclass(frozen=True)
-class TimeSettings:
-    """How simulated time runs (the plant's parameters of the same names).
-
-    Attributes
-    ----------
-    real_time_factor : float
-        Simulated seconds per wall second; 0 = as fast as possible.
-    lockstep : bool
-        One step in flight: each step waits for every member's answer.
-    lockstep_timeout : float
-        Wall seconds without an answer before the clock unlocks (0 = wait forever).
-    start_paused : bool
-        Start paused (``set_paused`` false, or ``step``, to go).
-    pause_at : float
-        Pause once simulated time reaches this, s (0 = never).
-    """
-
-    real_time_factor: float = 1.0
-    lockstep: bool = False
-    lockstep_timeout: float = 1.0
-    start_paused: bool = False
-    pause_at: float = 0.0
 
 
 class Member(Protocol):

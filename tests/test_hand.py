@@ -1,0 +1,140 @@
+"""A hand in one process (issue 11): ``hand_nodes`` runs every finger's nodes on one executor.
+
+Two fingers in lockstep simulated time, started paused and pausing at ``PAUSE_AT``: every
+expectation is exact. Each finger's published states are compared bit for bit with an
+in-process ``GloveSimulation`` of that finger's own model file, stepped with the commands its
+controller published; both fingers step on one clock; each keeps its own names and parameters.
+"""
+
+import numpy as np
+import pytest
+from ros_harness import NodeProcess, RosProbe, wait_until
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool
+
+from exodigit_model import GloveModel, GloveSimulation, load_params
+
+FINGERS = ('index', 'little')
+NAMESPACE = '/hand'
+RATE = 100.0
+PAUSE_AT = 0.5
+STEPS = round(PAUSE_AT * RATE)
+#: Longest wait for the whole session (start-up of a process with six nodes, 50 steps), s.
+TIMEOUT = 60.0
+
+
+def hand_nodes(domain, workdir, *arguments):
+    return NodeProcess('hand_nodes', None, domain, workdir, arguments=list(arguments))
+
+
+@pytest.fixture(scope='module')
+def session(ros_domain, tmp_path_factory):
+    """The recorded messages of one lockstep session of two fingers, up to PAUSE_AT."""
+    workdir = tmp_path_factory.mktemp('hand')
+    probe = RosProbe(ros_domain, name='hand_probe')
+    inboxes = {'/clock': probe.subscribe('/clock', Clock)}
+    for finger in FINGERS:
+        ns = f'{NAMESPACE}/{finger}'
+        inboxes[f'{finger}/joint_states'] = probe.subscribe(f'{ns}/joint_states', JointState)
+        for topic in ('pressure_command', 'chamber_pressure', 'estimated_contact_forces'):
+            inboxes[f'{finger}/{topic}'] = probe.subscribe(f'{ns}/{topic}', Float64MultiArray)
+    process = hand_nodes(
+        ros_domain,
+        workdir,
+        *('--fingers', ','.join(FINGERS)),
+        *('--clock', 'sim', '--lockstep', '--real-time-factor', '0'),
+        *('--start-paused', '--pause-at', str(PAUSE_AT)),
+    )
+    try:
+        resumed = probe.call(f'{NAMESPACE}/set_paused', SetBool, SetBool.Request(data=False))
+        assert resumed.success
+        assert wait_until(
+            lambda: all(inboxes[f'{f}/joint_states'].count() >= STEPS for f in FINGERS), TIMEOUT
+        ), {name: inbox.count() for name, inbox in inboxes.items()}
+        # paused at PAUSE_AT: the last answers arrive, no further state comes
+        assert wait_until(
+            lambda: all(inboxes[f'{f}/pressure_command'].count() >= STEPS for f in FINGERS),
+            TIMEOUT,
+        )
+        parameters = {
+            finger: probe.get_parameters(
+                f'{NAMESPACE}/{finger}/plant', ['joint_prefix', 'params_file', 'clock']
+            )
+            for finger in FINGERS
+        }
+        yield {name: inbox.messages() for name, inbox in inboxes.items()}, parameters
+    finally:
+        code = process.stop()
+        probe.close()
+    assert code == 0, process.stderr()
+
+
+def seconds(stamp) -> float:
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def test_each_finger_has_its_own_names_and_parameters(session):
+    messages, parameters = session
+    for finger in FINGERS:
+        names = messages[f'{finger}/joint_states'][0].name
+        assert list(names) == [f'{finger}_mcp', f'{finger}_pip', f'{finger}_dip']
+        prefix, files, clock = parameters[finger]
+        assert prefix == f'{finger}_'
+        assert [f.rsplit('/', 1)[-1] for f in files] == [f'{finger}.yaml']
+        assert clock == 'sim'
+
+
+def test_the_fingers_step_together_on_one_clock(session):
+    messages, _ = session
+    grid = [round(k * 1e9 / RATE) for k in range(1, STEPS + 1)]
+    for finger in FINGERS:
+        stamps = [round(seconds(m.header.stamp) * 1e9) for m in messages[f'{finger}/joint_states']]
+        assert stamps == grid  # one state per step, paused exactly at PAUSE_AT
+    ticks = [m.clock.sec * 10**9 + m.clock.nanosec for m in messages['/clock']]
+    assert ticks == grid  # one /clock per hand step, not one per finger
+
+
+def replay(finger_model: str, commands) -> np.ndarray:
+    """Angles of an in-process stepper of ``finger_model``'s file under ``commands``, rad."""
+    simulation = GloveSimulation(GloveModel(load_params([hand_config() / f'{finger_model}.yaml'])))
+    return np.array([simulation.step(command).q_measured for command in commands])
+
+
+def test_each_finger_is_its_own_model_stepped_with_its_own_commands(session):
+    messages, _ = session
+    for finger in FINGERS:
+        published = np.array([m.position for m in messages[f'{finger}/joint_states']])
+        answers = [np.array(m.data) for m in messages[f'{finger}/pressure_command']]
+        commands = [np.zeros(3), *answers[: STEPS - 1]]  # step k applies the answer to k - 1
+        np.testing.assert_array_equal(published, replay(finger, commands))
+        other = next(f for f in FINGERS if f != finger)
+        assert np.max(np.abs(published - replay(other, commands))) > 1e-4  # the file matters
+
+
+def test_every_finger_is_estimated_once_per_step(session):
+    messages, _ = session
+    for finger in FINGERS:
+        assert len(messages[f'{finger}/estimated_contact_forces']) == STEPS
+
+
+def hand_config():
+    from exodigit_nodes.hand_config import hand_config_dir
+
+    return hand_config_dir()
+
+
+@pytest.mark.parametrize(
+    ('arguments', 'message'),
+    [
+        (['--fingers', 'index,pinky'], '--fingers index,pinky: give distinct names from thumb,'),
+        (['--fingers', 'index,index'], '--fingers index,index: give distinct names'),
+        (['--lockstep'], '--lockstep, --start-paused and --real-time-factor need --clock sim'),
+    ],
+)
+def test_a_refused_hand_says_why_in_one_line(ros_domain, tmp_path, arguments, message):
+    process = hand_nodes(ros_domain, tmp_path, *arguments)
+    assert process.wait(30.0) == 2
+    lines = process.stderr().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f'hand_nodes: error: {message}'), lines
