@@ -1,0 +1,92 @@
+"""launch/hand.launch.py against recording stand-ins of the launch API: it starts one
+``hand_nodes`` process (a console script of setup.py) without a node-name or namespace remap,
+declares exactly the hand's options, and the command line it builds for given launch arguments
+is read by ``hand_nodes``' own parser as the same hand."""
+
+import runpy
+import sys
+import types
+from pathlib import Path
+
+import pytest
+from exodigit_nodes.hand_config import hand_config, hand_options
+from exodigit_nodes.hand_nodes import build_parser
+from test_packaging_launch import Recorded, console_scripts
+
+LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'launch' / 'hand.launch.py'
+API = {
+    'launch': ['LaunchDescription'],
+    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.event_handlers': ['OnProcessExit'],
+    'launch.substitutions': ['LaunchConfiguration'],
+    'launch_ros': [],
+    'launch_ros.actions': ['Node'],
+}
+
+
+@pytest.fixture
+def api(monkeypatch):
+    classes = {}
+    for module_name, names in API.items():
+        module = types.ModuleType(module_name)
+        for name in names:
+            classes[name] = type(name, (Recorded,), {})
+            setattr(module, name, classes[name])
+        monkeypatch.setitem(sys.modules, module_name, module)
+    return types.SimpleNamespace(**classes)
+
+
+@pytest.fixture
+def entities(api):
+    description = runpy.run_path(str(LAUNCH_FILE))['generate_launch_description']()
+    return description.args[0]
+
+
+def command_line(entities, api, **arguments) -> list[str]:
+    """The hand_nodes arguments launch would pass for ``name:=value`` launch arguments."""
+    declared = {e.args[0]: e.kwargs for e in entities if isinstance(e, api.DeclareLaunchArgument)}
+    values = {
+        name: arguments.pop(name, kwargs['default_value']) for name, kwargs in declared.items()
+    }
+    assert not arguments, f'undeclared {sorted(arguments)}'
+    for name, value in values.items():
+        assert value in (declared[name]['choices'] or [value]), (name, value)
+    (node,) = [e for e in entities if isinstance(e, api.Node)]
+    return [
+        values[item.args[0]] if isinstance(item, api.LaunchConfiguration) else item
+        for item in node.kwargs['arguments']
+    ]
+
+
+def test_one_hand_nodes_process_of_setup_py_without_remaps(entities, api):
+    (node,) = [e for e in entities if isinstance(e, api.Node)]
+    assert node.kwargs['executable'] == 'hand_nodes' in console_scripts()
+    assert 'name' not in node.kwargs and 'namespace' not in node.kwargs  # would rename every node
+
+
+def test_the_launch_arguments_are_the_hand_options(entities, api):
+    declared = {e.args[0]: e.kwargs for e in entities if isinstance(e, api.DeclareLaunchArgument)}
+    assert {name: kwargs['default_value'] for name, kwargs in declared.items()} == {
+        option.name: option.default for option in hand_options()
+    }
+
+
+@pytest.mark.parametrize(
+    'arguments',
+    [
+        {},
+        {'fingers': 'index,ring', 'namespace': '/left', 'mode': 'staircase'},
+        {'clock': 'sim', 'lockstep': 'true', 'real_time_factor': '0.0', 'estimator': 'false'},
+    ],
+)
+def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api, arguments):
+    argv = command_line(entities, api, **arguments)
+    config = hand_config(build_parser().parse_args(argv))
+    options = {o.name: o.default for o in hand_options()} | arguments
+    assert config.fingers == tuple(options['fingers'].split(','))
+    assert config.namespace == options['namespace']
+    assert config.mode == options['mode']
+    assert config.clock == options['clock']
+    assert config.estimator == (options['estimator'] == 'true')
+    assert config.time.lockstep == (options['lockstep'] == 'true')
+    assert config.time.real_time_factor == float(options['real_time_factor'])
