@@ -49,7 +49,13 @@ def model():
 
 
 def start_glove(launcher, probe, namespace):
-    """The three nodes in ``namespace``, once the probe has heard each of their topics."""
+    """The three nodes in ``namespace``, once the probe has heard each of their topics.
+
+    The estimator starts once the probe hears the plant, so the probe holds the contact forces
+    of every step the estimator estimates. Started together, the estimator could be matched with
+    the plant seconds before the probe (each reader meets each writer on its own, up to 2.7 s
+    here) and estimate steps the probe never heard.
+    """
     inboxes = {
         topic: probe.subscribe(f'{namespace}/{topic}', Float64MultiArray, with_info=True)
         for topic in VECTOR_TOPICS
@@ -76,10 +82,12 @@ def start_glove(launcher, probe, namespace):
             },
             namespace=namespace,
         ),
-        'estimator': launcher.start(
-            'estimator', {'identification_period': 0.2}, namespace=namespace
-        ),
     }
+    for topic in ('chamber_pressure', 'joint_states', 'contact_forces'):
+        assert inboxes[topic].wait_count(1, timeout=30.0), (topic, nodes['plant'].stderr())
+    nodes['estimator'] = launcher.start(
+        'estimator', {'identification_period': 0.2}, namespace=namespace
+    )
     for topic, inbox in inboxes.items():  # every probe subscription has matched and heard
         if topic != 'joint_targets':
             assert inbox.wait_count(1, timeout=30.0), (topic, nodes['plant'].stderr())
@@ -180,20 +188,18 @@ def unmatched(estimates, inbox):
 
 def test_estimated_forces_equal_the_plant_contact_forces_on_noise_free_data(glove):
     _, inboxes = glove
-    assert inboxes['estimated_contact_forces'].wait_count(300, timeout=10.0)
-    estimates = [tuple(m.data) for m in inboxes['estimated_contact_forces'].messages()][-200:]
+    estimated, forces = inboxes['estimated_contact_forces'], inboxes['contact_forces']
+    assert estimated.wait_count(300, timeout=10.0)
+    records = estimated.records()[-200:]
+    estimates = [tuple(m.data) for _, m, _ in records]
     assert len(set(estimates)) > 10  # a moving glove, not the rest state
-    # The plant's message of a step may reach the probe well after the estimator's (the probe's
-    # executor shares the GIL with this test): let 3 s more of plant steps arrive first.
-    forces = inboxes['contact_forces']
-    assert forces.wait_count(forces.count() + 300, timeout=20.0)
+    # An estimate is sent after its plant step, and each topic arrives in order: once the probe
+    # holds contact forces sent after the last estimate, it holds every step estimated.
+    last = records[-1][2]['source_timestamp']
+    assert wait_until(lambda: forces.records()[-1][2]['source_timestamp'] > last, 20.0)
     steps = [info['publication_sequence_number'] for _, _, info in forces.records()]
-    lost = steps[-1] - steps[0] + 1 - len(set(steps))
-    # Known open issue: in about one run in four on this loaded machine a few (≤ 4 of 200)
-    # estimates match no plant step although the probe heard every step; until explained, the
-    # test demands that 98 % match exactly.
-    missing = unmatched(estimates, forces)
-    assert len(missing) <= len(estimates) // 50, (f'{lost} plant steps not heard', missing)
+    assert steps[-1] - steps[0] + 1 == len(set(steps)), 'the probe lost plant steps'
+    assert unmatched(estimates, forces) == []
 
 
 def test_estimated_finger_stiffness_is_the_finger_stiffness_of_the_model(glove):
@@ -275,16 +281,30 @@ def test_a_good_parameter_set_is_applied(glove, probe, max_pressure_restored):
     mark = time.monotonic()
     capped = inboxes['pressure_command'].wait_for(lambda m: m.data[0] == 30e3, 5.0, since=mark)
     assert capped is not None
-    published_after = [
-        m.data[0]
-        for _, m, info in inboxes['pressure_command'].records()
-        if info['source_timestamp'] * 1e-9 > applied
-    ]
-    assert published_after and max(published_after) <= 30e3
+
+    def published_after():
+        return [
+            max(m.data)
+            for _, m, info in inboxes['pressure_command'].records()
+            if info['source_timestamp'] * 1e-9 > applied
+        ]
+
+    # a message of exactly 30 kPa may have left before the set: wait for some sent after it
+    assert wait_until(lambda: len(published_after()) >= 20, 5.0)
+    assert max(published_after()) <= 30e3
 
 
-def test_sigint_stops_every_node_within_2_s_and_the_command_node_sends_zero_first(launcher, probe):
-    nodes, inboxes = start_glove(launcher, probe, f'{NS}_sigint')
+@pytest.fixture
+def own_glove(launcher, probe):
+    """A glove for one test alone (which may stop it); whatever still runs stops after it."""
+    nodes, inboxes = start_glove(launcher, probe, f'{NS}_own')
+    yield nodes, inboxes
+    for node in nodes.values():
+        node.stop()
+
+
+def test_sigint_stops_every_node_within_2_s_and_the_command_node_sends_zero_first(own_glove):
+    nodes, inboxes = own_glove
     command = nodes['pressure_command']
     assert inboxes['pressure_command'].wait_for(lambda m: max(m.data) > 0.0, 5.0) is not None
     started = time.monotonic()

@@ -262,8 +262,16 @@ def test_a_good_parameter_set_is_applied_from_the_next_step(plant, probe, supply
     assert capped, inboxes['chamber_pressure'].latest()
 
 
-def test_sigint_stops_the_plant_within_2_s(launcher, probe):
-    node, _, _ = start_plant(launcher, probe, f'{NS}_sigint')
+@pytest.fixture
+def own_plant(launcher, probe):
+    """A plant for one test alone (which may stop it); stopped after it if still running."""
+    node, _, _ = start_plant(launcher, probe, f'{NS}_own')
+    yield node
+    node.stop()
+
+
+def test_sigint_stops_the_plant_within_2_s(own_plant):
+    node = own_plant
     started = time.monotonic()
     node.signal(signal.SIGINT)
     assert node.wait(STOP_TIMEOUT) == 0, node.stderr()
