@@ -1,10 +1,14 @@
-"""A whole hand under load: five gloves, their controllers and estimators (15 processes).
+"""A whole hand under load: five gloves, their controllers and estimators.
 
 Each finger (thumb, index, middle, ring, little) runs in its own namespace ``/hand/<finger>``
 with joint prefix ``<finger>_`` and its own model file (``exodigit_nodes/config/hand``): a plant,
-a ``pressure_command`` in ``sine`` mode and an ``estimator``, all at ``--rate`` Hz. A monitor
-node in this process listens for ``--duration`` seconds and prints, per node, CPU % of one
-core (and its own, so a starved monitor shows), and per finger:
+a ``pressure_command`` in ``sine`` mode and an ``estimator``, all at ``--rate`` Hz. With
+``--layout one-process`` (default) a hand is one ``hand_nodes`` process (every finger's nodes on
+one executor); ``--layout processes`` starts the three nodes of every finger as 15 processes
+(the layout before issue 11). ``--hands 2`` runs two hands (``/hand`` and ``/hand2``), ``--busy``
+keeps one core busy with another process meanwhile. A monitor node in this process listens for
+``--duration`` seconds and prints, per process, CPU % of one core (and its own, so a starved
+monitor shows), and per finger:
 
 - late cycles: plant steps that started more than 1.5 periods after the previous one (the
   plant's own count, read from its /diagnostics at the start and end of the window), and the
@@ -24,6 +28,10 @@ carrying its values minus the arrival of the command. The plant publishes ``join
 just before ``chamber_pressure`` in the same step. A command overwritten by the next one
 before a plant step used it is counted as superseded, not lost.
 
+``--lockstep S``: instead, run the hand(s) in lockstep simulated time as fast as the CPU allows
+(``--clock sim --lockstep --real-time-factor 0``) for S wall seconds and print how many
+simulated seconds per wall second every finger made (the /clock the monitor receives).
+
 Nodes run on a free ROS domain with loopback discovery (tests/ros_harness.py starts them).
 Run: ``.venv/bin/python benchmarks/bench_hand.py [--duration 60] [--fingers thumb,index]``.
 ``--json FILE`` also writes the figures for tests.
@@ -34,6 +42,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -115,20 +124,56 @@ def node_parameters(finger: str, rate: float) -> dict[str, dict]:
     }
 
 
-class HandMonitor:
-    """An rclpy node recording commands, pressures and plant diagnostics per finger."""
+def hand_namespaces(args: argparse.Namespace) -> list[str]:
+    """``/hand``, then ``/hand2``... one per hand."""
+    return ['/hand' + (str(i + 1) if i else '') for i in range(args.hands)]
 
-    def __init__(self, fingers: list[str]) -> None:
+
+def start_hands(launcher: NodeLauncher, args: argparse.Namespace) -> dict:
+    """Start every hand in ``args.layout``; the processes by name."""
+    if args.layout == 'processes':
+        return {
+            f'{hand}/{finger}/{node}': launcher.start(
+                node, parameters, namespace=f'{hand}/{finger}'
+            )
+            for hand in hand_namespaces(args)
+            for finger in args.fingers
+            for node, parameters in node_parameters(finger, args.rate).items()
+        }
+    everyone = {'rate_hz': args.rate, 'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
+    sim = ['--clock', 'sim', '--lockstep', '--real-time-factor', '0'] if args.lockstep else []
+    return {
+        f'hand_nodes {hand}': launcher.start(
+            'hand_nodes',
+            everyone,
+            arguments=['--fingers', ','.join(args.fingers), '--namespace', hand, *sim],
+        )
+        for hand in hand_namespaces(args)
+    }
+
+
+def start_busy_process() -> subprocess.Popen:
+    """Another process that keeps one core busy (a spinning Python loop)."""
+    return subprocess.Popen([sys.executable, '-c', 'while True: pass'])
+
+
+class HandMonitor:
+    """An rclpy node recording commands, pressures and plant diagnostics per glove.
+
+    ``gloves`` are the gloves' namespaces, ``/hand/<finger>``.
+    """
+
+    def __init__(self, gloves: list[str]) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.event_handler import SubscriptionEventCallbacks
         from rclpy.node import Node
         from std_msgs.msg import Float64MultiArray
 
         self.node = Node('bench_hand_monitor')
-        self.records = {finger: FingerRecord() for finger in fingers}
-        for finger, record in self.records.items():
+        self.records = {glove: FingerRecord() for glove in gloves}
+        for glove, record in self.records.items():
             events = SubscriptionEventCallbacks(message_lost=self._lost(record))
-            prefix = f'/hand/{finger}/'
+            prefix = f'{glove}/'
             self.node.create_subscription(
                 Float64MultiArray, prefix + 'pressure_command',
                 self._commands(record), TEST_QOS, event_callbacks=events,
@@ -163,9 +208,9 @@ class HandMonitor:
 
     def _diagnostics(self, message) -> None:
         for status in message.status:
-            parts = status.name.strip('/').split('/')
-            if len(parts) == 3 and parts[0] == 'hand' and parts[2] == 'plant':
-                record = self.records.get(parts[1])
+            glove, _, node = status.name.rpartition('/')
+            if node == 'plant':
+                record = self.records.get(glove)
                 if record is not None:
                     record.diagnostics = {kv.key: kv.value for kv in status.values}
                     record.late_counts.append(int(record.diagnostics['late cycles']))
@@ -183,17 +228,14 @@ def measure(args: argparse.Namespace, domain_id: int) -> dict:
     from rclpy.signals import SignalHandlerOptions
 
     os.environ.update(ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', ROS_DOMAIN_ID=str(domain_id))
-    fingers = args.fingers
     log_dir = Path(args.log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
     launcher = NodeLauncher(domain_id, log_dir)
-    nodes = {
-        f'{finger}/{node}': launcher.start(node, parameters, namespace=f'/hand/{finger}')
-        for finger in fingers
-        for node, parameters in node_parameters(finger, args.rate).items()
-    }
+    nodes = start_hands(launcher, args)
+    busy = start_busy_process() if args.busy else None
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
-    monitor = HandMonitor(fingers)
+    gloves = [f'{hand}/{finger}' for hand in hand_namespaces(args) for finger in args.fingers]
+    monitor = HandMonitor(gloves)
     executor = SingleThreadedExecutor()
     executor.add_node(monitor.node)
     period = 1.0 / args.rate
@@ -223,11 +265,20 @@ def measure(args: argparse.Namespace, domain_id: int) -> dict:
         cpu['bench monitor (this process)'] = 100.0 * (time.process_time() - monitor_cpu) / elapsed
         crashed = [name for name, node in nodes.items() if not node.alive()]
     finally:
+        if busy is not None:
+            busy.kill()
+            busy.wait()
         launcher.stop_all()
         executor.shutdown()
         monitor.node.destroy_node()
         rclpy.try_shutdown()
-    return figures(monitor, start_diag, cpu, crashed, elapsed, period)
+    result = figures(monitor, start_diag, cpu, crashed, elapsed, period)
+    result['layout'] = (
+        args.layout
+        + (', lockstep' if args.lockstep else '')
+        + (', one core kept busy' if args.busy else '')
+    )
+    return result
 
 
 def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
@@ -250,6 +301,11 @@ def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
             'latency p50 (ms)': percentile_ms(latencies, 50),
             'latency p99 (ms)': percentile_ms(latencies, 99),
             'watchdog trips': int(end['watchdog trips']) - int(begin['watchdog trips']),
+            'simulated s per wall s': (
+                float(end.get('simulated time (s)', 'nan'))
+                - float(begin.get('simulated time (s)', 'nan'))
+            )
+            / elapsed,
         }
     return {
         'duration (s)': elapsed,
@@ -265,10 +321,11 @@ def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
 def report(result: dict) -> str:
     """The figures as text."""
     lines = [
-        f'whole hand: {len(result["fingers"])} gloves x 3 nodes at {result["rate (Hz)"]:g} Hz '
-        f'for {result["duration (s)"]:.1f} s; crashed: {result["crashed"] or "none"}',
+        f'{len(result["fingers"])} gloves x 3 nodes at {result["rate (Hz)"]:g} Hz for '
+        f'{result["duration (s)"]:.1f} s ({result["layout"]}); crashed: '
+        f'{result["crashed"] or "none"}',
         '',
-        'CPU per node (% of one core):',
+        'CPU per process (% of one core):',
     ]
     lines += [f'  {name:28s} {value:6.1f}' for name, value in result['cpu (% of a core)'].items()]
     lines.append(f'  {"total":28s} {sum(result["cpu (% of a core)"].values()):6.1f}')
@@ -285,17 +342,19 @@ def report(result: dict) -> str:
         'latency p50 (ms)': 'p50 ms',
         'latency p99 (ms)': 'p99 ms',
         'watchdog trips': 'wd trips',
+        'simulated s per wall s': 'sim/wall',
     }
     lines.append('per finger:  ' + ' '.join(f'{short:>12s}' for short in columns.values()))
     for finger, row in result['fingers'].items():
         cells = [row[key] for key in columns]
         text = [f'{v:12.2f}' if isinstance(v, float) else f'{v:12d}' for v in cells]
-        lines.append(f'  {finger:10s} ' + ' '.join(text))
+        lines.append(f'  {finger:14s} ' + ' '.join(text))
     lines += [
         '  late = plant steps more than 1.5 periods after the previous one; worst 1 s = most late',
         '  steps between two plant reports; cmd missing = gaps in the publication sequence',
         '  numbers of the commands received; lost = DDS "message lost" events; superseded =',
-        '  overwritten by the next command before a plant step used it',
+        '  overwritten by the next command before a plant step used it; sim/wall = simulated',
+        '  seconds per wall second (lockstep; nan on the wall clock)',
     ]
     lines.append('')
     lines.append(
@@ -316,6 +375,22 @@ def build_parser() -> argparse.ArgumentParser:
         default=list(FINGERS),
         help='comma-separated subset of ' + ','.join(FINGERS),
     )
+    parser.add_argument(
+        '--layout',
+        choices=('one-process', 'processes'),
+        default='one-process',
+        help='one hand_nodes process per hand (default), or three processes per glove',
+    )
+    parser.add_argument('--hands', type=int, default=1, help='number of hands (default 1)')
+    parser.add_argument(
+        '--busy', action='store_true', help='keep one core busy with another process meanwhile'
+    )
+    parser.add_argument(
+        '--lockstep',
+        action='store_true',
+        help='one-process layout in lockstep simulated time at real_time_factor 0: measure the '
+        'simulated seconds per wall second',
+    )
     parser.add_argument('--log-dir', default='runs/bench_hand', help='node logs go here')
     parser.add_argument('--json', help='also write the figures to this file')
     return parser
@@ -325,7 +400,8 @@ def main(argv=None) -> int:
     """Run the benchmark and print the figures."""
     args = build_parser().parse_args(argv)
     unknown = sorted(set(args.fingers) - set(FINGERS))
-    if unknown or args.duration <= 0 or args.rate <= 0:
+    lockstep_layout = args.lockstep and args.layout != 'one-process'
+    if unknown or args.duration <= 0 or args.rate <= 0 or args.hands < 1 or lockstep_layout:
         print(f'bench_hand: bad arguments (unknown fingers {unknown})', file=sys.stderr)
         return 2
     lease = claim_domain()

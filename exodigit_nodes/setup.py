@@ -17,7 +17,8 @@ setup(
         (f'share/{PACKAGE}/config', glob('config/*.yaml')),
         (f'share/{PACKAGE}/config/hand', glob('config/hand/*.yaml')),
     ],
-    # matplotlib: the runner's session plot; rosbags: the recorder's bag (pip only, see package.xml)
+    # matplotlib: the runner's session plot; rosbags: the recorder's bag (pip only, see
+    # package.xml)
     install_requires=[
         'setuptools',
         'exodigit_model',
@@ -37,6 +38,8 @@ setup(
             f'pressure_command = {PACKAGE}.pressure_command:main',
             f'estimator = {PACKAGE}.estimator:main',
             f'glove = {PACKAGE}.glove:main',
+            f'hand = {PACKAGE}.hand:main',
+            f'hand_nodes = {PACKAGE}.hand_nodes:main',
             f'recorder = {PACKAGE}.recorder:main',
         ],
         # The testing kit's glove_sim fixture, for every pytest run where the package is installed.

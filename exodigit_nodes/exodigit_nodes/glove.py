@@ -17,20 +17,24 @@ glove.launch.py`` starts the same nodes without the summary.
 import argparse
 import os
 import re
-import signal
 import sys
-import time
 from pathlib import Path
 
 from exodigit_model.params import PATIENT_PRESETS
 
 from exodigit_nodes import catalog
 from exodigit_nodes.controllers import MODES
+from exodigit_nodes.messages import SET_PAUSED
 from exodigit_nodes.pacing import MAX_REAL_TIME_FACTOR
 from exodigit_nodes.ros_env import discovery_settings
 from exodigit_nodes.run_record import RunRecord, new_run_directory
-from exodigit_nodes.summary import SIGNALS, GloveSignals, SummaryDisplay
-from exodigit_nodes.supervisor import Supervisor
+from exodigit_nodes.session import (
+    Session,
+    WatchedGlove,
+    identification_references,
+    run_session,
+    with_patient,
+)
 
 #: The glove's node executables, in start order (the plant first, commands last).
 NODES = tuple(node.executable for node in catalog.NODES)
@@ -42,12 +46,6 @@ CLOCK = catalog.PLANT_NODE.table['clock']
 REAL_TIME_FACTOR = catalog.PLANT_NODE.table['real_time_factor']
 #: The finger the default session's plant simulates (the controller assumes the nominal one).
 DEFAULT_PATIENT = 'stroke_moderate'
-#: --patient value for "the glove file alone" (the nominal finger).
-NOMINAL_PATIENT = 'nominal'
-#: Seconds between two refreshes of the terminal summary.
-REFRESH_PERIOD = 0.25
-#: Lines of a dead node's log shown when it exits unexpectedly.
-LOG_TAIL_LINES = 8
 NAMESPACE_PATTERN = re.compile(r'^(/[A-Za-z][A-Za-z0-9_]*)+$')
 EXAMPLES = """examples:
   python -m exodigit_nodes.glove                      # sine session until Ctrl-C
@@ -213,30 +211,7 @@ def nominal_files(args: argparse.Namespace) -> list[str]:
 
 def plant_files(args: argparse.Namespace) -> list[str]:
     """The plant's model files: the glove, then the patient merged over it."""
-    from exodigit_model import PATIENT_PRESETS, patient_file
-
-    if args.patient == NOMINAL_PATIENT:
-        return nominal_files(args)
-    patient = patient_file(args.patient) if args.patient in PATIENT_PRESETS else args.patient
-    return [*nominal_files(args), str(patient)]
-
-
-def identification_references(args: argparse.Namespace) -> dict:
-    """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate."""
-    from exodigit_model import load_params
-
-    joints = {
-        label: load_params(files).finger.joints
-        for label, files in (('nominal', nominal_files(args)), ('patient', plant_files(args)))
-    }
-    return {
-        'estimated_finger_stiffness': {
-            label: [j.stiffness for j in rows] for label, rows in joints.items()
-        },
-        'estimated_rest_angle': {
-            label: [j.rest_angle for j in rows] for label, rows in joints.items()
-        },
-    }
+    return with_patient(nominal_files(args), args.patient)
 
 
 def sim_time_arguments(node: str, args: argparse.Namespace) -> list[str]:
@@ -256,32 +231,6 @@ def sim_time_arguments(node: str, args: argparse.Namespace) -> list[str]:
     if node == 'pressure_command':
         overrides += ['-p', f'lockstep:={lockstep}']
     return overrides
-
-
-class StopRequest:
-    """Turns SIGINT, SIGTERM and SIGHUP into a flag the main loop checks."""
-
-    def __init__(self):
-        self.requested = False
-        self.signal_name = ''
-        self.install()
-
-    def install(self) -> None:
-        """Handle SIGINT, SIGTERM and SIGHUP (terminal closed), also if SIGINT was ignored."""
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, self._handle)
-
-    def _handle(self, signum, _frame) -> None:
-        self.requested = True
-        self.signal_name = signal.Signals(signum).name
-
-
-def log_tail(path: Path | None) -> list[str]:
-    """The last lines of a node's log file (empty if there is none)."""
-    if path is None or not path.is_file():
-        return []
-    lines = path.read_text(errors='replace').splitlines()
-    return lines[-LOG_TAIL_LINES:]
 
 
 def main(argv=None) -> int:
@@ -306,95 +255,34 @@ def main(argv=None) -> int:
         f'glove {args.namespace}: mode {args.mode}, patient {args.patient} (the controller and '
         f'estimator assume the nominal finger); run record and node logs in {run_dir}/'
     )
-    return run_glove(args, env, record)
-
-
-def run_glove(args: argparse.Namespace, env: dict, record: RunRecord) -> int:
-    """Start the processes, show the summary until stop or failure, stop, write the record."""
-    stop = StopRequest()  # from here on, Ctrl-C means a clean stop
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.signals import SignalHandlerOptions
-
-    from exodigit_nodes.monitor import GloveMonitor
-
-    stop.install()  # again: loading rclpy's C extension takes the signals over
-    supervisor = Supervisor(env, log_dir=record.log_dir)
-    names = (('recorder',) if args.record else ()) + NODES
-    display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and os.environ.get('TERM') != 'dumb')
-    clock = '' if args.clock == 'wall' else ', simulated time' + (', lockstep' * args.lockstep)
-    title = f'exodigit glove {args.namespace} ({args.mode}{clock})'
-    references = identification_references(args)
-    signals = GloveSignals(NODES, references)
-    executor = monitor = None
-    failures, stops = [], []
-    try:
-        for name in names:
-            supervisor.start(name, node_command(name, args, record))
-        rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
-        monitor = GloveMonitor(signals, args.namespace, record.write)
-        executor = SingleThreadedExecutor()
-        executor.add_node(monitor)
-
-        def spin() -> None:
-            executor.spin_once(timeout_sec=0.02)
-
-        started = time.monotonic()
-        next_refresh = started
-        waiting = args.clock == 'sim'  # the plant starts paused until we listen to every topic
-        while not stop.requested:
-            spin()
-            now = time.monotonic()
-            if waiting and monitor.connected(SIGNALS):
-                waiting = not monitor.resume_plant()
-            failures = supervisor.exited()
-            elapsed = now - started if args.clock == 'wall' else signals.received_stamp or 0.0
-            if failures or (args.duration and elapsed >= args.duration):
-                break
-            if now >= next_refresh:
-                display.show(signals, now, title)
-                record.flush()
-                next_refresh = now + REFRESH_PERIOD
-        display.show(signals, time.monotonic(), title)
-        reason = stop.signal_name or (
-            'a node exited'
-            if failures
-            else f'{args.duration:g} {"" if args.clock == "wall" else "simulated "}s elapsed'
-        )
-        display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
-        stops = supervisor.stop(STOP_ORDER, idle=spin)
-        for sample in signals.flush():  # the nodes are gone: the last step is complete
-            record.write(sample)
-    finally:
-        supervisor.stop(STOP_ORDER)  # after an error above: no node is left behind
-        if executor is not None:
-            executor.shutdown()
-        if monitor is not None:
-            monitor.destroy_node()
-        rclpy.try_shutdown()
-        record.close()
-
-    failed_names = {exit_.name for exit_ in failures}
-    unclean = [s for s in stops if not s.clean and s.name not in failed_names]
-    # A node stopped before it ever reported was still starting (importing): Ctrl-C that
-    # early can end it with any code, and that is no failure of the session.
-    starting = [
-        s for s in unclean if s.name in NODES and signals.health[s.name] is None and not s.forced
-    ]
-    for exit_ in starting:
-        print(f'glove: {exit_.name} was stopped while starting ({exit_.describe()})')
-    bad = failures + [s for s in unclean if s not in starting]
-    for exit_ in bad:
-        print(f'glove: {exit_.describe()}', file=sys.stderr)
-        for line in log_tail(supervisor.log_path(exit_.name)):
-            print(f'  {exit_.name}| {line}', file=sys.stderr)
-    plot = record.plot(references)
-    print(f'run record: {record.csv_path} ({record.rows} samples)')
-    print(f'plot: {plot}' if plot else 'plot: none (no sample was received)')
+    code = run_session(glove_session(args, record), env)
     if args.record:
         print(f'rosbag2 (MCAP): {record.bag_path}')
-    print(f'node logs: {record.log_dir}/')
-    return 1 if bad else 0
+    return code
+
+
+def glove_session(args: argparse.Namespace, record: RunRecord) -> Session:
+    """The :class:`.session.Session` of one glove: three processes (and the recorder)."""
+    names = (('recorder',) if args.record else ()) + NODES
+    clock = '' if args.clock == 'wall' else ', simulated time' + (', lockstep' * args.lockstep)
+    glove = WatchedGlove(
+        title=f'exodigit glove {args.namespace} ({args.mode}{clock})',
+        namespace=args.namespace,
+        record=record,
+        references=identification_references(nominal_files(args), plant_files(args)),
+    )
+    return Session(
+        program='glove',
+        processes=tuple((name, node_command(name, args, record)) for name in names),
+        stop_order=STOP_ORDER,
+        runs={name: (name,) if name in NODES else () for name in names},
+        nodes=NODES,
+        gloves=(glove,),
+        pause_service=f'{args.namespace}/{SET_PAUSED}',
+        simulated=args.clock == 'sim',
+        duration=args.duration,
+        log_dir=record.log_dir,
+    )
 
 
 if __name__ == '__main__':

@@ -17,11 +17,10 @@ from pathlib import Path
 
 from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from .pacing import TimeSettings
+from .session import NOMINAL_PATIENT, with_patient
 
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 """The fingers of a hand, thumb first."""
-NOMINAL_PATIENT = 'nominal'
-"""``--patient`` value for the finger files alone."""
 TIME_PARAMETERS = ('clock', 'real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused')
 """Plant parameters that are options of the hand (one simulated time for every finger)."""
 BOOLEANS = ('true', 'false')
@@ -193,12 +192,7 @@ class HandConfig:
 
     def plant_files(self, finger: str) -> list[str]:
         """The plant's model of ``finger``: its file, then the patient merged over it."""
-        from exodigit_model import PATIENT_PRESETS, patient_file
-
-        if self.patient == NOMINAL_PATIENT:
-            return self.model_files(finger)
-        patient = patient_file(self.patient) if self.patient in PATIENT_PRESETS else self.patient
-        return [*self.model_files(finger), str(patient)]
+        return with_patient(self.model_files(finger), self.patient)
 
     def parameters(self, executable: str, finger: str) -> dict:
         """The per-finger parameters of one node (they win over ``--ros-args`` values)."""

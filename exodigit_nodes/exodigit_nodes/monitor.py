@@ -44,9 +44,18 @@ class GloveMonitor(Node):
     on_sample : callable
         Called with each completed `Sample` (one per plant step). Subscriptions take the DDS
         message info: its source timestamp joins the three messages of a plant step.
+    pause_service : str
+        The ``set_paused`` service of the glove's simulated time (a hand's is the hand's).
     """
 
-    def __init__(self, signals: GloveSignals, namespace: str, on_sample: Callable[[Sample], None]):
+    def __init__(
+        self,
+        signals: GloveSignals,
+        namespace: str,
+        on_sample: Callable[[Sample], None],
+        *,
+        pause_service: str = SET_PAUSED,
+    ):
         super().__init__('glove_monitor', namespace=namespace)
         self._signals = signals
         self._on_sample = on_sample
@@ -60,7 +69,7 @@ class GloveMonitor(Node):
                 self.create_subscription(message_type, topic, callback, RECORD_QOS)
             )
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
-        self._pause_client = self.create_client(SetBool, SET_PAUSED)
+        self._pause_client = self.create_client(SetBool, pause_service)
 
     def connected(self, topics) -> bool:
         """Whether each of ``topics`` (keys of `SIGNALS`) has a publisher matched to us."""

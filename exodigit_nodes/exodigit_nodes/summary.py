@@ -276,15 +276,21 @@ class SummaryDisplay:
         self._next_line = -math.inf
 
     def show(self, signals: GloveSignals, now: float, title: str) -> None:
-        """Show the current state (call a few times per second)."""
+        """Show the current state of one glove (call a few times per second)."""
+        self.show_many([(signals, title)], now)
+
+    def show_many(self, gloves: list[tuple[GloveSignals, str]], now: float) -> None:
+        """Show several gloves (a hand): one block each, or one line each prefixed by its title."""
         if self._interactive:
-            text = signals.table(now, title)
+            text = '\n\n'.join(signals.table(now, title) for signals, title in gloves)
             # Move the cursor up over the previous block and clear to the end of the screen.
             erase = f'\x1b[{self._drawn_lines}F\x1b[J' if self._drawn_lines else ''
             self._stream.write(erase + text + '\n')
             self._drawn_lines = text.count('\n') + 1
         elif now >= self._next_line:
-            self._stream.write(signals.line(now) + '\n')
+            for signals, title in gloves:
+                prefix = f'{title}: ' if len(gloves) > 1 else ''
+                self._stream.write(prefix + signals.line(now) + '\n')
             self._next_line = now + self._line_period
         self._stream.flush()
 

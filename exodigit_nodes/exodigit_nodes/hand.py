@@ -1,0 +1,154 @@
+"""Run a simulated hand from one command, with a live summary and one run record per finger.
+
+Starts ``hand_nodes`` (every finger's plant, estimator and pressure_command in one process, on
+one executor: :mod:`.hand_nodes`), shows each finger's signals on the terminal, writes
+``<finger>/signals.csv`` and ``<finger>/signals.png`` into the run directory and stops on Ctrl-C
+or after ``--duration`` seconds (simulated seconds with ``--clock sim``): every command node
+sends zero pressure first. Finger f lives in ``<namespace>/<f>`` with joint prefix ``f_`` and
+the model ``config/hand/<f>.yaml``.
+
+This is what ``make run HAND=1`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
+hand.launch.py`` starts the same process without the summary.
+"""
+
+import argparse
+import math
+import os
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+from exodigit_nodes.hand_config import HandConfig, HandError, add_hand_arguments, hand_config
+from exodigit_nodes.ros_env import discovery_settings
+from exodigit_nodes.run_record import LOG_DIR_NAME, RunRecord, new_run_directory
+from exodigit_nodes.session import Session, WatchedGlove, identification_references, run_session
+
+PROCESS = 'hand_nodes'
+EXAMPLES = """examples:
+  python -m exodigit_nodes.hand                                  # five fingers until Ctrl-C
+  python -m exodigit_nodes.hand --fingers index,middle --duration 20
+  python -m exodigit_nodes.hand --clock sim --lockstep --real-time-factor 0 --duration 60
+                                                     # 60 simulated s, as fast as the CPU allows
+  python -m exodigit_nodes.hand --ros-params fast.yaml  # /**: ros__parameters: rate_hz: 200
+
+ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed on;
+see the README, "Networking"."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m exodigit_nodes.hand``."""
+    parser = argparse.ArgumentParser(
+        prog='python -m exodigit_nodes.hand',
+        description="Run a simulated hand (every finger's plant, estimator and "
+        'pressure_command in one process) with a live summary; write a run record (CSV and '
+        'PNG) per finger.',
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        '--duration',
+        type=float,
+        default=0.0,
+        metavar='S',
+        help='seconds to run (simulated seconds with --clock sim), then stop cleanly and exit 0; '
+        '0 (default) runs until Ctrl-C',
+    )
+    add_hand_arguments(parser)
+    parser.add_argument(
+        '--ros-params',
+        action='append',
+        default=[],
+        metavar='FILE',
+        help='ROS parameter YAML (/**: ros__parameters) for every node; may be repeated',
+    )
+    parser.add_argument(
+        '--out', metavar='DIR', help='run directory (default runs/<YYYYmmdd-HHMMSS>)'
+    )
+    return parser
+
+
+def session_config(options: argparse.Namespace) -> HandConfig:
+    """The hand to start: simulated time starts paused and pauses at the duration."""
+    if not 0.0 <= options.duration < math.inf:
+        raise HandError(f'--duration {options.duration}: must be a finite number of seconds >= 0')
+    for path in options.ros_params:
+        if not Path(path).is_file():
+            raise HandError(f'--ros-params {path}: no such file')
+    config = hand_config(options)
+    from exodigit_model import ParameterError, load_params
+
+    for finger in config.fingers:
+        try:
+            load_params(config.plant_files(finger))
+        except ParameterError as error:
+            raise HandError(f'--patient: {" ".join(str(error).split())}') from None
+    if config.clock != 'sim':
+        return config
+    # Paused until the summary listens (nothing is missed), and again at the end of the
+    # duration, so that every record ends exactly there.
+    return replace(config, time=replace(config.time, start_paused=True, pause_at=options.duration))
+
+
+def hand_session(config: HandConfig, options: argparse.Namespace, run_dir: Path) -> Session:
+    """The :class:`.session.Session` of a hand: one process, one watched glove per finger."""
+    command = [sys.executable, '-m', f'exodigit_nodes.{PROCESS}', *config.arguments()]
+    if options.ros_params:
+        command.append('--ros-args')
+        for path in options.ros_params:
+            command += ['--params-file', str(Path(path).resolve())]
+    nodes = tuple(entry.executable for entry in config.node_entries())
+    clock = (
+        '' if config.clock == 'wall' else ', simulated time' + ', lockstep' * config.time.lockstep
+    )
+    gloves = tuple(
+        WatchedGlove(
+            title=f'exodigit hand {config.finger_namespace(finger)} ({config.mode}{clock})',
+            namespace=config.finger_namespace(finger),
+            record=RunRecord(run_dir / finger),
+            references=identification_references(
+                config.model_files(finger), config.plant_files(finger)
+            ),
+        )
+        for finger in config.fingers
+    )
+    return Session(
+        program='hand',
+        processes=((PROCESS, command),),
+        stop_order=(PROCESS,),
+        runs={PROCESS: nodes},
+        nodes=nodes,
+        gloves=gloves,
+        pause_service=f'{config.namespace.rstrip("/")}/set_paused',
+        simulated=config.clock == 'sim',
+        duration=options.duration,
+        log_dir=run_dir / LOG_DIR_NAME,
+    )
+
+
+def main(argv=None) -> int:
+    """Run the hand; the exit code (0 clean stop, 1 the process failed, 2 bad input)."""
+    options = build_parser().parse_args(argv)
+    try:
+        config = session_config(options)
+        settings = discovery_settings(os.environ)
+    except ValueError as error:  # HandError too
+        print(f'hand: {error}', file=sys.stderr)
+        return 2
+    env = settings.apply(os.environ)
+    os.environ.update(env)  # this process's own ROS context reads the same settings
+    try:
+        run_dir = Path(options.out) if options.out else new_run_directory(Path('runs'))
+        session = hand_session(config, options, run_dir)
+    except OSError as error:
+        print(f'hand: cannot write the run records: {error}', file=sys.stderr)
+        return 2
+    print(settings.describe())
+    print(
+        f'hand {config.namespace}: fingers {", ".join(config.fingers)}, mode {config.mode}, '
+        f'patient {config.patient}; run records and logs in {run_dir}/'
+    )
+    return run_session(session, env)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

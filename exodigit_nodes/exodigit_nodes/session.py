@@ -1,0 +1,253 @@
+"""One runner loop for a glove or a hand: node processes, live summary, run records, clean stop.
+
+:func:`run_session` starts the processes of a :class:`Session`, watches every glove of it with a
+:class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove), and
+stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or the end of the duration: in the
+session's stop order (the commands first, so the chambers get zero pressure), then each record's
+last step is joined and its plot drawn. The glove runner (:mod:`.glove`, three processes) and the
+hand runner (:mod:`.hand`, one process for every finger) differ only in their :class:`Session`.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .run_record import RunRecord
+from .summary import SIGNALS, GloveSignals, SummaryDisplay
+from .supervisor import Supervisor
+
+NOMINAL_PATIENT = 'nominal'
+"""``--patient`` value for the model files alone (their nominal finger)."""
+#: Seconds between two refreshes of the terminal summary.
+REFRESH_PERIOD = 0.25
+#: Lines of a dead process's log shown when it exits unexpectedly.
+LOG_TAIL_LINES = 8
+
+
+@dataclass(frozen=True)
+class WatchedGlove:
+    """One glove of a session: what the summary shows and where its record goes.
+
+    Attributes
+    ----------
+    title : str
+        Its heading in the summary.
+    namespace : str
+        Its ROS namespace (absolute).
+    record : RunRecord
+    references : dict
+        Constant values beside its identified signals (`GloveSignals`).
+    """
+
+    title: str
+    namespace: str
+    record: RunRecord
+    references: dict
+
+
+@dataclass(frozen=True)
+class Session:
+    """What a runner starts and watches.
+
+    Attributes
+    ----------
+    program : str
+        The runner's name, in its messages.
+    processes : tuple of (str, list of str)
+        Name and command line of each process, in start order.
+    stop_order : tuple of str
+        Process names in stop order (the rest after them).
+    runs : dict of str to tuple of str
+        Per process, the glove nodes it runs (their /diagnostics say it has started).
+    nodes : tuple of str
+        The node names each glove's summary shows the health of.
+    gloves : tuple of WatchedGlove
+    pause_service : str
+        ``set_paused`` of the simulated time, absolute (resumed once every glove is watched).
+    simulated : bool
+        Simulated time: the plants start paused and pause at ``duration``.
+    duration : float
+        Seconds to run (simulated with ``simulated``); 0 until stopped.
+    log_dir : Path
+        Where the processes' logs go.
+    """
+
+    program: str
+    processes: tuple[tuple[str, list[str]], ...]
+    stop_order: tuple[str, ...]
+    runs: dict[str, tuple[str, ...]]
+    nodes: tuple[str, ...]
+    gloves: tuple[WatchedGlove, ...]
+    pause_service: str
+    simulated: bool
+    duration: float
+    log_dir: Path
+
+
+class StopRequest:
+    """Turns SIGINT, SIGTERM and SIGHUP into a flag the main loop checks."""
+
+    def __init__(self):
+        self.requested = False
+        self.signal_name = ''
+        self.install()
+
+    def install(self) -> None:
+        """Handle SIGINT, SIGTERM and SIGHUP (terminal closed), also if SIGINT was ignored."""
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, self._handle)
+
+    def _handle(self, signum, _frame) -> None:
+        self.requested = True
+        self.signal_name = signal.Signals(signum).name
+
+
+def with_patient(files: list[str], patient: str) -> list[str]:
+    """A plant's model files: ``files``, then the patient (a preset's or a YAML) merged over."""
+    from exodigit_model import PATIENT_PRESETS, patient_file
+
+    if patient == NOMINAL_PATIENT:
+        return list(files)
+    return [*files, str(patient_file(patient) if patient in PATIENT_PRESETS else patient)]
+
+
+def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:
+    """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate."""
+    from exodigit_model import load_params
+
+    joints = {
+        label: load_params(files).finger.joints
+        for label, files in (('nominal', nominal_files), ('patient', plant_files))
+    }
+    return {
+        'estimated_finger_stiffness': {
+            label: [j.stiffness for j in rows] for label, rows in joints.items()
+        },
+        'estimated_rest_angle': {
+            label: [j.rest_angle for j in rows] for label, rows in joints.items()
+        },
+    }
+
+
+def log_tail(path: Path | None) -> list[str]:
+    """The last lines of a process's log file (empty if there is none)."""
+    if path is None or not path.is_file():
+        return []
+    lines = path.read_text(errors='replace').splitlines()
+    return lines[-LOG_TAIL_LINES:]
+
+
+def run_session(session: Session, env: dict) -> int:
+    """Start, watch, stop and report one session; the exit code (0 clean, 1 a process failed)."""
+    stop = StopRequest()  # from here on, Ctrl-C means a clean stop
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    from .monitor import GloveMonitor
+
+    stop.install()  # again: loading rclpy's C extension takes the signals over
+    supervisor = Supervisor(env, log_dir=session.log_dir)
+    display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and env.get('TERM') != 'dumb')
+    signals = [GloveSignals(session.nodes, glove.references) for glove in session.gloves]
+    executor = None
+    monitors = []
+    failures, stops = [], []
+    try:
+        for name, command in session.processes:
+            supervisor.start(name, command)
+        rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+        executor = SingleThreadedExecutor()
+        for glove, glove_signals in zip(session.gloves, signals, strict=True):
+            monitor = GloveMonitor(
+                glove_signals,
+                glove.namespace,
+                glove.record.write,
+                pause_service=session.pause_service,
+            )
+            monitors.append(monitor)
+            executor.add_node(monitor)
+
+        def spin() -> None:
+            executor.spin_once(timeout_sec=0.02)
+
+        def show(now: float) -> None:
+            display.show_many(
+                [(s, glove.title) for s, glove in zip(signals, session.gloves, strict=True)], now
+            )
+
+        started = time.monotonic()
+        next_refresh = started
+        waiting = session.simulated  # the plants start paused until every glove is watched
+        while not stop.requested:
+            spin()
+            now = time.monotonic()
+            if waiting and all(monitor.connected(SIGNALS) for monitor in monitors):
+                waiting = not monitors[0].resume_plant()
+            failures = supervisor.exited()
+            elapsed = now - started if not session.simulated else _simulated(signals)
+            if failures or (session.duration and elapsed >= session.duration):
+                break
+            if now >= next_refresh:
+                show(now)
+                for glove in session.gloves:
+                    glove.record.flush()
+                next_refresh = now + REFRESH_PERIOD
+        show(time.monotonic())
+        unit = 'simulated s' if session.simulated else 's'
+        reason = stop.signal_name or (
+            'a process exited' if failures else f'{session.duration:g} {unit} elapsed'
+        )
+        display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
+        stops = supervisor.stop(session.stop_order, idle=spin)
+        for glove, glove_signals in zip(session.gloves, signals, strict=True):
+            for sample in glove_signals.flush():  # the nodes are gone: the last step is complete
+                glove.record.write(sample)
+    finally:
+        supervisor.stop(session.stop_order)  # after an error above: no process is left behind
+        if executor is not None:
+            executor.shutdown()
+        for monitor in monitors:
+            monitor.destroy_node()
+        rclpy.try_shutdown()
+        for glove in session.gloves:
+            glove.record.close()
+    return _report(session, supervisor, signals, failures, stops)
+
+
+def _simulated(signals: Sequence[GloveSignals]) -> float:
+    """Simulated time every glove has reached, s (0 before each has a state)."""
+    stamps = [s.received_stamp for s in signals]
+    return 0.0 if None in stamps else min(stamps)
+
+
+def _report(session: Session, supervisor: Supervisor, signals, failures, stops) -> int:
+    """Print failures (with their logs' tails), records and plots; the exit code."""
+    failed_names = {exit_.name for exit_ in failures}
+    unclean = [s for s in stops if not s.clean and s.name not in failed_names]
+
+    def reported(name: str) -> bool:
+        return any(s.health[node] is not None for s in signals for node in session.runs[name])
+
+    # A process stopped before any of its nodes reported was still starting (importing):
+    # Ctrl-C that early can end it with any code, and that is no failure of the session.
+    starting = [s for s in unclean if session.runs.get(s.name) and not reported(s.name)]
+    starting = [s for s in starting if not s.forced]
+    for exit_ in starting:
+        print(f'{session.program}: {exit_.name} was stopped while starting ({exit_.describe()})')
+    bad = failures + [s for s in unclean if s not in starting]
+    for exit_ in bad:
+        print(f'{session.program}: {exit_.describe()}', file=sys.stderr)
+        for line in log_tail(supervisor.log_path(exit_.name)):
+            print(f'  {exit_.name}| {line}', file=sys.stderr)
+    for glove in session.gloves:
+        plot = glove.record.plot(glove.references)
+        print(f'run record: {glove.record.csv_path} ({glove.record.rows} samples)')
+        print(f'plot: {plot}' if plot else 'plot: none (no sample was received)')
+    print(f'node logs: {session.log_dir}/')
+    return 1 if bad else 0
