@@ -2,7 +2,8 @@
 
 A ROS-free package (numpy, scipy, PyYAML) implementing MODEL.md: the kinematics of the exo-digit
 and the finger, the Yeoh material, pressure and structural torques, the coupled quasi-static solve
-and its inverse, the contact-force estimators, and the stepper that advances gloves in time.
+and its inverse, the contact-force estimators, the stepper that advances gloves in time, and the
+joiner that pairs the samples of a glove's streams by time.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())
@@ -11,6 +12,7 @@ and its inverse, the contact-force estimators, and the stepper that advances glo
 
 from .chambers import ChamberSettings
 from .identification import StiffnessFit, fit_stiffness
+from .joining import Joined, Joiner, join_indices
 from .model import BatchSolution, GloveModel, GlovePose, Solution
 from .params import (
     JOINT_NAMES,
@@ -42,6 +44,8 @@ __all__ = [
     'GlovePose',
     'GloveSimulation',
     'GloveState',
+    'Joined',
+    'Joiner',
     'Material',
     'ParameterError',
     'Segment',
@@ -50,6 +54,7 @@ __all__ = [
     'StiffnessFit',
     'dump_params',
     'fit_stiffness',
+    'join_indices',
     'load_params',
     'params_from_dict',
     'patient_file',
