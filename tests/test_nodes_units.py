@@ -16,7 +16,7 @@ from exodigit_nodes.controllers import (
     Sine,
     Staircase,
 )
-from exodigit_nodes.estimation import SamplePairer, StiffnessWindow
+from exodigit_nodes.estimation import StiffnessWindow
 from exodigit_nodes.inputs import (
     InvalidInputError,
     RejectionTally,
@@ -324,31 +324,6 @@ def test_limits_refuse_an_empty_range_of_motion():
 
 
 # -- estimator bookkeeping -----------------------------------------------------------------
-
-
-def test_pairer_pairs_by_step_number_whatever_the_arrival_order():
-    pairer = SamplePairer()
-    q1, q2, p1, p2 = (np.full(3, v) for v in (1.0, 2.0, 10.0, 20.0))
-    assert pairer.add_angles(q1, 7) is None
-    assert pairer.add_angles(q2, 8) is None  # the executor ran late
-    pair = pairer.add_pressure(p1, 7)
-    np.testing.assert_array_equal(pair.angles, q1)
-    np.testing.assert_array_equal(pair.pressure, p1)
-    pair = pairer.add_pressure(p2, 8)
-    np.testing.assert_array_equal(pair.angles, q2)
-    assert pairer.unpaired == 0
-
-
-def test_pairer_drops_samples_that_lost_their_partner():
-    pairer = SamplePairer()
-    assert pairer.add_pressure(np.ones(3), 7) is None  # its angles never come
-    assert pairer.add_angles(np.zeros(3), 8) is None
-    pair = pairer.add_pressure(np.full(3, 2.0), 8)
-    np.testing.assert_array_equal(pair.angles, np.zeros(3))
-    assert pairer.unpaired == 1
-    for step in range(100, 140):  # angles alone: the queue stays bounded
-        assert pairer.add_angles(np.zeros(3), step) is None
-    assert pairer.unpaired == 1 + 40 - 16
 
 
 def test_window_identifies_the_finger_stiffness_and_slides(model):

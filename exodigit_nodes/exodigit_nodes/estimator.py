@@ -1,7 +1,8 @@
 """``estimator``: robot-side contact forces and the patient's effective spring (INTERFACES.md).
 
-Pairs each ``joint_states`` with the ``chamber_pressure`` of the same plant step by their DDS
-publication sequence numbers (refusing stale or unmatched samples) and publishes
+Pairs each ``chamber_pressure`` with the ``joint_states`` of the same plant step by the times
+they were sent (DDS source timestamps, :mod:`exodigit_model.joining`; refusing stale or unmatched
+samples) and publishes
 ``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (MODEL.md §7, needs no finger
 model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
 with); every ``identification_period``, over the last ``identification_window`` pairs, it fits
@@ -21,7 +22,14 @@ from std_msgs.msg import Float64MultiArray
 
 from .catalog import ESTIMATOR_NODE
 from .estimation import Pair, SamplePairer, StiffnessWindow
-from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
+from .inputs import (
+    InvalidInputError,
+    joint_positions,
+    joint_vector,
+    sent_seconds,
+    stamp_age,
+    stamp_seconds,
+)
 from .messages import (
     CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
@@ -40,10 +48,6 @@ DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
 MAX_PRESSURE_READING = 10e6
 """Largest |chamber pressure| accepted as a measurement, Pa."""
-
-def step_number(info: dict) -> int:
-    """The publisher's sequence number of a received message (rclpy's message info)."""
-    return info['publication_sequence_number']
 
 
 class Estimator(GloveNode):
@@ -77,8 +81,11 @@ class Estimator(GloveNode):
         self.rest_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_REST_ANGLE, GLOVE_QOS
         )
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+        # Pressures first: when both topics have messages waiting, the executor takes them in
+        # this order, the order the plant sends a step in, so the pairer knows a step's pressure
+        # before its angles (and a lost sample's partner before the next step's).
         self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, GLOVE_QOS)
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )
@@ -99,27 +106,36 @@ class Estimator(GloveNode):
             )
 
     def on_joint_states(self, message: JointState, info: dict) -> None:
-        """Offer valid, recent joint angles (rad) to the pairer, with their sequence number."""
+        """Offer angles (rad) to the pairer at the time they were sent (refused: None)."""
         try:
             angles = joint_positions(message)
             stamp = stamp_seconds(message.header.stamp)
             stamp_age(stamp, self.now_seconds(), self.values['max_sample_age'], JOINT_STATES)
-            self.estimate(self.pairer.add_angles(angles, step_number(info)))
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
+            angles = None
+        number = info['publication_sequence_number']
+        self.estimate(self.pairer.add_angles(angles, sent_seconds(info), number), JOINT_STATES)
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
-        """Offer valid chamber pressures (Pa) to the pairer, with their sequence number."""
+        """Offer pressures (Pa) to the pairer at the time they were sent (refused: None)."""
         try:
             pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
-            self.estimate(self.pairer.add_pressure(pressure, step_number(info)))
         except InvalidInputError as error:
             self.reject(CHAMBER_PRESSURE, error)
+            pressure = None
+        self.estimate(self.pairer.add_pressure(pressure, sent_seconds(info)), CHAMBER_PRESSURE)
 
-    def estimate(self, pair: Pair | None) -> None:
+    def estimate(self, pairs: list[Pair], topic: str) -> None:
+        """Estimate each pair the latest message on ``topic`` completed."""
+        for pair in pairs:
+            try:
+                self.publish_estimate(pair)
+            except InvalidInputError as error:
+                self.reject(topic, error)
+
+    def publish_estimate(self, pair: Pair) -> None:
         """Publish the forces (N) and finger torque (N·m) of a pair; keep it to identify."""
-        if pair is None:
-            return
         forces = self.model.estimate_forces(pair.angles, pair.pressure)
         torque = self.model.contact_torque(pair.angles, forces)
         if not (np.isfinite(forces).all() and np.isfinite(torque).all()):

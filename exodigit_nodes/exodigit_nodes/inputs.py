@@ -105,6 +105,11 @@ def stamp_seconds(stamp) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+def sent_seconds(info: dict) -> float:
+    """When a received message was sent: its DDS source timestamp (rclpy message info), s."""
+    return info['source_timestamp'] * 1e-9
+
+
 def stamp_age(stamp_seconds: float, now: float, max_age: float, what: str) -> None:
     """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
     age = now - stamp_seconds
