@@ -12,7 +12,7 @@ import sys
 
 import numpy as np
 import pytest
-from exodigit_model.tools.bag import pressure_at, read_bag
+from exodigit_model.tools.bag import Series, read_bag, step_pairs
 from exodigit_model.tools.cli import main
 from ros_harness import ros_environment, wait_until
 from rosbags.rosbag2 import Reader
@@ -181,14 +181,51 @@ def test_plot_refuses_a_folder_without_a_bag(tmp_path, capsys):
     assert 'not a rosbag2 bag folder' in err and '\n' not in err
 
 
-def test_plot_pairs_each_state_with_the_pressure_of_its_cycle(session):
-    """The angle-against-pressure view: every recorded state is the solve of its pressure."""
+def test_plot_pairs_each_state_with_the_pressure_of_its_step(session):
+    """The angle-against-pressure view: every paired state is the solve of its pressure."""
     bag, _, _, _ = session
     series = read_bag(bag)
-    pressure = pressure_at(series, series['joint_states'].time)
+    pressure, angles = step_pairs(series)
+    recorded = min(series[s].time.size for s in ('joint_states', 'chamber_pressure'))
+    assert len(pressure) >= recorded - 2  # all but a step the recording began or ended inside
     model = GloveModel(load_params())
-    solved = model.solve_batch(pressure).q
-    np.testing.assert_allclose(series['joint_states'].values, solved, atol=ANGLE_TOLERANCE)
+    np.testing.assert_allclose(angles, model.solve_batch(pressure).q, atol=ANGLE_TOLERANCE)
+
+
+def logged(topic, times, values):
+    return Series(topic, np.array(times), np.array(values, dtype=float).reshape(-1, 3), 0)
+
+
+def test_step_pairs_leave_out_the_steps_a_recording_began_and_ended_inside():
+    # Step k: pressure k kPa logged at 10 k ms, its angles 0.1 ms later. The recorder started
+    # after step 0's pressure and stopped before step 4's angles.
+    steps = range(5)
+    series = {
+        'chamber_pressure': logged(
+            'p', [0.01 * k for k in steps[1:]], [[k * 1e3] * 3 for k in steps[1:]]
+        ),
+        'joint_states': logged(
+            'q', [0.01 * k + 1e-4 for k in steps[:-1]], [[k * 0.1] * 3 for k in steps[:-1]]
+        ),
+    }
+    pressure, angles = step_pairs(series)
+    np.testing.assert_array_equal(pressure[:, 0], [k * 1e3 for k in (1, 2, 3)])
+    np.testing.assert_array_equal(angles[:, 0], [k * 0.1 for k in (1, 2, 3)])
+
+
+def test_step_pairs_of_a_recorder_that_fell_behind_and_lost_a_message_keep_to_their_steps():
+    # Behind, the recorder logs a backlog in one burst, a step's pressure then its angles 20 µs
+    # later, steps 40 µs apart, and step 3's angles are lost: by nearest log time, step 3's
+    # pressure would go with step 2's angles.
+    logs = 1.0 + 40e-6 * np.arange(6)
+    kept = [k for k in range(6) if k != 3]
+    series = {
+        'chamber_pressure': logged('p', logs, [[k * 1e3] * 3 for k in range(6)]),
+        'joint_states': logged('q', logs[kept] + 20e-6, [[k * 0.1] * 3 for k in kept]),
+    }
+    pressure, angles = step_pairs(series)
+    np.testing.assert_array_equal(pressure[:, 0], [k * 1e3 for k in kept])
+    np.testing.assert_array_equal(angles[:, 0], [k * 0.1 for k in kept])
 
 
 def test_recorder_stops_by_itself_after_duration(ros_domain, tmp_path):

@@ -4,8 +4,8 @@ Usage::
 
     python -m exodigit_nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
 
-Subscribes, in its namespace, to every glove topic of INTERFACES.md (``joint_states``,
-``chamber_pressure``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
+Subscribes, in its namespace, to every glove topic of INTERFACES.md (``chamber_pressure``,
+``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
 ``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
 ``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to
 ``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive,
@@ -36,8 +36,8 @@ from .node_base import ConfigurationError, serve
 from .qos import RECORD_QOS
 
 TOPICS = {
-    messages.JOINT_STATES: JointState,
     messages.CHAMBER_PRESSURE: Float64MultiArray,
+    messages.JOINT_STATES: JointState,
     messages.PRESSURE_COMMAND: Float64MultiArray,
     messages.CONTACT_FORCES: Float64MultiArray,
     messages.SEGMENT_LENGTHS: Float64MultiArray,
@@ -51,7 +51,12 @@ TOPICS = {
     messages.DIAGNOSTICS: DiagnosticArray,
     messages.CLOCK: Clock,
 }
-"""Recorded topics (relative names resolve in the node's namespace) and their message types."""
+"""Recorded topics (relative names resolve in the node's namespace) and their message types.
+
+Subscribed in this order, which the executor keeps when several topics have messages waiting:
+``chamber_pressure`` before ``joint_states``, as the plant publishes a step, so a recorder that
+falls behind still logs a step's pressure before its angles (``exodigit plot`` pairs them by log
+time, :mod:`exodigit_model.joining`)."""
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""

@@ -4,7 +4,9 @@ Reads the bag written by ``python -m exodigit_nodes.recorder`` (or ``ros2 bag re
 ``rosbags`` library, whatever the namespace: topics are matched by their last name component
 (``joint_states``, ``chamber_pressure``, ``pressure_command``, ``contact_forces``,
 ``estimated_contact_forces``). Writes two figures: angles, pressures and forces against time,
-and joint angle against chamber pressure (the ``exodigit curves`` view of a session).
+and joint angle against chamber pressure (the ``exodigit curves`` view of a session), where each
+chamber pressure is paired with the joint state of its plant step by the times the bag logged
+them (:mod:`exodigit_model.joining`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from ..joining import join_indices
 from ._deps import ToolError, progress, require
 
 SIGNALS = (
@@ -97,18 +100,18 @@ def read_bag(path: Path) -> dict[str, Series]:
     }
 
 
-def pressure_at(series: dict[str, Series], time: NDArray) -> NDArray:
-    """Chamber pressure (Pa) of the sample received nearest to each of ``time``.
+def step_pairs(series: dict[str, Series]) -> tuple[NDArray, NDArray]:
+    """Chamber pressures (Pa) and joint angles (rad) of the same plant steps, shape (K, 3) each.
 
-    The plant publishes joint_states and chamber_pressure in the same cycle, so the nearest
-    sample is the one of the same cycle whichever of the two arrived first.
+    Paired by log time with :func:`exodigit_model.joining.join_indices`: each pressure with the
+    first joint state logged after it and before the next pressure (the plant publishes a step's
+    pressure first). A sample without its partner (the recorder started or stopped between the
+    two, or lost one) is left out, never paired with a neighbouring step's.
     """
-    pressure = series['chamber_pressure']
-    after = np.clip(np.searchsorted(pressure.time, time), 1, pressure.time.size - 1)
-    before = after - 1
-    nearer = np.abs(pressure.time[before] - time) <= np.abs(pressure.time[after] - time)
-    index = np.where(nearer, before, after) if pressure.time.size > 1 else np.zeros_like(after)
-    return pressure.values[index]
+    pressure, angles = series['chamber_pressure'], series['joint_states']
+    partner = join_indices(pressure.time, angles.time)
+    paired = partner >= 0
+    return pressure.values[paired], angles.values[partner[paired]]
 
 
 def plot_command(path: Path, out: Path) -> None:
@@ -139,14 +142,13 @@ def plot_command(path: Path, out: Path) -> None:
     timeseries = out / f'{name}_timeseries.png'
     timeseries_figure(drawn, f'{path}: glove session', timeseries)
     written = [timeseries]
-    if all(
-        key in series and series[key].time.size for key in ('joint_states', 'chamber_pressure')
-    ):
-        angles = series['joint_states']
-        pressure = pressure_at(series, angles.time)
+    pressure = angles = np.empty((0, 3))
+    if {'joint_states', 'chamber_pressure'} <= series.keys():
+        pressure, angles = step_pairs(series)
+    if len(pressure):
         curves = out / f'{name}_angle_pressure.png'
         title = f'{path}: joint angle against chamber pressure'
-        curve_figure(pressure / 1e3, np.degrees(angles.values), title, curves)
+        curve_figure(pressure / 1e3, np.degrees(angles), title, curves)
         written.append(curves)
     for signal in SIGNALS:
         if signal in series:
@@ -155,4 +157,5 @@ def plot_command(path: Path, out: Path) -> None:
             print(f'{found.topic}: {found.time.size} messages{note}')
         else:
             print(f'{signal}: no messages in the bag')
+    print(f'{len(pressure)} plant steps pair chamber_pressure with joint_states')
     print('wrote ' + ', '.join(str(p) for p in written))
