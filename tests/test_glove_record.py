@@ -116,6 +116,17 @@ def test_a_step_with_a_lost_message_is_skipped_and_the_others_join():
         assert_one_step(sample)
 
 
+def test_a_summary_started_between_two_publications_of_a_step_joins_from_the_next_step():
+    # It missed step 0's pressure and heard its angles and forces first.
+    signals = GloveSignals(NODES)
+    messages = [m for i in range(4) for m in step_messages(i, 1000.0 * (i + 1))][1:]
+    samples = feed(signals, messages) + signals.flush()
+    assert [s.values['chamber_pressure'][0] for s in samples] == [2000.0, 3000.0, 4000.0]
+    for sample in samples:
+        assert_one_step(sample)
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD, 2 * PERIOD])
+
+
 def test_unknown_signals_are_refused():
     with pytest.raises(ValueError, match='unknown signal'):
         GloveSignals(NODES).update('cmd_vel', [0.0, 0.0, 0.0])
