@@ -14,6 +14,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
+from exodigit_nodes.inputs import sent_seconds
 from exodigit_nodes.messages import DIAGNOSTICS, SET_PAUSED
 from exodigit_nodes.qos import RECORD_QOS
 from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
@@ -43,7 +44,8 @@ class GloveMonitor(Node):
         The glove's namespace (absolute).
     on_sample : callable
         Called with each completed `Sample` (one per plant step). Subscriptions take the DDS
-        message info: its source timestamp joins the three messages of a plant step.
+        message info: its source timestamp (when a message was sent) joins the three messages of
+        a plant step.
     pause_service : str
         The ``set_paused`` service of the glove's simulated time (a hand's is the hand's).
     """
@@ -100,8 +102,7 @@ class GloveMonitor(Node):
         values = np.asarray(values, dtype=float)
         if values.shape != (len(JOINT_LABELS),):
             return  # another publisher's malformed message: the nodes report those, not us
-        published = info['source_timestamp'] * 1e-9
-        for sample in self._signals.update(topic, values, published, stamp):
+        for sample in self._signals.update(topic, values, sent_seconds(info), stamp):
             self._on_sample(sample)
 
     def _on_diagnostics(self, message: DiagnosticArray) -> None:

@@ -5,12 +5,12 @@ inside; kPa, degrees and the unit labels appear only in the text this module wri
 """
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TextIO
 
 import numpy as np
+from exodigit_model.joining import Joined, Joiner
 
 #: Joint labels in topic order (INTERFACES.md: always MCP, PIP, DIP).
 JOINT_LABELS = ('MCP', 'PIP', 'DIP')
@@ -58,10 +58,9 @@ SIGNALS = {
     'estimated_finger_stiffness': Signal('K_H est', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
     'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
-#: The order in which the plant publishes the messages of one step (``Plant.publish_state``).
+#: The plant topics a `Sample` joins, in the order the plant publishes them in a step
+#: (``Plant.publish_state``): the first leads (`exodigit_model.joining`).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
-#: Messages of each plant topic kept while the rest of their step has not arrived.
-JOIN_BUFFER = 100
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 
@@ -105,9 +104,12 @@ class GloveSignals:
 
     The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in each
     step, on three topics without a common stamp. A `Sample` joins the three messages of one
-    step by their publication (DDS source) times (see `_join`), so it never mixes two steps,
-    however the messages are delivered or delayed. Signals of the other nodes (command,
-    estimates) join with their latest value.
+    step by the times they were sent (DDS source timestamps), with the rule of
+    `exodigit_model.joining`: each step's pressure leads and the angles and forces sent after it,
+    before the next step's pressure, are its own. So it never mixes two steps, however the
+    messages are delivered or delayed, and a step that lost a message is skipped. A step is
+    joined once the next step's pressure has arrived (or at `flush`). Signals of the other nodes
+    (command, estimates) join with their latest value.
 
     Parameters
     ----------
@@ -131,8 +133,7 @@ class GloveSignals:
         self.received_stamp: float | None = None
         """Stamp of the latest joint_states received (its step may not be joined yet), s."""
         self._first_stamp: float | None = None
-        self._waiting = {topic: deque(maxlen=JOIN_BUFFER) for topic in STEP_ORDER}
-        self._stream: deque = deque()  # known messages in publication order, not yet joined
+        self._joiner = Joiner(STEP_ORDER, confirm=True)
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -146,7 +147,7 @@ class GloveSignals:
         values : array_like, shape (3,)
             The message's values, SI.
         published : float
-            When the message was published (DDS source timestamp), s; joins plant steps.
+            When the message was sent (DDS source timestamp), s; joins plant steps.
         stamp : float, optional
             Header stamp in seconds (``joint_states`` only): the sample's time.
 
@@ -161,51 +162,30 @@ class GloveSignals:
         self.latest[signal] = values
         if signal not in STEP_ORDER:
             return []
-        self._waiting[signal].append((published, values, stamp))
         if signal == 'joint_states':
             self.received_stamp = stamp
-        return self._join()
-
-    def _join(self, *, final: bool = False) -> list[Sample]:
-        """The plant steps now complete, oldest first (``final``: all that can be joined).
-
-        Each topic arrives in publication order, so once every topic has delivered a message
-        published after time ``h``, all messages up to ``h`` are known (``final``: nothing is in
-        flight any more, every message is known). Merged by publication time they read
-        ``chamber_pressure, joint_states, contact_forces`` step after step (`STEP_ORDER`); a step
-        is three consecutive messages in that order. A step that lost a message (a full history)
-        breaks the pattern and is skipped, never mixed with another.
-        """
-        if final or all(self._waiting.values()):
-            horizon = math.inf if final else min(queue[-1][0] for queue in self._waiting.values())
-            known = []
-            for topic, queue in self._waiting.items():
-                while queue and queue[0][0] <= horizon:
-                    known.append((queue.popleft(), topic))
-            self._stream.extend(sorted(known, key=lambda m: (m[0][0], STEP_ORDER.index(m[1]))))
-        samples = []
-        while len(self._stream) >= len(STEP_ORDER):
-            step = [self._stream[i] for i in range(len(STEP_ORDER))]
-            if tuple(topic for _, topic in step) != STEP_ORDER:
-                self._stream.popleft()
-                continue
-            for _ in step:
-                self._stream.popleft()
-            stamp = step[STEP_ORDER.index('joint_states')][0][2]
-            if self._first_stamp is None:
-                self._first_stamp = stamp
-            self.stamp = stamp
-            self.time = stamp - self._first_stamp
-            values = {topic: message[1] for message, topic in step}
-            samples.append(Sample(self.time, {**self.latest, **values}))
-        return samples
+        value = (values, stamp) if signal == 'joint_states' else values
+        return self._samples(self._joiner.add(signal, published, value))
 
     def flush(self) -> list[Sample]:
         """Join what has arrived when no more plant messages will come (the end of a run).
 
         The latest step is otherwise only completed by the first message of the next one.
         """
-        return self._join(final=True)
+        return self._samples(self._joiner.flush())
+
+    def _samples(self, steps: list[Joined]) -> list[Sample]:
+        """The `Sample` of each joined plant step, timed by its joint_states stamp."""
+        samples = []
+        for step in steps:
+            angles, stamp = step.values['joint_states']
+            if self._first_stamp is None:
+                self._first_stamp = stamp
+            self.stamp = stamp
+            self.time = stamp - self._first_stamp
+            values = {**step.values, 'joint_states': angles}
+            samples.append(Sample(self.time, {**self.latest, **values}))
+        return samples
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""
