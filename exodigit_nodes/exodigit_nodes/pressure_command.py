@@ -69,6 +69,7 @@ LIMIT_NAMES = frozenset(
     }
 )
 
+
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
     """The safety limits of a set of pressure_command parameter values."""
     return SafetyLimits(
