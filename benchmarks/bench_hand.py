@@ -146,7 +146,10 @@ def start_hands(launcher: NodeLauncher, args: argparse.Namespace) -> dict:
         f'hand_nodes {hand}': launcher.start(
             'hand_nodes',
             everyone,
-            arguments=['--fingers', ','.join(args.fingers), '--namespace', hand, *sim],
+            arguments=[
+                *('--fingers', ','.join(args.fingers), '--namespace', hand, *sim),
+                *('--estimator', 'false' if args.no_estimator else 'true'),
+            ],
         )
         for hand in hand_namespaces(args)
     }
@@ -390,6 +393,9 @@ def build_parser() -> argparse.ArgumentParser:
         action='store_true',
         help='one-process layout in lockstep simulated time at real_time_factor 0: measure the '
         'simulated seconds per wall second',
+    )
+    parser.add_argument(
+        '--no-estimator', action='store_true', help='one-process layout without estimators'
     )
     parser.add_argument('--log-dir', default='runs/bench_hand', help='node logs go here')
     parser.add_argument('--json', help='also write the figures to this file')

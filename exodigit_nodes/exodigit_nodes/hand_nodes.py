@@ -14,8 +14,10 @@ whole hand, and with ``--lockstep`` each step waits for every finger's controlle
 
 ROS arguments after ``--ros-args`` apply to every node (``-p rate_hz:=200``, or
 ``--params-file`` with ``/**:`` parameters); the per-finger values above win over them.
-Ctrl-C / SIGTERM: every command node sends zero pressure, then all nodes stop. Exit status 0
-after a clean stop, 2 for a refused configuration (one line on stderr).
+The plants and controllers spin on rclpy's EventsExecutor, the estimators (their callbacks take
+message info, which that executor cannot give in rclpy 7.1) on a SingleThreadedExecutor in a
+second thread. Ctrl-C / SIGTERM: every command node sends zero pressure, then all nodes stop.
+Exit status 0 after a clean stop, 2 for a refused configuration (one line on stderr).
 
 Run: ``python -m exodigit_nodes.hand_nodes --fingers index,middle --ros-args -p rate_hz:=200``
 (``ros2 run exodigit_nodes hand_nodes ...``); ``python -m exodigit_nodes.hand`` adds the live
@@ -28,8 +30,6 @@ import argparse
 import gc
 import sys
 
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
@@ -40,12 +40,21 @@ from .plant import Plant
 from .sim_time import SimulatedTime
 
 
+class HandClock(Node):
+    """The node that owns the hand's simulated time (/clock, set_paused, step).
+
+    It spins with the plants (rclpy's EventsExecutor): its timer steps them.
+    """
+
+    events_executor = True
+
+
 def build_hand(config: HandConfig) -> list[Node]:
     """Every node of the hand: the owner of its simulated time (clock sim) first."""
     nodes: list[Node] = []
     shared = None
     if config.clock == 'sim':
-        owner = Node('hand', namespace=config.namespace)
+        owner = HandClock('hand', namespace=config.namespace)
         shared = SimulatedTime(owner, config.time)
         nodes.append(owner)
     classes = [entry.node_class() for entry in config.node_entries()]
@@ -61,13 +70,6 @@ def build_hand(config: HandConfig) -> list[Node]:
                 )
             )
     return nodes
-
-
-def executor_class(config: HandConfig) -> type:
-    """The EventsExecutor of rclpy when every node class can take it, else SingleThreaded."""
-    if all(entry.node_class().events_executor for entry in config.node_entries()):
-        return EventsExecutor
-    return SingleThreadedExecutor
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -103,7 +105,7 @@ def main(args: list[str] | None = None) -> int:
         if isinstance(node, GloveNode):
             node.on_shutdown()
 
-    return serve('hand_nodes', argv, make_nodes, last_words, executor_class(config))
+    return serve('hand_nodes', argv, make_nodes, last_words)
 
 
 if __name__ == '__main__':

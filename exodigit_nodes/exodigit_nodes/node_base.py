@@ -8,10 +8,12 @@ the post-set callback applies (ros2/demos, ``set_parameters_callback.py``).
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import math
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -266,13 +268,12 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         if rclpy.ok():
             node.on_shutdown()
 
-    return serve(
-        program,
-        args,
-        make_node,
-        last_words,
-        EventsExecutor if node_class.events_executor else SingleThreadedExecutor,
-    )
+    return serve(program, args, make_node, last_words)
+
+
+def executor_class(node: Node) -> type:
+    """The C++ EventsExecutor for a node that can take it, else the SingleThreadedExecutor."""
+    return EventsExecutor if getattr(node, 'events_executor', False) else SingleThreadedExecutor
 
 
 def serve(
@@ -280,13 +281,15 @@ def serve(
     args: list[str] | None,
     make_nodes: Callable[[], Node | list[Node]],
     last_words: Callable[[Node], None],
-    executor_class: type = SingleThreadedExecutor,
     duration: float = math.inf,
     refused: tuple[type[Exception], ...] = (ConfigurationError,),
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until SIGINT / SIGTERM / shutdown / ``duration`` s.
 
-    SIGINT and SIGTERM only set a flag that the spin loop checks every ``SPIN_PERIOD``, so no
+    Nodes whose class allows it (``events_executor``) spin on one EventsExecutor in this
+    thread; the others on one SingleThreadedExecutor, in a second thread when both kinds are
+    there (one process of a hand: plants and controllers on the first, estimators on the
+    second). SIGINT and SIGTERM only set a flag that the loop checks every ``SPIN_PERIOD``, so no
     KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs for each
     node, in the order built, while every node still exists. Returns the exit status: 0 after a
     normal stop, 2 when the configuration is refused (an exception of ``refused``: one line on
@@ -296,6 +299,9 @@ def serve(
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
     nodes: list[Node] = []
+    executors: dict[type, Any] = {}
+    others: list = []
+    helper = None
     code = 0
     try:
         try:
@@ -304,12 +310,16 @@ def serve(
             raise ConfigurationError(' '.join(str(error).split())) from None
         made = make_nodes()
         nodes = made if isinstance(made, list) else [made]
-        executor = executor_class()
         for node in nodes:
-            executor.add_node(node)
+            kind = executor_class(node)
+            executors.setdefault(kind, kind()).add_node(node)
+        main, *others = executors.values()
+        if others:
+            helper = threading.Thread(target=_spin_until_shutdown, args=others, daemon=True)
+            helper.start()
         deadline = time.monotonic() + duration
         while not stop.requested and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=SPIN_PERIOD)
+            main.spin_once(timeout_sec=SPIN_PERIOD)
     except refused as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
@@ -318,9 +328,18 @@ def serve(
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        if helper is not None:
+            others[0].shutdown()
+            helper.join()
         for node in nodes:
             last_words(node)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return code
+
+
+def _spin_until_shutdown(executor) -> None:
+    """Spin ``executor`` (a second thread) until it is shut down."""
+    with contextlib.suppress(ExternalShutdownException):
+        executor.spin()
