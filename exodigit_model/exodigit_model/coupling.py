@@ -88,7 +88,32 @@ def solve3(a, b):
     ]
 
 
-class Evaluation:
+class AffineInPressure:
+    """The statics at one state, affine in the pressures (base of the two evaluations).
+
+    :class:`Evaluation` and :class:`.extensible.ExtensibleEvaluation` share it. Their residuals
+    are affine in p with coefficients that do not depend on p (eq 36, (12.4)-(12.5)), so the
+    same state under other pressures costs only the pressure terms, and the Jacobian, which
+    does not depend on p, is computed once and shared. A subclass sets ``pressure`` and
+    ``_jacobian = None`` and defines ``_set_pressure(p)`` (the residual and its scale at p) and
+    ``_compute_jacobian()``.
+    """
+
+    def at_pressure(self, p):
+        """The same state under pressures ``p`` (exactly: the residual is affine in p)."""
+        repriced = copy.copy(self)
+        repriced.pressure = p
+        repriced._set_pressure(p)
+        return repriced
+
+    def jacobian(self) -> list:
+        """∂residual/∂unknowns, a nested square list, analytic; computed once, then shared."""
+        if self._jacobian is None:
+            self._jacobian = self._compute_jacobian()
+        return self._jacobian
+
+
+class Evaluation(AffineInPressure):
     """F(q, p) and the finger-side forces at one state (or a batch); ∂F/∂q on request.
 
     Parameters
@@ -150,23 +175,8 @@ class Evaluation:
         sizes = [abs(torques[k]) + abs(drive[k]) + abs(coupling[k]) for k in range(3)]
         self.scale = (sizes[0] * sizes[0] + sizes[1] * sizes[1] + sizes[2] * sizes[2]) ** 0.5
 
-    def at_pressure(self, p) -> Evaluation:
-        """The same state under pressures ``p``: F(q, p') = F(q, p) + B_R (p' − p), exactly.
-
-        Shares the kinematics (and Jacobian) of this evaluation, which do not depend on p.
-        """
-        repriced = copy.copy(self)
-        repriced.pressure = p
-        repriced._set_pressure(p)
-        return repriced
-
-    def jacobian(self) -> list:
-        """∂F/∂q (nested 3x3 list, N·m/rad), analytic (module docstring); computed once."""
-        if self._jacobian is None:
-            self._jacobian = self._compute_jacobian()
-        return self._jacobian
-
     def _compute_jacobian(self) -> list:
+        """∂F/∂q (nested 3x3 list, N·m/rad), analytic (module docstring)."""
         zero = 0.0 * self.q[0]
         jacobian = [[zero, zero, zero], [zero, zero, zero], [zero, zero, zero]]
         if self._free:

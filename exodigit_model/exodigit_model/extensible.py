@@ -22,12 +22,11 @@ the residual and its analytic 6×6 Jacobian (docstring of :meth:`~.kinematics.Ro
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 
 import numpy as np
 
-from .coupling import MIN_TOP_STRETCH, transpose_product, transpose_solve
+from .coupling import MIN_TOP_STRETCH, AffineInPressure, transpose_product, transpose_solve
 from .kinematics import chords, finger_jacobian, robot_jacobian
 
 
@@ -73,7 +72,7 @@ def solve_linear(matrix, rhs):
     return list(solution.T)
 
 
-class ExtensibleEvaluation:
+class ExtensibleEvaluation(AffineInPressure):
     """(12.4)-(12.5) and the finger-side forces at one state (or a batch); ∂/∂x on request.
 
     Parameters
@@ -150,20 +149,8 @@ class ExtensibleEvaluation:
         self.residual = rows
         self.scale = sum(size * size for size in sizes) ** 0.5
 
-    def at_pressure(self, p) -> ExtensibleEvaluation:
-        """The same state under pressures ``p`` (the residuals are affine in p)."""
-        repriced = copy.copy(self)
-        repriced.pressure = p
-        repriced._set_pressure(p)
-        return repriced
-
-    def jacobian(self) -> list:
-        """∂(R, S)/∂(q, ε), nested 6×6 list, N·m per rad (or per unit strain); computed once."""
-        if self._jacobian is None:
-            self._jacobian = self._compute_jacobian()
-        return self._jacobian
-
     def _compute_jacobian(self) -> list:
+        """∂(R, S)/∂(q, ε), nested 6×6 list, N·m per rad (or per unit strain)."""
         zero = 0.0 * self.q[0]
         jacobian = [[zero] * 6 for _ in range(6)]
         layers, rest = self.layers, self.layers.rest_lengths
