@@ -166,40 +166,45 @@ MARKER_HEADER = (
 
 def write_angles_csv(sweeps: list[Sweep], path: Path) -> None:
     """Angles (deg) and contact forces (N) of every sweep, one row per pressure."""
-    with open(path, 'w', newline='') as handle:
-        writer = csv.writer(handle)
-        writer.writerow(ANGLE_HEADER)
-        for sweep in sweeps:
-            solution = sweep.solution
-            for row in range(sweep.pressure.size):
-                writer.writerow(
-                    [
-                        sweep.experiment,
-                        sweep.condition,
-                        f'{sweep.pressure[row] / 1e3:.6g}',
-                        *(f'{v:.9g}' for v in np.degrees(solution.q[row])),
-                        *(f'{v:.9g}' for v in solution.forces[row]),
-                        int(solution.converged[row]),
-                        int(solution.in_valid_range[row]),
-                    ]
-                )
+    _write_sweeps(
+        sweeps,
+        path,
+        ANGLE_HEADER,
+        lambda solution, row: [
+            *(f'{v:.9g}' for v in np.degrees(solution.q[row])),
+            *(f'{v:.9g}' for v in solution.forces[row]),
+            int(solution.converged[row]),
+            int(solution.in_valid_range[row]),
+        ],
+    )
 
 
 def write_lengths_csv(sweeps: list[Sweep], path: Path) -> None:
     """Bottom-face arc lengths ℓ (mm) of every sweep, one row per pressure (MODEL.md §12)."""
+    _write_sweeps(
+        sweeps,
+        path,
+        LENGTH_HEADER,
+        lambda solution, row: [
+            *(f'{v:.9g}' for v in solution.lengths[row] * 1e3),
+            int(solution.converged[row]),
+        ],
+    )
+
+
+def _write_sweeps(sweeps: list[Sweep], path: Path, header: tuple, values) -> None:
+    """One CSV row per pressure of each sweep: experiment, condition, kPa, then ``values``."""
     with open(path, 'w', newline='') as handle:
         writer = csv.writer(handle)
-        writer.writerow(LENGTH_HEADER)
+        writer.writerow(header)
         for sweep in sweeps:
-            solution = sweep.solution
             for row in range(sweep.pressure.size):
                 writer.writerow(
                     [
                         sweep.experiment,
                         sweep.condition,
                         f'{sweep.pressure[row] / 1e3:.6g}',
-                        *(f'{v:.9g}' for v in solution.lengths[row] * 1e3),
-                        int(solution.converged[row]),
+                        *values(sweep.solution, row),
                     ]
                 )
 
