@@ -15,7 +15,6 @@ glove.launch.py`` starts the same nodes without the summary.
 """
 
 import argparse
-import os
 import re
 import sys
 from pathlib import Path
@@ -26,13 +25,17 @@ from exodigit_nodes import catalog
 from exodigit_nodes.controllers import MODES
 from exodigit_nodes.messages import SET_PAUSED
 from exodigit_nodes.pacing import MAX_REAL_TIME_FACTOR
-from exodigit_nodes.ros_env import discovery_settings
-from exodigit_nodes.run_record import RunRecord, new_run_directory
+from exodigit_nodes.run_record import RunRecord
+from exodigit_nodes.runner import (
+    UsageError,
+    add_session_arguments,
+    check_session_arguments,
+    start_session,
+)
 from exodigit_nodes.session import (
     Session,
     WatchedGlove,
     identification_references,
-    run_session,
     with_patient,
 )
 
@@ -59,10 +62,6 @@ ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) 
 every node; see the README, "Networking"."""
 
 
-class UsageError(ValueError):
-    """A command-line value the glove refuses before starting anything."""
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface of ``python -m exodigit_nodes.glove``."""
     parser = argparse.ArgumentParser(
@@ -72,14 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        '--duration',
-        type=float,
-        default=0.0,
-        metavar='S',
-        help='seconds to run (simulated seconds with --clock sim), then stop cleanly and exit 0; '
-        '0 (default) runs until Ctrl-C',
-    )
+    add_session_arguments(parser)
     parser.add_argument(
         '--clock',
         choices=CLOCK.choices,
@@ -125,22 +117,9 @@ def build_parser() -> argparse.ArgumentParser:
         f'the estimator and pressure_command assume the nominal one. Default {DEFAULT_PATIENT}',
     )
     parser.add_argument(
-        '--ros-params',
-        action='append',
-        default=[],
-        metavar='FILE',
-        help='ROS parameter YAML (ros__parameters) passed to every node with --params-file; '
-        'may be repeated',
-    )
-    parser.add_argument(
         '--record',
         action='store_true',
         help='also record every topic to a rosbag2 MCAP bag in the run directory',
-    )
-    parser.add_argument(
-        '--out',
-        metavar='DIR',
-        help='run directory for the record (default runs/<YYYYmmdd-HHMMSS>)',
     )
     return parser
 
@@ -154,8 +133,7 @@ def check_arguments(args: argparse.Namespace) -> None:
         For a negative or non-finite duration, a malformed namespace, or a parameter file that
         cannot be read or breaks a rule of the model.
     """
-    if not 0.0 <= args.duration < float('inf'):
-        raise UsageError(f'--duration {args.duration}: must be a finite number of seconds >= 0')
+    check_session_arguments(args)
     if not 0.0 <= args.real_time_factor <= MAX_REAL_TIME_FACTOR:
         raise UsageError(
             f'--real-time-factor {args.real_time_factor}: must lie in [0, '
@@ -180,9 +158,6 @@ def check_arguments(args: argparse.Namespace) -> None:
         load_params(plant_files(args))
     except ParameterError as error:
         raise UsageError(f'--patient: {" ".join(str(error).split())}') from None
-    for path in args.ros_params:
-        if not Path(path).is_file():
-            raise UsageError(f'--ros-params {path}: no such file')
 
 
 def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list[str]:
@@ -238,27 +213,21 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         check_arguments(args)
-        settings = discovery_settings(os.environ)
-    except ValueError as error:
+    except ValueError as error:  # UsageError
         print(f'glove: {error}', file=sys.stderr)
         return 2
-    env = settings.apply(os.environ)
-    os.environ.update(env)  # this process's own ROS context reads the same settings
-    try:
-        run_dir = Path(args.out) if args.out else new_run_directory(Path('runs'))
+
+    def prepare(run_dir: Path) -> tuple[Session, str]:
         record = RunRecord(run_dir)
-    except OSError as error:
-        print(f'glove: cannot write the run record: {error}', file=sys.stderr)
-        return 2
-    print(settings.describe())
-    print(
-        f'glove {args.namespace}: mode {args.mode}, patient {args.patient} (the controller and '
-        f'estimator assume the nominal finger); run record and node logs in {run_dir}/'
-    )
-    code = run_session(glove_session(args, record), env)
-    if args.record:
-        print(f'rosbag2 (MCAP): {record.bag_path}')
-    return code
+        bag = f'; rosbag2 (MCAP) in {record.bag_path}' if args.record else ''
+        banner = (
+            f'glove {args.namespace}: mode {args.mode}, patient {args.patient} (the controller '
+            f'and estimator assume the nominal finger); run record and node logs in {run_dir}/'
+            f'{bag}'
+        )
+        return glove_session(args, record), banner
+
+    return start_session('glove', args.out, prepare)
 
 
 def glove_session(args: argparse.Namespace, record: RunRecord) -> Session:

@@ -12,16 +12,14 @@ hand.launch.py`` starts the same process without the summary.
 """
 
 import argparse
-import math
-import os
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 from exodigit_nodes.hand_config import HandConfig, HandError, add_hand_arguments, hand_config
-from exodigit_nodes.ros_env import discovery_settings
-from exodigit_nodes.run_record import LOG_DIR_NAME, RunRecord, new_run_directory
-from exodigit_nodes.session import Session, WatchedGlove, identification_references, run_session
+from exodigit_nodes.run_record import LOG_DIR_NAME, RunRecord
+from exodigit_nodes.runner import add_session_arguments, check_session_arguments, start_session
+from exodigit_nodes.session import Session, WatchedGlove, identification_references
 
 PROCESS = 'hand_nodes'
 EXAMPLES = """examples:
@@ -45,35 +43,14 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        '--duration',
-        type=float,
-        default=0.0,
-        metavar='S',
-        help='seconds to run (simulated seconds with --clock sim), then stop cleanly and exit 0; '
-        '0 (default) runs until Ctrl-C',
-    )
+    add_session_arguments(parser)
     add_hand_arguments(parser)
-    parser.add_argument(
-        '--ros-params',
-        action='append',
-        default=[],
-        metavar='FILE',
-        help='ROS parameter YAML (/**: ros__parameters) for every node; may be repeated',
-    )
-    parser.add_argument(
-        '--out', metavar='DIR', help='run directory (default runs/<YYYYmmdd-HHMMSS>)'
-    )
     return parser
 
 
 def session_config(options: argparse.Namespace) -> HandConfig:
     """The hand to start: simulated time starts paused and pauses at the duration."""
-    if not 0.0 <= options.duration < math.inf:
-        raise HandError(f'--duration {options.duration}: must be a finite number of seconds >= 0')
-    for path in options.ros_params:
-        if not Path(path).is_file():
-            raise HandError(f'--ros-params {path}: no such file')
+    check_session_arguments(options)
     config = hand_config(options)
     from exodigit_model import ParameterError, load_params
 
@@ -130,24 +107,18 @@ def main(argv=None) -> int:
     options = build_parser().parse_args(argv)
     try:
         config = session_config(options)
-        settings = discovery_settings(os.environ)
-    except ValueError as error:  # HandError too
+    except ValueError as error:  # HandError, UsageError
         print(f'hand: {error}', file=sys.stderr)
         return 2
-    env = settings.apply(os.environ)
-    os.environ.update(env)  # this process's own ROS context reads the same settings
-    try:
-        run_dir = Path(options.out) if options.out else new_run_directory(Path('runs'))
-        session = hand_session(config, options, run_dir)
-    except OSError as error:
-        print(f'hand: cannot write the run records: {error}', file=sys.stderr)
-        return 2
-    print(settings.describe())
-    print(
+    banner = (
         f'hand {config.namespace}: fingers {", ".join(config.fingers)}, mode {config.mode}, '
-        f'patient {config.patient}; run records and logs in {run_dir}/'
+        f'patient {config.patient}; run records and logs in '
     )
-    return run_session(session, env)
+    return start_session(
+        'hand',
+        options.out,
+        lambda run_dir: (hand_session(config, options, run_dir), f'{banner}{run_dir}/'),
+    )
 
 
 if __name__ == '__main__':
