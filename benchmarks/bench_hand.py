@@ -3,8 +3,9 @@
 Each finger (thumb, index, middle, ring, little) runs in its own namespace ``/hand/<finger>``
 with joint prefix ``<finger>_`` and its own model file (``exodigit_nodes/config/hand``): a plant,
 a ``pressure_command`` in ``sine`` mode and an ``estimator``, all at ``--rate`` Hz. With
-``--layout one-process`` (default) a hand is one ``hand_nodes`` process (every finger's nodes on
-one executor); ``--layout processes`` starts the three nodes of every finger as 15 processes
+``--layout one-process`` (default) a hand is one ``hand_nodes`` process (every finger's
+nodes: plants and controllers on the EventsExecutor, estimators on a second thread);
+``--layout processes`` starts the three nodes of every finger as 15 processes
 (the layout before issue 11). ``--hands 2`` runs two hands (``/hand`` and ``/hand2``), ``--busy``
 keeps one core busy with another process meanwhile. A monitor node in this process listens for
 ``--duration`` seconds and prints, per process, CPU % of one core (and its own, so a starved

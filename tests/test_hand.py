@@ -1,4 +1,4 @@
-"""A hand in one process (issue 11): ``hand_nodes`` runs every finger's nodes on one executor.
+"""A hand in one process (issue 11): ``hand_nodes`` runs every finger's nodes.
 
 Two fingers in lockstep simulated time, started paused and pausing at ``PAUSE_AT``: every
 expectation is exact. Each finger's published states are compared bit for bit with an

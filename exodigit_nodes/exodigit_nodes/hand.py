@@ -1,7 +1,7 @@
 """Run a simulated hand from one command, with a live summary and one run record per finger.
 
-Starts ``hand_nodes`` (every finger's plant, estimator and pressure_command in one process, on
-one executor: :mod:`.hand_nodes`), shows each finger's signals on the terminal, writes
+Starts ``hand_nodes`` (every finger's plant, estimator and pressure_command in one process:
+:mod:`.hand_nodes`), shows each finger's signals on the terminal, writes
 ``<finger>/signals.csv`` and ``<finger>/signals.png`` into the run directory and stops on Ctrl-C
 or after ``--duration`` seconds (simulated seconds with ``--clock sim``): every command node
 sends zero pressure first. Finger f lives in ``<namespace>/<f>`` with joint prefix ``f_`` and

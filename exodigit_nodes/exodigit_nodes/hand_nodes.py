@@ -1,4 +1,4 @@
-"""``hand_nodes``: the nodes of every glove of a hand in one process, on one executor.
+"""``hand_nodes``: the nodes of every glove of a hand in one process.
 
 For each finger of ``--fingers`` (default the five), in namespace ``<namespace>/<finger>`` with
 joint names ``<finger>_mcp, ...``: a ``plant`` of the finger's model file
