@@ -102,6 +102,10 @@ def test_sigint_stops_the_hand_cleanly_with_its_records(ros_domain, tmp_path):
     assert 'Traceback' not in stderr
     log = (out / 'logs' / 'hand_nodes.log').read_text()
     assert 'sent zero pressure' in log
+    # the estimators run in a process of their own, and their estimates reached the record
+    assert '.index.estimator]' in (out / 'logs' / 'hand_estimators.log').read_text()
+    assert '.index.estimator]' not in log
+    assert np.isfinite(columns(read_record(record), 'f_est', 'n')).all(axis=1).any()
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,8 @@
-"""launch/hand.launch.py against recording stand-ins of the launch API: it starts one
-``hand_nodes`` process (a console script of setup.py) without a node-name or namespace remap,
-declares exactly the hand's options, and the command line it builds for given launch arguments
-is read by ``hand_nodes``' own parser as the same hand."""
+"""launch/hand.launch.py against recording stand-ins of the launch API: it starts two
+``hand_nodes`` processes (a console script of setup.py), ``--part gloves`` and, unless
+``estimator:=false``, ``--part estimators``, without a node-name or namespace remap, declares
+exactly the hand's options, and the command lines it builds for given launch arguments are read
+by ``hand_nodes``' own parser as the same hand."""
 
 import runpy
 import sys
@@ -17,6 +18,7 @@ LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'launch' 
 API = {
     'launch': ['LaunchDescription'],
     'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.conditions': ['IfCondition'],
     'launch.event_handlers': ['OnProcessExit'],
     'launch.substitutions': ['LaunchConfiguration'],
     'launch_ros': [],
@@ -42,8 +44,19 @@ def entities(api):
     return description.args[0]
 
 
-def command_line(entities, api, **arguments) -> list[str]:
-    """The hand_nodes arguments launch would pass for ``name:=value`` launch arguments."""
+def processes(entities, api) -> dict:
+    """The launched processes by the ``--part`` they are given."""
+    nodes = [e for e in entities if isinstance(e, api.Node)]
+    parts = {}
+    for node in nodes:
+        arguments = node.kwargs['arguments']
+        parts[arguments[arguments.index('--part') + 1]] = node
+    assert len(parts) == len(nodes)
+    return parts
+
+
+def command_line(entities, api, part, **arguments) -> list[str]:
+    """The arguments of the ``--part`` process for ``name:=value`` launch arguments."""
     declared = {e.args[0]: e.kwargs for e in entities if isinstance(e, api.DeclareLaunchArgument)}
     values = {
         name: arguments.pop(name, kwargs['default_value']) for name, kwargs in declared.items()
@@ -51,17 +64,27 @@ def command_line(entities, api, **arguments) -> list[str]:
     assert not arguments, f'undeclared {sorted(arguments)}'
     for name, value in values.items():
         assert value in (declared[name]['choices'] or [value]), (name, value)
-    (node,) = [e for e in entities if isinstance(e, api.Node)]
     return [
         values[item.args[0]] if isinstance(item, api.LaunchConfiguration) else item
-        for item in node.kwargs['arguments']
+        for item in processes(entities, api)[part].kwargs['arguments']
     ]
 
 
-def test_one_hand_nodes_process_of_setup_py_without_remaps(entities, api):
-    (node,) = [e for e in entities if isinstance(e, api.Node)]
-    assert node.kwargs['executable'] == 'hand_nodes' in console_scripts()
-    assert 'name' not in node.kwargs and 'namespace' not in node.kwargs  # would rename every node
+def test_two_hand_nodes_processes_of_setup_py_without_remaps(entities, api):
+    parts = processes(entities, api)
+    assert sorted(parts) == ['estimators', 'gloves']
+    for node in parts.values():
+        assert node.kwargs['executable'] == 'hand_nodes' in console_scripts()
+        assert 'name' not in node.kwargs and 'namespace' not in node.kwargs  # renames every node
+    assert 'condition' not in parts['gloves'].kwargs
+    (condition,) = parts['estimators'].kwargs['condition'].args
+    assert isinstance(condition, api.LaunchConfiguration) and condition.args == ('estimator',)
+
+
+def test_a_failed_process_of_either_part_ends_the_launch(entities, api):
+    handlers = [e.args[0] for e in entities if isinstance(e, api.RegisterEventHandler)]
+    targets = [handler.kwargs['target_action'] for handler in handlers]
+    assert sorted(map(id, targets)) == sorted(map(id, processes(entities, api).values()))
 
 
 def test_the_launch_arguments_are_the_hand_options(entities, api):
@@ -79,9 +102,11 @@ def test_the_launch_arguments_are_the_hand_options(entities, api):
         {'clock': 'sim', 'lockstep': 'true', 'real_time_factor': '0.0', 'estimator': 'false'},
     ],
 )
-def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api, arguments):
-    argv = command_line(entities, api, **arguments)
-    config = hand_config(build_parser().parse_args(argv))
+@pytest.mark.parametrize('part', ['gloves', 'estimators'])
+def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api, arguments, part):
+    parsed = build_parser().parse_args(command_line(entities, api, part, **arguments))
+    assert parsed.part == part
+    config = hand_config(parsed)
     options = {o.name: o.default for o in hand_options()} | arguments
     assert config.fingers == tuple(options['fingers'].split(','))
     assert config.namespace == options['namespace']

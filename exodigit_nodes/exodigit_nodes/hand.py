@@ -1,14 +1,14 @@
 """Run a simulated hand from one command, with a live summary and one run record per finger.
 
-Starts ``hand_nodes`` (every finger's plant, estimator and pressure_command in one process:
-:mod:`.hand_nodes`), shows each finger's signals on the terminal, writes
+Starts ``hand_nodes`` twice (:mod:`.hand_nodes`): every finger's plant and pressure_command in
+one process, every estimator in the other; shows each finger's signals on the terminal, writes
 ``<finger>/signals.csv`` and ``<finger>/signals.png`` into the run directory and stops on Ctrl-C
 or after ``--duration`` seconds (simulated seconds with ``--clock sim``): every command node
 sends zero pressure first. Finger f lives in ``<namespace>/<f>`` with joint prefix ``f_`` and
 the model ``config/hand/<f>.yaml``.
 
 This is what ``make run HAND=1`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
-hand.launch.py`` starts the same process without the summary.
+hand.launch.py`` starts the same processes without the summary.
 """
 
 import argparse
@@ -22,6 +22,8 @@ from exodigit_nodes.runner import add_session_arguments, check_session_arguments
 from exodigit_nodes.session import Session, WatchedGlove, identification_references
 
 PROCESS = 'hand_nodes'
+#: The hand's processes: name and ``hand_nodes --part`` (the controllers' process stops first).
+PROCESSES = {PROCESS: 'gloves', 'hand_estimators': 'estimators'}
 EXAMPLES = """examples:
   python -m exodigit_nodes.hand                                  # five fingers until Ctrl-C
   python -m exodigit_nodes.hand --fingers index,middle --duration 20
@@ -37,8 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The command line of ``python -m exodigit_nodes.hand``."""
     parser = argparse.ArgumentParser(
         prog='python -m exodigit_nodes.hand',
-        description="Run a simulated hand (every finger's plant, estimator and "
-        'pressure_command in one process) with a live summary; write a run record (CSV and '
+        description="Run a simulated hand (every finger's plant and pressure_command in one "
+        'process, the estimators in another) with a live summary; write a run record (CSV and '
         'PNG) per finger.',
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -67,12 +69,19 @@ def session_config(options: argparse.Namespace) -> HandConfig:
 
 
 def hand_session(config: HandConfig, options: argparse.Namespace, run_dir: Path) -> Session:
-    """The :class:`.session.Session` of a hand: one process, one watched glove per finger."""
+    """The :class:`.session.Session` of a hand: its processes, one watched glove per finger."""
     command = [sys.executable, '-m', f'exodigit_nodes.{PROCESS}', *config.arguments()]
-    if options.ros_params:
-        command.append('--ros-args')
-        for path in options.ros_params:
-            command += ['--params-file', str(Path(path).resolve())]
+    ros_args = []
+    for path in options.ros_params:
+        ros_args += ['--params-file', str(Path(path).resolve())]
+    if ros_args:
+        ros_args.insert(0, '--ros-args')
+    runs = {}  # the nodes of each process that has any (no estimators: one process)
+    processes = []
+    for name, part in PROCESSES.items():
+        if entries := config.node_entries(part):
+            runs[name] = tuple(entry.executable for entry in entries)
+            processes.append((name, [*command, '--part', part, *ros_args]))
     nodes = tuple(entry.executable for entry in config.node_entries())
     clock = (
         '' if config.clock == 'wall' else ', simulated time' + ', lockstep' * config.time.lockstep
@@ -90,9 +99,9 @@ def hand_session(config: HandConfig, options: argparse.Namespace, run_dir: Path)
     )
     return Session(
         program='hand',
-        processes=((PROCESS, command),),
-        stop_order=(PROCESS,),
-        runs={PROCESS: nodes},
+        processes=tuple(processes),
+        stop_order=tuple(PROCESSES),
+        runs=runs,
         nodes=nodes,
         gloves=gloves,
         pause_service=f'{config.namespace.rstrip("/")}/set_paused',

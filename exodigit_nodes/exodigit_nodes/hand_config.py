@@ -24,6 +24,18 @@ FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 TIME_PARAMETERS = ('clock', 'real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused')
 """Plant parameters that are options of the hand (one simulated time for every finger)."""
 BOOLEANS = ('true', 'false')
+PARTS = {
+    'all': (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE),
+    'gloves': (PLANT_NODE, PRESSURE_COMMAND_NODE),
+    'estimators': (ESTIMATOR_NODE,),
+}
+"""Which nodes of every finger one ``hand_nodes`` process runs (``--part``), in start order.
+
+The runner and the launch file start a hand as two processes, ``gloves`` (plants and
+controllers, and the hand's simulated time) and ``estimators``: an estimator takes message info
+(the source timestamps it pairs by), which rclpy 7.1's EventsExecutor cannot give, and five of
+them on a SingleThreadedExecutor take a core of their own at 100 Hz (README, "A whole hand").
+"""
 
 
 class HandError(ValueError):
@@ -174,12 +186,10 @@ class HandConfig:
         if self.clock != 'sim' and timed:
             raise HandError('--lockstep, --start-paused and --real-time-factor need --clock sim')
 
-    def node_entries(self):
-        """The catalog entries of one finger's nodes, in start order."""
+    def node_entries(self, part: str = 'all'):
+        """The catalog entries of a finger's nodes in ``part`` (:data:`PARTS`), in start order."""
         return tuple(
-            entry
-            for entry in (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE)
-            if self.estimator or entry is not ESTIMATOR_NODE
+            entry for entry in PARTS[part] if self.estimator or entry is not ESTIMATOR_NODE
         )
 
     def finger_namespace(self, finger: str) -> str:

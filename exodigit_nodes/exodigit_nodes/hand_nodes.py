@@ -1,11 +1,13 @@
-"""``hand_nodes``: the nodes of every glove of a hand in one process.
+"""``hand_nodes``: the nodes of every glove of a hand (or one part of them) in one process.
 
 For each finger of ``--fingers`` (default the five), in namespace ``<namespace>/<finger>`` with
 joint names ``<finger>_mcp, ...``: a ``plant`` of the finger's model file
 (``config/hand/<finger>.yaml``, with ``--patient`` merged over it), an ``estimator`` and a
 ``pressure_command`` in ``--mode``, both assuming the finger's nominal model. Every finger keeps
 its own topics, services, parameters and /diagnostics, exactly as a glove started node by node;
-only the processes differ (one instead of three per finger).
+only the processes differ. ``--part gloves`` runs only the plants and controllers, ``--part
+estimators`` only the estimators: the runner and the launch file start a hand as these two
+processes (:data:`.hand_config.PARTS` says why).
 
 Time: with ``--clock wall`` each plant steps on the system clock. With ``--clock sim`` the hand
 has one simulated time (:class:`.sim_time.SimulatedTime`): every finger steps together, ``/clock``
@@ -15,9 +17,10 @@ whole hand, and with ``--lockstep`` each step waits for every finger's controlle
 ROS arguments after ``--ros-args`` apply to every node (``-p rate_hz:=200``, or
 ``--params-file`` with ``/**:`` parameters); the per-finger values above win over them.
 The plants and controllers spin on rclpy's EventsExecutor, the estimators (their callbacks take
-message info, which that executor cannot give in rclpy 7.1) on a SingleThreadedExecutor in a
-second thread. Ctrl-C / SIGTERM: every command node sends zero pressure, then all nodes stop.
-Exit status 0 after a clean stop, 2 for a refused configuration (one line on stderr).
+message info, which that executor cannot give in rclpy 7.1) on a SingleThreadedExecutor, in a
+second thread when both are in the process. Ctrl-C / SIGTERM: every command node sends zero
+pressure, then all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
+(one line on stderr).
 
 Run: ``python -m exodigit_nodes.hand_nodes --fingers index,middle --ros-args -p rate_hz:=200``
 (``ros2 run exodigit_nodes hand_nodes ...``); ``python -m exodigit_nodes.hand`` adds the live
@@ -34,7 +37,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
-from .hand_config import HandConfig, HandError, add_hand_arguments, hand_config
+from .catalog import PLANT_NODE
+from .hand_config import PARTS, HandConfig, HandError, add_hand_arguments, hand_config
 from .node_base import GloveNode, serve
 from .plant import Plant
 from .sim_time import SimulatedTime
@@ -49,15 +53,18 @@ class HandClock(Node):
     events_executor = True
 
 
-def build_hand(config: HandConfig) -> list[Node]:
-    """Every node of the hand: the owner of its simulated time (clock sim) first."""
+def build_hand(config: HandConfig, part: str = 'all') -> list[Node]:
+    """The nodes of ``part`` of the hand: the owner of its simulated time (clock sim) first.
+
+    ``gloves`` (plants and controllers) owns the simulated time; ``estimators`` follows it.
+    """
     nodes: list[Node] = []
     shared = None
-    if config.clock == 'sim':
+    if config.clock == 'sim' and PLANT_NODE in PARTS[part]:
         owner = HandClock('hand', namespace=config.namespace)
         shared = SimulatedTime(owner, config.time)
         nodes.append(owner)
-    classes = [entry.node_class() for entry in config.node_entries()]
+    classes = [entry.node_class() for entry in config.node_entries(part)]
     for finger in config.fingers:
         for node_class in classes:
             options = {'sim_time': shared} if node_class is Plant else {}
@@ -77,12 +84,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='hand_nodes',
         description='Run the plant, estimator and pressure_command of every finger of a hand '
-        'in this one process.',
+        '(or one --part of them) in this one process.',
         epilog='ROS arguments for every node go after --ros-args, e.g. --ros-args -p '
         'rate_hz:=200. Switches (lockstep, estimator...) take true or false; alone they mean '
         'true.',
     )
     add_hand_arguments(parser)
+    parser.add_argument(
+        '--part',
+        choices=tuple(PARTS),
+        default='all',
+        help="the nodes this process runs: every finger's all three (default), its plant and "
+        'controller (gloves), or its estimator (estimators)',
+    )
     return parser
 
 
@@ -90,13 +104,16 @@ def main(args: list[str] | None = None) -> int:
     """Console script ``hand_nodes``; exit 0 after a clean stop, 2 for a refused configuration."""
     argv = sys.argv if args is None else ['hand_nodes', *args]
     try:
-        config = hand_config(build_parser().parse_args(remove_ros_args(argv)[1:]))
+        options = build_parser().parse_args(remove_ros_args(argv)[1:])
+        config = hand_config(options)
+        if not config.node_entries(options.part):
+            raise HandError(f'--part {options.part} with --estimator false: no node to run')
     except (HandError, RuntimeError) as error:
         print(f'hand_nodes: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
 
     def make_nodes() -> list[Node]:
-        nodes = build_hand(config)
+        nodes = build_hand(config, options.part)
         gc.collect()  # start-up objects out of the collector's way (as every node does)
         gc.freeze()
         return nodes

@@ -288,7 +288,7 @@ def serve(
 
     Nodes whose class allows it (``events_executor``) spin on one EventsExecutor in this
     thread; the others on one SingleThreadedExecutor, in a second thread when both kinds are
-    there (one process of a hand: plants and controllers on the first, estimators on the
+    there (``hand_nodes --part all``: plants and controllers on the first, estimators on the
     second). SIGINT and SIGTERM only set a flag that the loop checks every ``SPIN_PERIOD``, so no
     KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs for each
     node, in the order built, while every node still exists. Returns the exit status: 0 after a

@@ -1,31 +1,34 @@
-"""Launch a simulated hand: every finger's plant, estimator and pressure_command in one process.
+"""Launch a simulated hand: every finger's plant, estimator and pressure_command in two processes.
 
     ros2 launch exodigit_nodes hand.launch.py
     ros2 launch exodigit_nodes hand.launch.py fingers:=index,middle namespace:=/left
     ros2 launch exodigit_nodes hand.launch.py clock:=sim lockstep:=true real_time_factor:=0.0
 
-Starts the ``hand_nodes`` executable: finger f in ``<namespace>/<f>`` with joint prefix ``f_``
-and its model ``config/hand/<f>.yaml`` (README, "A whole hand"). The launch arguments are the
+Starts the ``hand_nodes`` executable twice, as the venv runner does: ``--part gloves`` (every
+plant and controller, and the hand's simulated time) and ``--part estimators`` (unless
+``estimator:=false``); finger f in ``<namespace>/<f>`` with joint prefix ``f_`` and its model
+``config/hand/<f>.yaml`` (README, "A whole hand"). The launch arguments are the
 options of ``hand_nodes --help``, with their choices and defaults, from one table
 (``exodigit_nodes.hand_config.hand_options``) that the venv runner ``python -m
-exodigit_nodes.hand`` reads too. When the process exits the launch ends, and fails (exit 1) if
-the process failed.
+exodigit_nodes.hand`` reads too. When either process exits the launch ends, and fails (exit 1)
+if that process failed.
 """
 
 from exodigit_nodes.hand_config import hand_options
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
+from launch.conditions import IfCondition
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 
 class HandProcessError(RuntimeError):
-    """The hand's process ended with a non-zero code or by a signal: the launch fails."""
+    """A process of the hand ended with a non-zero code or by a signal: the launch fails."""
 
 
 def end_the_hand(event, context):
-    """On the process's exit, end the launch; fail it (raise) if the process failed."""
+    """On a process's exit, end the launch; fail it (raise) if the process failed."""
     if event.returncode < 0:
         raise HandProcessError(f'{event.process_name} was killed by signal {-event.returncode}')
     if event.returncode > 0:
@@ -36,7 +39,7 @@ def end_the_hand(event, context):
 
 
 def generate_launch_description():
-    """The hand's arguments, its one process and the exit handler."""
+    """The hand's arguments, its two processes and their exit handlers."""
     options = hand_options()
     arguments = [
         DeclareLaunchArgument(
@@ -51,12 +54,23 @@ def generate_launch_description():
     command = []
     for option in options:
         command += [option.flag, LaunchConfiguration(option.name)]
-    hand = Node(
+    gloves = Node(
         package='exodigit_nodes',
         executable='hand_nodes',
         output='screen',
         emulate_tty=True,
-        arguments=command,
+        arguments=[*command, '--part', 'gloves'],
     )
-    handler = RegisterEventHandler(OnProcessExit(target_action=hand, on_exit=end_the_hand))
-    return LaunchDescription([*arguments, handler, hand])
+    estimators = Node(
+        package='exodigit_nodes',
+        executable='hand_nodes',
+        output='screen',
+        emulate_tty=True,
+        arguments=[*command, '--part', 'estimators'],
+        condition=IfCondition(LaunchConfiguration('estimator')),
+    )
+    handlers = [
+        RegisterEventHandler(OnProcessExit(target_action=process, on_exit=end_the_hand))
+        for process in (gloves, estimators)
+    ]
+    return LaunchDescription([*arguments, *handlers, gloves, estimators])
