@@ -38,6 +38,18 @@ def end_the_hand(event, context):
     return Shutdown(reason=f'{event.process_name} exited')
 
 
+def hand_process(command: list, part: str, **options):
+    """The ``hand_nodes --part <part>`` process of the hand, with the hand's ``command``."""
+    return Node(
+        package='exodigit_nodes',
+        executable='hand_nodes',
+        output='screen',
+        emulate_tty=True,
+        arguments=[*command, '--part', part],
+        **options,
+    )
+
+
 def generate_launch_description():
     """The hand's arguments, its two processes and their exit handlers."""
     options = hand_options()
@@ -54,20 +66,9 @@ def generate_launch_description():
     command = []
     for option in options:
         command += [option.flag, LaunchConfiguration(option.name)]
-    gloves = Node(
-        package='exodigit_nodes',
-        executable='hand_nodes',
-        output='screen',
-        emulate_tty=True,
-        arguments=[*command, '--part', 'gloves'],
-    )
-    estimators = Node(
-        package='exodigit_nodes',
-        executable='hand_nodes',
-        output='screen',
-        emulate_tty=True,
-        arguments=[*command, '--part', 'estimators'],
-        condition=IfCondition(LaunchConfiguration('estimator')),
+    gloves = hand_process(command, 'gloves')
+    estimators = hand_process(
+        command, 'estimators', condition=IfCondition(LaunchConfiguration('estimator'))
     )
     handlers = [
         RegisterEventHandler(OnProcessExit(target_action=process, on_exit=end_the_hand))
