@@ -2,7 +2,7 @@
 #   make run [DURATION=20] [RECORD=1] [HAND=1]
 #                            the simulated glove, headless, with a live summary (Ctrl-C to stop);
 #                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag;
-#                            HAND=1 runs a whole hand instead (five gloves, one process)
+#                            HAND=1 runs a whole hand instead (five gloves, two processes)
 #   make test                lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
 # requirements or package file changed.
