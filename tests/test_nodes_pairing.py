@@ -160,3 +160,20 @@ def test_angles_after_lost_messages_pair_with_nothing(estimator, model, steps):
         else:
             angles.send(steps[k][0], sent + 50e-6)
     assert estimated_steps(estimator, model, steps) == [0, 1, 2, 5, 6]
+
+
+@pytest.mark.parametrize(('tolerance', 'estimated'), [(0.1, [0, 1, 2, 3]), (0.02, [0, 1, 3])])
+def test_angles_later_than_the_pairing_tolerance_pair_with_nothing(
+    ros_domain, model, steps, tolerance, estimated
+):
+    # Step 2's angles come 30 ms after its pressure (the next pressure 40 ms after it).
+    node = InProcessNode(Estimator, {'pairing_tolerance': repr(tolerance)}, ros_domain)
+    try:
+        pressure = Publisher(node, 'chamber_pressure')
+        angles = Publisher(node, 'joint_states')
+        for k, t in enumerate([0.0, 0.01, 0.02, 0.06]):
+            pressure.send(steps[k][1], 1000.0 + t)
+            angles.send(steps[k][0], 1000.0 + t + (30e-3 if k == 2 else 50e-6))
+        assert estimated_steps(node, model, steps) == estimated
+    finally:
+        node.close()

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
+from exodigit_model.joining import STEP_TOLERANCE
 
 from exodigit_model import SimulationSettings
 
@@ -219,6 +220,15 @@ ESTIMATOR_NODE = NodeEntry(
                 'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
                 low=1e-4,
                 high=10.0,
+            ),
+            ParamSpec(
+                'pairing_tolerance',
+                STEP_TOLERANCE,
+                'Longest time from a chamber_pressure to the joint_states paired with it (both '
+                'as sent), s',
+                low=1e-4,
+                high=10.0,
+                read_only=True,
             ),
             ParamSpec(
                 'identification_window',

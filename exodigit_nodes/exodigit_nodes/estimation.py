@@ -67,10 +67,15 @@ class SamplePairer:
     not paired with a neighbouring step's sample; pairs with a refused sample are left out, as are
     angles that follow lost angles (module docstring). Pairs are returned as soon as they are
     complete (a controller in lockstep waits for them).
+
+    Parameters
+    ----------
+    tolerance : float
+        Longest time from a pressure to the angles paired with it, s (``Joiner``).
     """
 
-    def __init__(self) -> None:
-        self._joiner = Joiner((PRESSURE, ANGLES))
+    def __init__(self, tolerance: float) -> None:
+        self._joiner = Joiner((PRESSURE, ANGLES), tolerance=tolerance)
         self._angle_numbers = Numbering()
 
     @property

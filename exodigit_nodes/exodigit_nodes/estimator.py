@@ -59,7 +59,7 @@ class Estimator(GloveNode):
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)
         self.model = load_model(self.values['params_file'])
-        self.pairer = SamplePairer()
+        self.pairer = SamplePairer(self.values['pairing_tolerance'])
         self.window = StiffnessWindow(self.values['identification_window'])
         self.pairs = 0
         self.forces = np.zeros(3)
