@@ -33,6 +33,14 @@ def read_record(path):
     return {key: np.array([float(r[key]) if r[key] else np.nan for r in rows]) for key in rows[0]}
 
 
+def estimated_rows(path) -> int:
+    """Rows of a record being written that carry the estimated forces (complete lines only)."""
+    if not path.is_file():
+        return 0
+    lines = [line for line in path.read_text().splitlines(keepends=True) if line.endswith('\n')]
+    return sum(all(row[f'f_est_{j}_n'] for j in JOINTS) for row in csv.DictReader(lines))
+
+
 def columns(table, tag, unit):
     return np.column_stack([table[f'{tag}_{joint}_{unit}'] for joint in JOINTS])
 
@@ -93,7 +101,8 @@ def test_sigint_stops_the_hand_cleanly_with_its_records(ros_domain, tmp_path):
     )
     record = out / 'index' / 'signals.csv'
     try:
-        assert wait_until(lambda: record.is_file() and record.stat().st_size > 2000, TIMEOUT)
+        # the estimators start in a process of their own: wait for their first estimate too
+        assert wait_until(lambda: estimated_rows(record) > 0, TIMEOUT)
     finally:
         process.send_signal(signal.SIGINT)
         stdout, stderr = process.communicate(timeout=TIMEOUT)
