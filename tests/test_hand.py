@@ -6,8 +6,15 @@ in-process ``GloveSimulation`` of that finger's own model file, stepped with the
 controller published; both fingers step on one clock; each keeps its own names and parameters.
 """
 
+import time
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
+import rclpy
+from exodigit_nodes.pacing import TimeSettings
+from exodigit_nodes.sim_time import MEASURE_WINDOW, SimulatedTime
+from rclpy.node import Node
 from ros_harness import NodeProcess, RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -139,3 +146,23 @@ def test_a_refused_hand_says_why_in_one_line(ros_domain, tmp_path, arguments, me
     assert process.wait(30.0) == 2
     lines = process.stderr().strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f'hand_nodes: error: {message}'), lines
+
+
+def test_fingers_reporting_together_get_one_measured_real_time_factor(ros_domain):
+    # Each finger's plant reports its hand's simulated time about once a second, the fingers
+    # at nearly the same moment: the second report must not measure over the moment between.
+    rclpy.init(domain_id=ros_domain)
+    owner = Node('hand_time_test')
+    try:
+        clock = SimulatedTime(owner, TimeSettings(real_time_factor=0.0))
+        fingers = [SimpleNamespace(period=0.01, state=SimpleNamespace(t=0.0)) for _ in FINGERS]
+        for finger in fingers:
+            clock.add(finger)
+        time.sleep(MEASURE_WINDOW)
+        for finger in fingers:
+            finger.state.t = 1.0
+        measured = [clock.status()[1]['real time factor (measured)'] for _ in fingers]
+        assert measured[0] == measured[1] and float(measured[0]) > 0.0, measured
+    finally:
+        owner.destroy_node()
+        rclpy.try_shutdown()

@@ -40,6 +40,9 @@ FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 READER_WAIT = 2.0
 """Longest wait of a service-triggered step for new subscribers to be matched, wall s."""
+MEASURE_WINDOW = 0.5
+"""Shortest wall time over which the real-time factor is measured, s (every member reports
+about once a second; the reports within one window share one measurement)."""
 
 
 class Member(Protocol):
@@ -92,7 +95,8 @@ class SimulatedTime:
         self.clock_publisher = owner.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
         self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.timer = None
-        self._report_marks = (time.monotonic(), 0.0)
+        self._measure_marks = (time.monotonic(), 0.0)
+        self._measured = 0.0
         owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
         owner.create_service(Trigger, STEP, self.on_step)
 
@@ -280,12 +284,22 @@ class SimulatedTime:
 
     # -- diagnostics -----------------------------------------------------------------------
 
+    def measured_factor(self) -> float:
+        """Simulated seconds per wall second since the measurement before, one per window.
+
+        Every member's report asks (a hand: several a second); the first one after
+        ``MEASURE_WINDOW`` measures, the others get the same figure.
+        """
+        wall = time.monotonic()
+        last_wall, last_sim = self._measure_marks
+        if wall - last_wall >= MEASURE_WINDOW:
+            self._measured = (self.t - last_sim) / (wall - last_wall)
+            self._measure_marks = (wall, self.t)
+        return self._measured
+
     def status(self) -> tuple[list[str], dict[str, str]]:
         """Problems and key/values of simulated time for a /diagnostics report."""
-        wall, sim = time.monotonic(), self.t
-        last_wall, last_sim = self._report_marks
-        self._report_marks = (wall, sim)
-        measured = (sim - last_sim) / (wall - last_wall) if wall > last_wall else 0.0
+        sim, measured = self.t, self.measured_factor()
         if not self.settings.lockstep:
             lockstep = 'off'
         elif self.unlocked:
