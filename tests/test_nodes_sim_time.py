@@ -16,8 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from lockstep_controller import command_at
+from reliability_inprocess import InProcessNode
 from ros_harness import RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -312,3 +314,23 @@ def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_ste
         stop(controller)
     assert len(record.t) == len(record.command) == 300
     np.testing.assert_allclose(record.forces[-1], [0.1, 0.1, 0.1], atol=0.01)
+
+
+def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estimator(ros_domain):
+    # Else the estimate of the first state it is sent could leave before it can hear it, and
+    # the glove would wait for that answer forever.
+    node = InProcessNode(
+        PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, ros_domain
+    )
+    try:
+        node.node.listen_once_estimated()
+        assert 'joint_states' not in node.subscriptions()
+        estimator = node.node.create_publisher(Float64MultiArray, 'estimated_contact_forces', 10)
+        deadline = time.monotonic() + 10.0
+        while 'joint_states' not in node.subscriptions() and time.monotonic() < deadline:
+            node.node.listen_once_estimated()
+            time.sleep(0.01)
+        assert 'joint_states' in node.subscriptions()
+        assert estimator.get_subscription_count() == 1
+    finally:
+        node.close()

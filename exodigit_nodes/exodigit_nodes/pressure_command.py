@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -57,6 +58,8 @@ MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
 ZERO_ACK_TIMEOUT = 0.5
 """How long the final zero command waits to be acknowledged by subscribers, s."""
+ESTIMATOR_POLL = 0.05
+"""Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
 
 LIMIT_NAMES = frozenset(
     {
@@ -116,10 +119,25 @@ class PressureCommand(GloveNode):
         self.command_message = joint_vector_message()
         # Subscriptions before the publisher: when the plant sees our commands' publisher, it
         # has (practically always) seen our joint_states subscription announced first.
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
-        self.create_subscription(
+        self.forces_subscription = self.create_subscription(
             Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, GLOVE_QOS
         )
+        self.estimator_timer = None
+        if self.lockstep and self.values['mode'] == 'force':
+            # An answer needs the estimate of the state: listen for states (and so count as a
+            # lockstep controller of the plant) once the estimator's publisher is matched, or
+            # the estimate of the first state could be sent before we can hear it.
+            self.estimator_timer = self.create_timer(
+                ESTIMATOR_POLL,
+                self.listen_once_estimated,
+                clock=Clock(clock_type=ClockType.STEADY_TIME),
+            )
+            self.get_logger().info(
+                f'lockstep force mode: answering {JOINT_STATES} once an estimator on '
+                f'{ESTIMATED_CONTACT_FORCES} is matched'
+            )
+        else:
+            self.listen_to_states()
         self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, GLOVE_QOS)
         self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
         if not self.lockstep:
@@ -179,6 +197,20 @@ class PressureCommand(GloveNode):
         return ForceController(self.model, v['force_targets'], v['force_kp'], v['force_ki'])
 
     # -- inputs ----------------------------------------------------------------------------
+
+    def listen_to_states(self) -> None:
+        """Subscribe ``joint_states`` (the state each command answers in lockstep)."""
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+
+    def listen_once_estimated(self) -> None:
+        """Lockstep force mode: subscribe states once every estimator publisher is matched."""
+        matched = self.forces_subscription.get_publisher_count()
+        if matched == 0 or matched < self.count_publishers(self.forces_subscription.topic_name):
+            return
+        self.destroy_timer(self.estimator_timer)
+        self.estimator_timer = None
+        self.listen_to_states()
+        self.get_logger().info(f'estimator matched: answering {JOINT_STATES}')
 
     def on_joint_states(self, message: JointState) -> None:
         """Keep valid, recently stamped joint angles (rad) with their arrival time.
