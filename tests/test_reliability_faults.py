@@ -12,6 +12,7 @@ feedback the controller reports it and ramps down to zero, never outside its lim
 """
 
 import itertools
+import math
 import time
 
 import pytest
@@ -34,6 +35,9 @@ WATCH = 1.5
 #: Controller feedback timeout (its default), s, and its diagnostics period, s.
 FEEDBACK_TIMEOUT = 0.5
 REPORT_PERIOD = 1.0
+#: Plant steps of jitter allowed on one window (a late identification tick, delivery to the
+#: probe); an estimator that needed a second window would take WINDOW more.
+DELIVERY_SLACK = 25
 
 
 @pytest.fixture(scope='module')
@@ -98,11 +102,16 @@ def test_estimator_killed_others_carry_on_and_it_resumes_within_one_window(sessi
     )
     assert first is not None, 'estimator did not resume its force estimates'
     resumed = time.monotonic()
-    one_window = WINDOW / RATE + IDENTIFICATION_PERIOD
-    identified = session.inbox['estimated_finger_stiffness'].wait_for(
-        lambda m: True, timeout=one_window + REPORT_PERIOD, since=resumed
+    stiffness = session.inbox['estimated_finger_stiffness']
+    identified = stiffness.wait_for(lambda m: True, timeout=START_TIMEOUT, since=resumed)
+    assert identified is not None, 'estimator did not resume its stiffness estimates'
+    # Counted in plant steps, not seconds: a loaded machine slows the plant, not the rule.
+    arrived = next(t for t, m, _ in stiffness.records() if m is identified)
+    steps = len(
+        [t for t, _, _ in session.inbox['joint_states'].records() if resumed < t <= arrived]
     )
-    assert identified is not None, f'no stiffness within one window ({one_window:g} s)'
+    one_window = WINDOW + math.ceil(IDENTIFICATION_PERIOD * RATE) + DELIVERY_SLACK
+    assert steps <= one_window, f'stiffness after {steps} plant steps, not within one window'
     assert session.normal(since=restarted) == []
 
 
