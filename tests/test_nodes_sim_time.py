@@ -286,6 +286,34 @@ def _lockstep_status(diagnostics, ns, *words):
     return False
 
 
+def test_run_until_holds_the_steps_there_and_raising_it_lets_them_go_on(launcher, probe_for):
+    # What a runner does to keep its record whole (exodigit_nodes.horizon): not a pause.
+    ns = '/run_until'
+    parameters = {'clock': 'sim', 'real_time_factor': 0.0, 'start_paused': True}
+    launcher.start('plant', {**parameters, 'run_until': 0.05, 'marker_rate_hz': 0.0}, namespace=ns)
+    probe = probe_for(launcher.domain_id)
+    states = probe.subscribe(f'{ns}/joint_states', JointState)
+    probe.call(f'{ns}/step', Trigger, Trigger.Request())  # once our reader is matched
+
+    def stamps():
+        return [
+            round(m.header.stamp.sec * 1e9 + m.header.stamp.nanosec) for m in states.messages()
+        ]
+
+    assert wait_until(lambda: len(stamps()) == 1, 10.0)
+    running = probe.call(f'{ns}/set_paused', SetBool, SetBool.Request(data=False))
+    assert running.success
+    assert wait_until(lambda: len(stamps()) >= 5, 10.0)
+    time.sleep(QUIET)
+    assert stamps() == [k * 10**7 for k in range(1, 6)]  # 100 Hz, held at 0.05 s
+    assert [r.successful for r in probe.set_parameters(f'{ns}/plant', {'run_until': 0.1})] == [
+        True
+    ]
+    assert wait_until(lambda: len(stamps()) >= 10, 10.0)
+    time.sleep(QUIET)
+    assert stamps() == [k * 10**7 for k in range(1, 11)]
+
+
 def test_lockstep_needs_simulated_time(launcher):
     code, _, err = launcher.run('plant', {'lockstep': True}, timeout=30.0)
     assert code == 2

@@ -203,6 +203,15 @@ PLANT_NODE = NodeEntry(
                 low=0.0,
                 high=1e9,
             ),
+            ParamSpec(
+                'run_until',
+                0.0,
+                'sim: take no step past this simulated time, s (0 = no limit; not a pause: '
+                'raising it lets the steps go on; the runners keep it a few steps ahead of '
+                'what their record has received)',
+                low=0.0,
+                high=1e9,
+            ),
         ]
     ),
 )

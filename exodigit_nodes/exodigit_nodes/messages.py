@@ -5,6 +5,8 @@ from __future__ import annotations
 from array import array
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 PRESSURE_COMMAND = 'pressure_command'
@@ -27,6 +29,12 @@ STEP = 'step'
 
 JOINT_DIMENSION = 'joint'
 """Label of the one layout dimension of every joint-vector topic."""
+
+
+def set_double_request(name: str, value: float) -> SetParameters.Request:
+    """A ``set_parameters`` request that sets the double parameter ``name`` to ``value``."""
+    double = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
+    return SetParameters.Request(parameters=[Parameter(name=name, value=double)])
 
 
 def joint_vector_message() -> Float64MultiArray:

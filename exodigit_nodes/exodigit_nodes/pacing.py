@@ -38,6 +38,9 @@ class TimeSettings:
         Start paused (``set_paused`` false, or ``step``, to go).
     pause_at : float
         Pause once simulated time reaches this, s (0 = never).
+    run_until : float
+        Take no step past this simulated time, s (0 = no limit): not a pause, raising it lets
+        the steps go on. A runner keeps it a few steps ahead of what its record has received.
     """
 
     real_time_factor: float = 1.0
@@ -45,6 +48,7 @@ class TimeSettings:
     lockstep_timeout: float = 1.0
     start_paused: bool = False
     pause_at: float = 0.0
+    run_until: float = 0.0
 
 
 class Pacer:

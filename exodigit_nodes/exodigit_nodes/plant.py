@@ -15,7 +15,8 @@ seconds per wall second (0 = as fast as possible). ``lockstep:=true`` keeps one 
 after publishing a step the plant waits for a ``pressure_command`` (the answer) before the next;
 no answer within ``lockstep_timeout`` wall seconds and it vents and steps on at real time until
 a command comes. Services ``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger,
-one step while paused) control simulated time; ``pause_at`` pauses at a given simulated time.
+one step while paused) control simulated time; ``pause_at`` pauses at a given simulated time,
+``run_until`` holds the steps there until it is raised.
 
 Run: ``python -m exodigit_nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or, for
 a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
@@ -194,6 +195,7 @@ class Plant(GloveNode):
                 lockstep_timeout=values['lockstep_timeout'],
                 start_paused=values['start_paused'],
                 pause_at=values['pause_at'],
+                run_until=values['run_until'],
             ),
         )
 
@@ -219,11 +221,13 @@ class Plant(GloveNode):
             'real_time_factor',
             'lockstep_timeout',
             'pause_at',
+            'run_until',
         }:
             self.time.configure(
                 real_time_factor=settings.time.real_time_factor,
                 lockstep_timeout=settings.time.lockstep_timeout,
                 pause_at=settings.time.pause_at,
+                run_until=settings.time.run_until,
             )
 
     # -- inputs ----------------------------------------------------------------------------

@@ -149,6 +149,8 @@ def run_session(session: Session, env: dict) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
+    from .catalog import PLANT_NODE
+    from .horizon import Horizon
     from .monitor import GloveMonitor
 
     stop.install()  # again: loading rclpy's C extension takes the signals over
@@ -172,6 +174,9 @@ def run_session(session: Session, env: dict) -> int:
             )
             monitors.append(monitor)
             executor.add_node(monitor)
+        # simulated time: the plant runs only a few steps ahead of what this record has received
+        plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
+        horizon = Horizon(monitors[0], plant, session.duration) if session.simulated else None
 
         def spin() -> None:
             executor.spin_once(timeout_sec=0.02)
@@ -188,7 +193,9 @@ def run_session(session: Session, env: dict) -> int:
             spin()
             now = time.monotonic()
             if waiting and all(monitor.connected(SIGNALS) for monitor in monitors):
-                waiting = not monitors[0].resume_plant()
+                waiting = not (horizon.ready() and monitors[0].resume_plant())
+            elif horizon is not None and not waiting:
+                horizon.follow(_simulated_or_none(signals))
             failures = supervisor.exited()
             elapsed = now - started if not session.simulated else _simulated(signals)
             if failures or (session.duration and elapsed >= session.duration):
@@ -222,8 +229,13 @@ def run_session(session: Session, env: dict) -> int:
 
 def _simulated(signals: Sequence[GloveSignals]) -> float:
     """Simulated time every glove has reached, s (0 before each has a state)."""
+    return _simulated_or_none(signals) or 0.0
+
+
+def _simulated_or_none(signals: Sequence[GloveSignals]) -> float | None:
+    """Simulated time every glove has reached, s (None before each has a state)."""
     stamps = [s.received_stamp for s in signals]
-    return 0.0 if None in stamps else min(stamps)
+    return None if None in stamps else min(stamps)
 
 
 def _report(session: Session, supervisor: Supervisor, signals, failures, stops) -> int:

@@ -8,7 +8,7 @@ member has its answer (a ``pressure_command``); a member whose controller stays 
 ``lockstep_timeout`` wall seconds unlocks the clock: the silent members vent and every member
 steps on at real time until the silent ones answer again. ``set_paused`` (std_srvs/SetBool) and
 ``step`` (std_srvs/Trigger, one step while paused) are served by the owner node, ``pause_at``
-pauses once simulated time reaches it.
+pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
 
 A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
 (:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
@@ -212,10 +212,17 @@ class SimulatedTime:
             ready = self.started or all(m.controller_present() for m in self.members)
             if self.awaiting or not ready:
                 return False
+        if self.held():
+            return False
         if not self.pacer.due(wall, self.t + self.period, self.pacing_factor()):
             return False
         self.step()
         return True
+
+    def held(self) -> bool:
+        """Whether the next step would go past ``run_until`` (to the nearest step)."""
+        run_until = self.settings.run_until
+        return run_until > 0.0 and self.t + 0.5 * self.period > run_until
 
     def step_now(self) -> None:
         """A step asked for by a service (``step``, ``reset``): new subscribers matched first."""
@@ -254,10 +261,12 @@ class SimulatedTime:
 
     def configure(self, **changes) -> None:
         """New :class:`TimeSettings` values by keyword (a new pace takes effect at once)."""
-        before = self.settings.real_time_factor
+        before = self.settings
         self.settings = replace(self.settings, **changes)
-        if self.settings.real_time_factor != before:
+        if self.settings.real_time_factor != before.real_time_factor:
             self.restart_pacing()
+        if self.settings.run_until > before.run_until and self.members:
+            self.try_step(time.monotonic())  # released: the next step need not wait for a timer
 
     def pacing_factor(self) -> float:
         """Simulated seconds per wall second now: never faster than real time when unlocked."""
@@ -313,6 +322,7 @@ class SimulatedTime:
             'clock': 'sim',
             'simulated time (s)': f'{sim:.9f}',
             'paused': str(self.paused),
+            'held at run_until': str(bool(self.members) and self.held()),
             'real time factor (set)': f'{self.settings.real_time_factor:g}',
             'real time factor (measured)': f'{measured:.3g}',
             'lockstep': lockstep,

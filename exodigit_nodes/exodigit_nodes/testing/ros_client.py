@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -28,6 +27,7 @@ from ..messages import (
     STEP,
     fill,
     joint_vector_message,
+    set_double_request,
 )
 from ..pacing import known_node
 from ..qos import GLOVE_QOS, RECORD_QOS
@@ -178,8 +178,7 @@ class GloveClient(Node):
     @staticmethod
     def pause_at_request(seconds: float) -> SetParameters.Request:
         """Set the plant's ``pause_at`` to ``seconds`` of simulated time."""
-        value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=seconds)
-        return SetParameters.Request(parameters=[Parameter(name='pause_at', value=value)])
+        return set_double_request('pause_at', seconds)
 
     @staticmethod
     def time_ns(seconds: float) -> int:
