@@ -43,6 +43,10 @@ STIFFNESS_TOLERANCE = 1e-3
 STOP_TIMEOUT = 15.0
 #: Seconds to wait for the nodes to start and the first samples to arrive.
 START_TIMEOUT = 60.0
+#: Recorded steps before the SIGINT test stops a recording glove (4 s at 100 Hz): longer than
+#: Fast DDS's 3 s heartbeat period, after which a reader that joined late or missed a message
+#: (the recorder, on a loaded machine) has been repaired and receives the plant's steps.
+BAG_ROWS = 400
 SUPPLY_LIMIT = 200e3  # Pa, plant default max_supply_pressure upper bound used as a sanity limit
 
 
@@ -197,8 +201,8 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(ros_
         )
         try:
             record = out / 'signals.csv'
-            started = wait_until(lambda: pressurised_rows(record) >= 50, START_TIMEOUT)
-            assert started, (tmp_path / 'stdout.txt').read_text()[-2000:]
+            settled = wait_until(lambda: pressurised_rows(record) >= BAG_ROWS, START_TIMEOUT)
+            assert settled, (tmp_path / 'stdout.txt').read_text()[-2000:]
             assert len(node_pids(ns)) == 4  # three nodes and the recorder
             glove.send_signal(signal.SIGINT)
             interrupted = time.monotonic()
