@@ -16,6 +16,8 @@ heartbeat holds the plant for as long, and nothing is lost.
 
 from __future__ import annotations
 
+import time
+
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 
@@ -27,6 +29,31 @@ publisher keeps (one step in flight beyond them is still among those 10)."""
 RAISE_STEPS = 4
 """Steps received between two raises of ``run_until``."""
 RUN_UNTIL = 'run_until'
+RESEND = 1.0
+"""Wall seconds without an answer before a request is sent again. rmw_fastrtps drops a service's
+answer when the server has not yet matched the client's reader (it waits 100 ms), which happens
+on a loaded machine; both requests here may be repeated."""
+
+
+class RepeatedCall:
+    """A request that may be repeated, in flight: sent again every `RESEND` s until answered."""
+
+    def __init__(self, client, request) -> None:
+        self._client, self._request = client, request
+        self._send()
+
+    def _send(self) -> None:
+        self._future = self._client.call_async(self._request)
+        self._sent = time.monotonic()
+
+    def answer(self):
+        """The response, or None while there is none (sending again when overdue)."""
+        if self._future.done():
+            return self._future.result()
+        if time.monotonic() - self._sent > RESEND:
+            self._client.remove_pending_request(self._future)
+            self._send()
+        return None
 
 
 class Horizon:
@@ -35,57 +62,68 @@ class Horizon:
     Parameters
     ----------
     node : rclpy.node.Node
-        Calls the plant's parameter services.
+        Calls the plant's parameter services (whoever spins it completes the calls).
     plant : str
         Fully qualified name of the plant whose simulated time it holds (in a hand, any finger's
         plant: they share one time).
-    duration : float
-        Simulated seconds of the run (0 until stopped): ``run_until`` never goes past it.
+    period : float, optional
+        Simulated seconds per step; None: ask the plant its ``rate_hz``.
     """
 
-    def __init__(self, node: Node, plant: str, duration: float) -> None:
+    def __init__(self, node: Node, plant: str, *, period: float | None = None) -> None:
         self._get = node.create_client(GetParameters, f'{plant}/get_parameters')
         self._set = node.create_client(SetParameters, f'{plant}/set_parameters')
-        self._duration = duration
-        self._pending = None
+        self._pending: RepeatedCall | None = None
+        self.period = period
+        """Simulated seconds per step, once known."""
+        self.start(0.0)
+
+    def start(self, end: float) -> None:
+        """A new run that ends at simulated time ``end``, s (0 = open end): then :meth:`ready`.
+
+        ``run_until`` never goes past ``end``.
+        """
+        self._end = end
         self._started = False
-        self.period: float | None = None
-        """Simulated seconds per step (the plant's ``rate_hz``), once it has answered."""
         self.limit = 0.0
         """The ``run_until`` last set, s."""
 
-    def ready(self) -> bool:
-        """Ask the plant's rate, then set the first ``run_until``; True once both are done.
+    def ready(self, received: float = 0.0) -> bool:
+        """Set the first ``run_until`` past stamp ``received`` (s); True once the plant has it.
 
-        Call it until True before the plant is resumed (it never blocks).
+        Asks the plant's rate first if it was not given. Call it until True before the plant is
+        resumed (it never blocks).
         """
         if self._started:
             return True
         if self._pending is None:
-            if self._get.service_is_ready():
-                self._pending = self._get.call_async(GetParameters.Request(names=['rate_hz']))
+            if self.period is None and self._get.service_is_ready():
+                self._pending = RepeatedCall(self._get, GetParameters.Request(names=['rate_hz']))
+            elif self.period is not None and self._set.service_is_ready():
+                self._raise(received)
             return False
-        if not self._pending.done():
+        result = self._pending.answer()
+        if result is None:
             return False
-        result, self._pending = self._pending.result(), None
+        self._pending = None
         if self.period is None:
             self.period = 1.0 / result.values[0].double_value
-            self._raise(0.0)
+            self._raise(received)
             return False
         self._started = True
         return True
 
     def follow(self, received: float | None) -> None:
         """Raise ``run_until`` if the steps received (up to stamp ``received``, s) call for it."""
-        if received is None or (self._pending is not None and not self._pending.done()):
+        if received is None or (self._pending is not None and self._pending.answer() is None):
             return
         self._pending = None
-        if self._duration and self.limit >= self._duration:
+        if self._end and self.limit >= self._end:
             return
         if received + (LEAD_STEPS - RAISE_STEPS + 0.5) * self.period >= self.limit:
             self._raise(received)
 
     def _raise(self, received: float) -> None:
         limit = received + LEAD_STEPS * self.period
-        self.limit = min(limit, self._duration) if self._duration else limit
-        self._pending = self._set.call_async(set_double_request(RUN_UNTIL, self.limit))
+        self.limit = min(limit, self._end) if self._end else limit
+        self._pending = RepeatedCall(self._set, set_double_request(RUN_UNTIL, self.limit))

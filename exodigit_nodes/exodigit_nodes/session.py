@@ -176,7 +176,9 @@ def run_session(session: Session, env: dict) -> int:
             executor.add_node(monitor)
         # simulated time: the plant runs only a few steps ahead of what this record has received
         plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
-        horizon = Horizon(monitors[0], plant, session.duration) if session.simulated else None
+        horizon = Horizon(monitors[0], plant) if session.simulated else None
+        if horizon is not None:
+            horizon.start(session.duration)
 
         def spin() -> None:
             executor.spin_once(timeout_sec=0.02)

@@ -1,0 +1,120 @@
+"""How far a runner lets a simulated plant run ahead (exodigit_nodes.horizon), without DDS.
+
+The plant's parameter services are stand-ins that answer when the test says so; what is checked
+is the rule of the module: ``run_until`` stays at most LEAD_STEPS past the newest step received,
+is raised every RAISE_STEPS, never passes the end of the run, and a request whose answer was
+lost is sent again.
+"""
+
+import itertools
+
+import pytest
+from exodigit_nodes.horizon import LEAD_STEPS, RAISE_STEPS, Horizon, RepeatedCall
+from exodigit_nodes.qos import GLOVE_QOS
+from rcl_interfaces.msg import ParameterValue
+from rclpy.task import Future
+
+from exodigit_nodes import horizon
+
+PERIOD = 0.01
+
+
+class StandInClient:
+    """Records requests; answers each with ``respond`` unless told to lose it."""
+
+    def __init__(self, respond):
+        self.respond = respond
+        self.requests = []
+        self.removed = []
+        self.lose_next = 0
+
+    def service_is_ready(self):
+        return True
+
+    def call_async(self, request):
+        self.requests.append(request)
+        future = Future()
+        if self.lose_next:
+            self.lose_next -= 1
+        else:
+            future.set_result(self.respond(request))
+        return future
+
+    def remove_pending_request(self, future):
+        self.removed.append(future)
+
+
+class StandInNode:
+    def __init__(self):
+        self.clients = {}
+
+    def create_client(self, service_type, name):
+        def respond(request):
+            response = service_type.Response()
+            if hasattr(request, 'names'):  # get_parameters: the plant's rate_hz
+                response.values = [ParameterValue(double_value=1.0 / PERIOD)]
+            return response
+
+        client = StandInClient(respond)
+        self.clients[name.rsplit('/', 1)[-1]] = client
+        return client
+
+
+def limits(client):
+    return [request.parameters[0].value.double_value for request in client.requests]
+
+
+def test_a_lost_answer_is_asked_again_after_the_resend_period(monkeypatch):
+    client = StandInClient(lambda request: 'answer')
+    client.lose_next = 1
+    now = [100.0]
+    monkeypatch.setattr(horizon.time, 'monotonic', lambda: now[0])
+    call = RepeatedCall(client, 'request')
+    assert call.answer() is None and len(client.requests) == 1
+    now[0] += horizon.RESEND / 2
+    assert call.answer() is None and len(client.requests) == 1  # not yet overdue
+    now[0] += horizon.RESEND
+    assert call.answer() is None  # sent again now, answered this time
+    assert len(client.requests) == 2 and len(client.removed) == 1
+    assert call.answer() == 'answer'
+
+
+def test_the_first_limit_waits_for_the_rate_and_lies_lead_steps_ahead():
+    node = StandInNode()
+    hold = Horizon(node, '/glove/plant')
+    hold.start(0.0)
+    for _ in range(10):
+        if hold.ready(0.0):
+            break
+    assert hold.ready(0.0)
+    assert hold.period == pytest.approx(PERIOD)
+    assert [r.names for r in node.clients['get_parameters'].requests] == [['rate_hz']]
+    assert limits(node.clients['set_parameters']) == pytest.approx([LEAD_STEPS * PERIOD])
+
+
+def test_the_lead_is_shorter_than_what_each_publisher_keeps():
+    # one step in flight beyond the lead must still be in every publisher's history
+    assert GLOVE_QOS.depth >= LEAD_STEPS + 1
+    assert 0 < RAISE_STEPS < LEAD_STEPS
+
+
+@pytest.mark.parametrize('end', [0.0, 0.25])
+def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end):
+    node = StandInNode()
+    hold = Horizon(node, '/glove/plant', period=PERIOD)
+    hold.start(end)
+    while not hold.ready(0.0):
+        pass
+    setter = node.clients['set_parameters']
+    steps = round(end / PERIOD) if end else 40  # the plant pauses at the end of the run
+    for k in range(1, steps + 1):  # it takes a step only while the limit allows it
+        received = k * PERIOD
+        assert received <= limits(setter)[-1] + 1e-12
+        hold.follow(received)
+        assert limits(setter)[-1] - received <= LEAD_STEPS * PERIOD + 1e-12
+    sent = limits(setter)
+    raises = [round(b / PERIOD) - round(a / PERIOD) for a, b in itertools.pairwise(sent)]
+    if end:
+        assert sent[-1] == pytest.approx(end) and max(sent) == pytest.approx(end)
+        raises = raises[:-1]  # the last raise stops at the end
+    assert raises and set(raises) == {RAISE_STEPS}
