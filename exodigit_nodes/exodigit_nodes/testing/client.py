@@ -212,6 +212,7 @@ class GloveSim:
         from rclpy.experimental import EventsExecutor
         from rclpy.signals import SignalHandlerOptions
 
+        from ..horizon import RepeatedCall
         from .ros_client import GloveClient
 
         self._context = rclpy.Context()
@@ -220,10 +221,17 @@ class GloveSim:
             domain_id=self.domain_id,
             signal_handler_options=SignalHandlerOptions.NO,
         )
-        self._node = GloveClient(self.namespace, self._context, estimator=estimator)
+        self._node = GloveClient(
+            self.namespace, self._context, estimator=estimator, rate_hz=self.rate_hz
+        )
         self._executor = EventsExecutor(context=self._context)
         self._executor.add_node(self._node)
         self._wait(self._node.connected, 'the plant to start and connect')
+        # rmw_fastrtps drops a service's answer when the server has not matched the client's
+        # reader within 100 ms (a loaded machine takes longer): ask something harmless again
+        # until answered, so that no answer of the plant is lost later.
+        call = RepeatedCall(self._node.warm_up_client, self._node.warm_up_request())
+        self._wait(lambda: call.answer() is not None, 'the plant to answer a request')
 
     def close(self) -> None:
         """Stop every process the kit started and release the domain (idempotent)."""
@@ -339,10 +347,21 @@ class GloveSim:
         if not self._external_synced:
             self._call(self._node.step_client, self._node.trigger(), 'step')
             states.append(self._next_state(with_estimate=False))
+        # The plant runs a few steps ahead of the states received, no more (see .horizon).
+        horizon = self._node.horizon
+        horizon.start(end_ns * 1e-9)
+        received = states[-1].t if states else self.state.t
+        self._wait(lambda: horizon.ready(received), 'the plant to take run_until')
         self._set_paused(False)
+
+        def next_state():  # raises run_until also while waiting (its answer may come late)
+            horizon.follow(states[-1].t if states else received)
+            return self._node.take_state(with_estimate=False)
+
         while len(states) < steps:
-            states.append(self._next_state(with_estimate=False))
+            states.append(self._wait(next_state, 'the next state'))
         self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
+        self._call(self._node.parameter_client, self._node.release_request(), 'reset run_until')
         commands = self._node.take_commands(steps)
         self._node.clear_estimates()
         self._external_synced = True

@@ -9,12 +9,13 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
+from ..horizon import RUN_UNTIL, Horizon
 from ..messages import (
     CHAMBER_PRESSURE,
     CONTACT_FORCES,
@@ -45,9 +46,11 @@ class GloveClient(Node):
         The kit's own context.
     estimator : bool
         Whether an estimator runs (its estimates are part of each state).
+    rate_hz : float
+        The plant's step rate.
     """
 
-    def __init__(self, namespace: str, context, *, estimator: bool) -> None:
+    def __init__(self, namespace: str, context, *, estimator: bool, rate_hz: float) -> None:
         super().__init__('glove_sim_client', namespace=namespace, context=context)
         self.queues: dict[str, deque] = {
             JOINT_STATES: deque(),
@@ -78,6 +81,11 @@ class GloveClient(Node):
         self.step_client = self.create_client(Trigger, STEP)
         self.pause_client = self.create_client(SetBool, SET_PAUSED)
         self.parameter_client = self.create_client(SetParameters, f'{plant}/set_parameters')
+        self.horizon = Horizon(self, plant, period=1.0 / rate_hz)
+        """Holds the plant a few steps ahead of the states received in a :meth:`run`."""
+        # Created last: Fast DDS announces our readers in creation order on one reliable stream,
+        # so once the plant answers this client it has matched every reader of ours before it.
+        self.warm_up_client = self.create_client(GetParameters, f'{plant}/get_parameters')
         self.plant_services = (
             self.reset_client,
             self.step_client,
@@ -179,6 +187,16 @@ class GloveClient(Node):
     def pause_at_request(seconds: float) -> SetParameters.Request:
         """Set the plant's ``pause_at`` to ``seconds`` of simulated time."""
         return set_double_request('pause_at', seconds)
+
+    @staticmethod
+    def warm_up_request() -> GetParameters.Request:
+        """A request that changes nothing: the plant's ``rate_hz``."""
+        return GetParameters.Request(names=['rate_hz'])
+
+    @staticmethod
+    def release_request() -> SetParameters.Request:
+        """Set the plant's ``run_until`` back to 0 (no limit)."""
+        return set_double_request(RUN_UNTIL, 0.0)
 
     @staticmethod
     def time_ns(seconds: float) -> int:
