@@ -316,7 +316,9 @@ class GloveSim:
         The controller must answer every ``joint_states`` with one ``pressure_command``. The
         first run after :meth:`reset` or :meth:`step` starts with a fresh state (one step with
         the latest command) so that a node started since sees a state to answer; later runs go
-        on exactly where the last one stopped. Start your node after ``reset()``.
+        on exactly where the last one stopped. Start your node after ``reset()``. The plant
+        runs at most 8 steps ahead of the states this client has received (its ``run_until``,
+        :mod:`exodigit_nodes.horizon`), so no state is lost on a loaded machine.
 
         Returns
         -------
