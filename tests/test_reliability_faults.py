@@ -35,6 +35,8 @@ WATCH = 1.5
 #: Controller feedback timeout (its default), s, and its diagnostics period, s.
 FEEDBACK_TIMEOUT = 0.5
 REPORT_PERIOD = 1.0
+#: Longest delivery of a state to the controller counted on, s.
+DELIVERY = 0.1
 #: Plant steps of jitter allowed on one window (a late identification tick, delivery to the
 #: probe); an estimator that needed a second window would take WINDOW more.
 DELIVERY_SLACK = 25
@@ -134,15 +136,18 @@ def test_plant_stopped_under_closed_loop_controller_reports_and_ramps_down(posit
     assert holding is not None, 'position mode never pressurised'
     stopped = time.monotonic()
     assert glove.processes['plant'].stop() == 0
-    zero = glove.inbox['pressure_command'].wait_for(
-        lambda m: max(m.data) == 0.0, timeout=START_TIMEOUT, since=stopped
-    )
+    commands = glove.inbox['pressure_command']
+    zero = commands.wait_for(lambda m: max(m.data) == 0.0, timeout=START_TIMEOUT, since=stopped)
     assert zero is not None, 'controller did not ramp down to zero without feedback'
     assert glove.reported('pressure_command', stopped + FEEDBACK_TIMEOUT)
     status = glove.status('pressure_command', stopped + FEEDBACK_TIMEOUT)
     assert status.level != b'\x00' and 'joint_states' in status.message, status.message
     assert glove.unsafe_commands(stopped) == []
-    # Once its feedback is stale, the controller only ever lowers the pressure.
-    stale = stopped + FEEDBACK_TIMEOUT + 2 / RATE
-    peaks = [max(m.data) for m in glove.inbox['pressure_command'].messages(stale)]
+    # Once its feedback is stale, the controller only ever lowers the pressure. Stale from the
+    # last state the plant sent (it publishes while it stops), on the clock of the send times.
+    stamps = [m.header.stamp for m in glove.inbox['joint_states'].messages()]
+    stale = max(s.sec + 1e-9 * s.nanosec for s in stamps) + DELIVERY + FEEDBACK_TIMEOUT + 2 / RATE
+    peaks = [
+        max(m.data) for _, m, info in commands.records() if info['source_timestamp'] > stale * 1e9
+    ]
     assert all(b <= a + 1e-9 for a, b in itertools.pairwise(peaks)), 'rose without feedback'

@@ -9,6 +9,7 @@ model's own solve of the commanded pressures.
 import signal
 import subprocess
 import sys
+from functools import partial
 
 import numpy as np
 import pytest
@@ -29,6 +30,10 @@ COMMANDS = ([20e3, 10e3, 5e3], [35e3, 25e3, 15e3])
 ANGLE_TOLERANCE = 1e-6
 #: Plant cycles (joint_states messages) to wait after the last command before stopping.
 AFTER_LAST_COMMAND = 20
+#: Plant cycles to hold each command once the plant has settled on it (4 s at 100 Hz): longer
+#: than Fast DDS's 3 s heartbeat period, for which a reader that joined late or missed a message
+#: (the recorder on a loaded machine) holds back what comes after it.
+SETTLED_STEPS = 400
 #: Seconds for the plant to settle, or for the recorder to start or stop.
 TIMEOUT = 60.0
 
@@ -93,12 +98,19 @@ def session(launcher, probe, ros_domain, tmp_path_factory):
                     latest.position, target, atol=ANGLE_TOLERANCE
                 )
 
-            def publish_until_settled(pressure=pressure, settled=settled):
+            def publish_until(condition, pressure=pressure):
                 command.publish(Float64MultiArray(data=pressure))
                 published.append(list(pressure))
-                return settled()
+                return condition()
 
-            assert wait_until(publish_until_settled, TIMEOUT, interval=0.05)
+            assert wait_until(partial(publish_until, settled), TIMEOUT, interval=0.05)
+
+            enough = states.count() + SETTLED_STEPS
+
+            def held(enough=enough):
+                return states.count() >= enough
+
+            assert wait_until(partial(publish_until, held), TIMEOUT, interval=0.05)
         # Messages in flight when the recorder stops are lost, as with any recorder: let
         # AFTER_LAST_COMMAND plant cycles pass (a condition, not a fixed sleep) before SIGINT.
         seen = states.count()
