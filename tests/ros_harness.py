@@ -116,6 +116,12 @@ class Inbox:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._items: list[tuple[float, Any, dict | None]] = []
+        self.subscription = None
+        """The probe's subscription that fills it (set by :meth:`RosProbe.subscribe`)."""
+
+    def matched(self) -> int:
+        """How many publishers the subscription has matched (our side of the match)."""
+        return self.subscription.get_publisher_count()
 
     def put(self, message, info: dict | None = None) -> None:
         """Store a message (called by the executor thread)."""
@@ -206,7 +212,9 @@ class RosProbe:
         inbox = Inbox()
         callback = (lambda message, info: inbox.put(message, info)) if with_info else inbox.put
         with self._lock:
-            self.node.create_subscription(message_type, topic, callback, TEST_QOS)
+            inbox.subscription = self.node.create_subscription(
+                message_type, topic, callback, TEST_QOS
+            )
         return inbox
 
     def publisher(self, topic: str, message_type, wait_for: int = 1):
