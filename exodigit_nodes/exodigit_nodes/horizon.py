@@ -9,7 +9,8 @@ lockstep hand run in four on this 2-core machine beside two busy processes, one 
 
 So a runner in simulated time holds the plant with its ``run_until`` parameter
 (:class:`.sim_time.SimulatedTime`): it keeps it at most `LEAD_STEPS` past the newest step that
-every glove of the run has received, and raises it each time `RAISE_STEPS` more have arrived.
+every glove of the run has received whole (each of its streams: one held back holds the plant),
+and raises it each time `RAISE_STEPS` more have arrived.
 A message in flight is then always among the last 10 of its publisher; a reader that waits for a
 heartbeat holds the plant for as long, and nothing is lost.
 """

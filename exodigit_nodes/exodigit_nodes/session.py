@@ -197,7 +197,7 @@ def run_session(session: Session, env: dict) -> int:
             if waiting and all(monitor.connected(SIGNALS) for monitor in monitors):
                 waiting = not (horizon.ready() and monitors[0].resume_plant())
             elif horizon is not None and not waiting:
-                horizon.follow(_simulated_or_none(signals))
+                horizon.follow(_joined(signals))
             failures = supervisor.exited()
             elapsed = now - started if not session.simulated else _simulated(signals)
             if failures or (session.duration and elapsed >= session.duration):
@@ -231,12 +231,17 @@ def run_session(session: Session, env: dict) -> int:
 
 def _simulated(signals: Sequence[GloveSignals]) -> float:
     """Simulated time every glove has reached, s (0 before each has a state)."""
-    return _simulated_or_none(signals) or 0.0
-
-
-def _simulated_or_none(signals: Sequence[GloveSignals]) -> float | None:
-    """Simulated time every glove has reached, s (None before each has a state)."""
     stamps = [s.received_stamp for s in signals]
+    return 0.0 if None in stamps else min(stamps)
+
+
+def _joined(signals: Sequence[GloveSignals]) -> float | None:
+    """Stamp of the latest step every glove's record has whole, s (None before each has one).
+
+    A step is whole once its pressure, angles and forces and the next step's pressure are in,
+    so a stream held back (any of the three) holds this too.
+    """
+    stamps = [s.stamp for s in signals]
     return None if None in stamps else min(stamps)
 
 
