@@ -2,9 +2,10 @@
 
 The command is a function of the state's stamp only, p(t) = PEAK·(1 − cos 2πt/PERIOD)/2 on all
 chambers, so a test can replay the session in process. With ``--delay S`` it sleeps S wall
-seconds before each answer (a slow controller).
+seconds before each answer (a slow controller); with ``--stall-after N`` it answers the first
+N states only (a controller that hangs).
 
-Run: ``python lockstep_controller.py [--delay S] --ros-args -r __ns:=/ns``.
+Run: ``python lockstep_controller.py [--delay S] [--stall-after N] --ros-args -r __ns:=/ns``.
 """
 
 import argparse
@@ -28,13 +29,18 @@ def command_at(t: float) -> list[float]:
 
 
 class Controller(Node):
-    def __init__(self, delay: float) -> None:
+    def __init__(self, delay: float, stall_after: int | None) -> None:
         super().__init__('lockstep_controller')
         self.delay = delay
+        self.answers_left = stall_after
         self.create_subscription(JointState, 'joint_states', self.answer, 1000)
         self.publisher = self.create_publisher(Float64MultiArray, 'pressure_command', 10)
 
     def answer(self, state: JointState) -> None:
+        if self.answers_left is not None:
+            if self.answers_left == 0:
+                return
+            self.answers_left -= 1
         if self.delay:
             time.sleep(self.delay)
         t = (state.header.stamp.sec * 10**9 + state.header.stamp.nanosec) / 1e9
@@ -44,9 +50,10 @@ class Controller(Node):
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument('--delay', type=float, default=0.0)
+    parser.add_argument('--stall-after', type=int, default=None)
     args, ros_args = parser.parse_known_args()
     rclpy.init(args=[sys.argv[0], *ros_args])
-    node = Controller(args.delay)
+    node = Controller(args.delay, args.stall_after)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

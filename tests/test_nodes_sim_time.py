@@ -220,6 +220,19 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove_sim, del
             np.testing.assert_array_equal(record.command[i], command)
 
 
+def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove_sim, probe_for):
+    controller = start_controller(glove_sim, '--stall-after', '10')
+    try:
+        assert len(glove_sim.run(0.05).t) == 5  # in step with the controller
+        glove_sim.timeout = 5.0  # then it hangs after 5 more answers
+        with pytest.raises(GloveSimError, match='waited 5 s for the next state'):
+            glove_sim.run(0.5)
+    finally:
+        stop(controller)
+    probe = probe_for(glove_sim.domain_id)
+    assert probe.get_parameters(f'{glove_sim.namespace}/plant', ['run_until']) == [0.0]
+
+
 def test_the_test_cannot_step_beside_an_external_controller(glove_sim):
     controller = start_controller(glove_sim)
     try:

@@ -72,7 +72,9 @@ class Horizon:
     """
 
     def __init__(self, node: Node, plant: str, *, period: float | None = None) -> None:
-        self._get = node.create_client(GetParameters, f'{plant}/get_parameters')
+        self._get = None  # asks the rate only if it is not given
+        if period is None:
+            self._get = node.create_client(GetParameters, f'{plant}/get_parameters')
         self._set = node.create_client(SetParameters, f'{plant}/set_parameters')
         self._pending: RepeatedCall | None = None
         self.period = period

@@ -324,6 +324,12 @@ class GloveSim:
         -------
         SimRecord
             The ``round(seconds · rate_hz)`` steps of the run and the controller's answers.
+
+        Raises
+        ------
+        GloveSimError
+            If the controller or the plant does not go on within ``timeout``; the plant's
+            ``run_until`` is reset first, so this client can go on stepping it.
         """
         steps = round(seconds * self.rate_hz)
         if not (math.isfinite(seconds) and steps >= 1):
@@ -360,10 +366,14 @@ class GloveSim:
             horizon.follow(states[-1].t if states else received)
             return self._node.take_state(with_estimate=False)
 
-        while len(states) < steps:
-            states.append(self._wait(next_state, 'the next state'))
-        self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
-        self._call(self._node.parameter_client, self._node.release_request(), 'reset run_until')
+        try:
+            while len(states) < steps:
+                states.append(self._wait(next_state, 'the next state'))
+            self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
+        except GloveSimError as error:
+            self._release_run_until(error)
+            raise
+        self._release_run_until()
         commands = self._node.take_commands(steps)
         self._node.clear_estimates()
         self._external_synced = True
@@ -401,6 +411,19 @@ class GloveSim:
         return self._wait(
             lambda: self._node.take_state(with_estimate=with_estimate), 'the next state'
         )
+
+    def _release_run_until(self, failure: GloveSimError | None = None) -> None:
+        """Let the plant step freely again after a :meth:`run` (also one that ``failure`` ended).
+
+        A failure to do so after a ``failure`` becomes a note on it, not a new error.
+        """
+        try:
+            release = self._node.release_request()
+            self._call(self._node.parameter_client, release, 'reset run_until')
+        except GloveSimError as error:
+            if failure is None:
+                raise
+            failure.add_note(f'and run_until stays set: {error}')
 
     def _call(self, client, request, what: str):
         future = client.call_async(request)
