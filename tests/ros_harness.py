@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
-from exodigit_nodes.horizon import Horizon
+from exodigit_nodes.horizon import Horizon, RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
     DomainLease,
@@ -50,14 +50,24 @@ from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's publ
     ros_args,
     ros_environment,
 )
-from rcl_interfaces.srv import GetParameters, SetParameters
+from rcl_interfaces.srv import (
+    DescribeParameters,
+    GetParameters,
+    ListParameters,
+    SetParameters,
+)
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from std_srvs.srv import SetBool
 
 DISCOVERY_TIMEOUT = 10.0
 """Longest wait for two processes to discover each other, s (median here is 0.45 s)."""
+REPEATABLE = (ListParameters, DescribeParameters, GetParameters, SetParameters, SetBool)
+"""Service types whose request :meth:`RosProbe.call` sends again when no answer comes: asking
+twice has the outcome of asking once (parameters; the plant's ``set_paused``). Not ``Trigger``:
+the plant's ``step`` would step twice."""
 TEST_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 """Probe subscriptions: reliable like the glove's topics, deep so a busy test loses nothing."""
 
@@ -255,14 +265,31 @@ class RosProbe:
     # services and parameters
 
     def call(self, service: str, service_type, request, timeout: float = DISCOVERY_TIMEOUT):
-        """Call ``service`` (absolute name) and return the response (AssertionError on timeout)."""
+        """Call ``service`` (absolute name) and return the response (AssertionError on timeout).
+
+        A request of a `REPEATABLE` type is sent again after 1 s without an answer: a server
+        that has not yet matched a new client's reader drops its answer (rmw_fastrtps waits
+        100 ms for it, which a loaded machine exceeds), and every call makes a new client.
+        """
         with self._lock:
             client = self.node.create_client(service_type, service)
         try:
             assert client.wait_for_service(timeout_sec=timeout), f'{service} not available'
-            future = client.call_async(request)
-            assert wait_until(future.done, timeout), f'{service} did not answer in {timeout} s'
-            return future.result()
+            if service_type in REPEATABLE:
+                answer = RepeatedCall(client, request).answer
+            else:
+                future = client.call_async(request)
+
+                def answer():
+                    return future.result() if future.done() else None
+
+            def answered():  # a one-tuple: wait_until stops on a truthy value
+                response = answer()
+                return None if response is None else (response,)
+
+            got = wait_until(answered, timeout)
+            assert got, f'{service} did not answer in {timeout} s'
+            return got[0]
         finally:
             with self._lock:
                 self.node.destroy_client(client)
