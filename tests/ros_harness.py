@@ -57,6 +57,7 @@ from rcl_interfaces.srv import (
     SetParameters,
 )
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -64,6 +65,8 @@ from std_srvs.srv import SetBool
 
 DISCOVERY_TIMEOUT = 10.0
 """Longest wait for two processes to discover each other, s (median here is 0.45 s)."""
+NodeNameNonExistentError = rclpy_implementation.NodeNameNonExistentError
+"""What rclpy raises when a graph query names a node that has left (not in its public API)."""
 REPEATABLE = (ListParameters, DescribeParameters, GetParameters, SetParameters, SetBool)
 """Service types whose request :meth:`RosProbe.call` sends again when no answer comes: asking
 twice has the outcome of asking once (parameters; the plant's ``set_paused``). Not ``Trigger``:
@@ -267,32 +270,62 @@ class RosProbe:
     def call(self, service: str, service_type, request, timeout: float = DISCOVERY_TIMEOUT):
         """Call ``service`` (absolute name) and return the response (AssertionError on timeout).
 
-        A request of a `REPEATABLE` type is sent again after 1 s without an answer: a server
-        that has not yet matched a new client's reader drops its answer (rmw_fastrtps waits
-        100 ms for it, which a loaded machine exceeds), and every call makes a new client.
+        A server that has not yet matched a new client's reader drops its answer (rmw_fastrtps
+        waits 100 ms for it, which a loaded machine exceeds), and every call makes a new client.
+        So a request of a `REPEATABLE` type is sent again after 1 s without an answer. Any other
+        is sent once, after the node that serves it has answered a harmless question on a client
+        made after ours: Fast DDS announces our readers in creation order, so that node has then
+        matched the reader of our answer (as the testing kit does).
         """
         with self._lock:
             client = self.node.create_client(service_type, service)
         try:
             assert client.wait_for_service(timeout_sec=timeout), f'{service} not available'
             if service_type in REPEATABLE:
-                answer = RepeatedCall(client, request).answer
-            else:
-                future = client.call_async(request)
-
-                def answer():
-                    return future.result() if future.done() else None
-
-            def answered():  # a one-tuple: wait_until stops on a truthy value
-                response = answer()
-                return None if response is None else (response,)
-
-            got = wait_until(answered, timeout)
-            assert got, f'{service} did not answer in {timeout} s'
-            return got[0]
+                return self._answer(RepeatedCall(client, request).answer, service, timeout)
+            self._warm_up(service, timeout)
+            future = client.call_async(request)
+            return self._answer(
+                lambda: future.result() if future.done() else None, service, timeout
+            )
         finally:
             with self._lock:
                 self.node.destroy_client(client)
+
+    def _warm_up(self, service: str, timeout: float) -> None:
+        """Have the node serving ``service`` answer a parameter question on a new client."""
+        server = wait_until(lambda: self._server_of(service), timeout)
+        assert server, f'no node serves {service}'
+        with self._lock:
+            client = self.node.create_client(GetParameters, f'{server}/get_parameters')
+        try:
+            assert client.wait_for_service(timeout_sec=timeout), f'{server} has no parameters'
+            question = RepeatedCall(client, GetParameters.Request())
+            self._answer(question.answer, f'{server}/get_parameters', timeout)
+        finally:
+            with self._lock:
+                self.node.destroy_client(client)
+
+    def _server_of(self, service: str) -> str | None:
+        """Fully qualified name of the node that offers ``service``, or None."""
+        for name, namespace in self.node.get_node_names_and_namespaces():
+            with contextlib.suppress(NodeNameNonExistentError):  # it left meanwhile
+                offered = self.node.get_service_names_and_types_by_node(name, namespace)
+                if any(offered_name == service for offered_name, _ in offered):
+                    return f'{namespace.rstrip("/")}/{name}'
+        return None
+
+    @staticmethod
+    def _answer(answer: Callable[[], Any], service: str, timeout: float):
+        """Wait for ``answer()`` to give a response (not None) and return it."""
+
+        def answered():  # a one-tuple: wait_until stops on a truthy value
+            response = answer()
+            return None if response is None else (response,)
+
+        got = wait_until(answered, timeout)
+        assert got, f'{service} did not answer in {timeout} s'
+        return got[0]
 
     def set_parameters(self, node: str, values: Mapping[str, Any]):
         """Set parameters of ``node`` (fully qualified name) one by one; list of results.
