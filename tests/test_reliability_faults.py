@@ -148,7 +148,7 @@ def test_plant_stopped_under_closed_loop_controller_reports_and_ramps_down(posit
     # Once its feedback is stale, the controller only ever lowers the pressure. The plant sent its
     # last state before it exited; the controller takes a state up to FEEDBACK_TIMEOUT after its
     # stamp (older ones it refuses) and it stays fresh for FEEDBACK_TIMEOUT after it arrived.
-    # (A CI run found a bound from the last state the probe heard, plus 0.1 s of delivery, too
+    # (A fresh-clone run found a bound from the last state the probe heard plus 0.1 s delivery too
     # early: the probe may miss the last states, and a state may arrive later than that.)
     stale = exited + 2 * FEEDBACK_TIMEOUT + 2 / RATE
     peaks = [
