@@ -118,3 +118,24 @@ def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end):
         assert sent[-1] == pytest.approx(end) and max(sent) == pytest.approx(end)
         raises = raises[:-1]  # the last raise stops at the end
     assert raises and set(raises) == {RAISE_STEPS}
+
+
+def test_release_sends_no_limit_after_every_raise_on_the_same_client(monkeypatch):
+    now = [100.0]
+    monkeypatch.setattr(horizon.time, 'monotonic', lambda: now[0])
+    node = StandInNode()
+    hold = Horizon(node, '/glove/plant', period=PERIOD)
+    hold.start(0.0)
+    while not hold.ready(0.0):
+        pass
+    setter = node.clients['set_parameters']
+    setter.lose_next = 1  # the answer to the next raise is lost
+    hold.follow(RAISE_STEPS * PERIOD)
+    raised = limits(setter)
+    assert len(raised) == 2
+    call = hold.release()  # drops the raise whose answer was lost: never sent again
+    now[0] += 10 * horizon.RESEND
+    assert call.answer() is not None and hold.limit == 0.0
+    assert limits(setter) == [*raised, 0.0]  # after every raise, on the client that raised it
+    assert list(node.clients) == ['set_parameters']  # no client of its own for the release
+    assert not hold.ready(0.0)  # a new run sets its first limit again

@@ -126,6 +126,18 @@ class Horizon:
         if received + (LEAD_STEPS - RAISE_STEPS + 0.5) * self.period >= self.limit:
             self._raise(received)
 
+    def release(self) -> RepeatedCall:
+        """Set ``run_until`` back to 0 (no limit): the call, in flight.
+
+        Sent on the client that raised it, so it reaches the plant after every raise (one
+        reliable stream keeps its order; a raise held back for a heartbeat on another would
+        land after it and hold the plant again). Then :meth:`start` a new run.
+        """
+        self._pending = None
+        self._started = False
+        self.limit = 0.0
+        return RepeatedCall(self._set, set_double_request(RUN_UNTIL, 0.0))
+
     def _raise(self, received: float) -> None:
         limit = received + LEAD_STEPS * self.period
         self.limit = min(limit, self._end) if self._end else limit

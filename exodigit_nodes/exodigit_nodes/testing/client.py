@@ -418,8 +418,7 @@ class GloveSim:
         A failure to do so after a ``failure`` becomes a note on it, not a new error.
         """
         try:
-            release = self._node.release_request()
-            self._call(self._node.parameter_client, release, 'reset run_until')
+            self._answered(self._node.horizon.release().answer, 'reset run_until')
         except GloveSimError as error:
             if failure is None:
                 raise
@@ -427,7 +426,11 @@ class GloveSim:
 
     def _call(self, client, request, what: str):
         future = client.call_async(request)
-        response = self._wait(lambda: future.result() if future.done() else None, what)
+        return self._answered(lambda: future.result() if future.done() else None, what)
+
+    def _answered(self, answer, what: str):
+        """The plant's response once ``answer()`` gives it; GloveSimError if it refused."""
+        response = self._wait(answer, what)
         if hasattr(response, 'results'):
             ok = all(result.successful for result in response.results)
             reason = '; '.join(result.reason for result in response.results)

@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from ..horizon import RUN_UNTIL, Horizon
+from ..horizon import Horizon
 from ..messages import (
     CHAMBER_PRESSURE,
     CONTACT_FORCES,
@@ -192,11 +192,6 @@ class GloveClient(Node):
     def warm_up_request() -> GetParameters.Request:
         """A request that changes nothing: the plant's ``rate_hz``."""
         return GetParameters.Request(names=['rate_hz'])
-
-    @staticmethod
-    def release_request() -> SetParameters.Request:
-        """Set the plant's ``run_until`` back to 0 (no limit)."""
-        return set_double_request(RUN_UNTIL, 0.0)
 
     @staticmethod
     def time_ns(seconds: float) -> int:
