@@ -213,11 +213,16 @@ class RosProbe:
             self.executor.spin()
 
     def close(self) -> None:
-        """Stop spinning and shut the context down."""
+        """Stop spinning, then shut the context down.
+
+        The spinning thread ends before the context does: a context shut down under an executor
+        still in its wait (a loaded machine takes longer than the shutdown's 1 s) raised RCLError
+        in that thread.
+        """
         self.executor.shutdown(timeout_sec=1.0)
+        self._thread.join(timeout=2.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=2.0)
 
     # topics
 
