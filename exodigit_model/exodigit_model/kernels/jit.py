@@ -212,10 +212,10 @@ def _warn_in_memory(reason: str) -> None:
         return
     _warned = True
     warnings.warn(
-        f'exodigit_model kernels cannot be cached ({reason}): numba compiles them in memory at '
-        'every start, which takes as long as a cold `python -m exodigit_model.kernels.warm` '
-        '(tens of seconds; README, "Compiled model"). Set NUMBA_CACHE_DIR to a writable '
-        'directory to compile them once.',
+        f'exodigit_model kernels cannot be cached ({reason}): numba compiles them in memory in '
+        'every process, which costs as long as a cold `python -m exodigit_model.kernels.warm` '
+        '(README, "Compiled model"). Set NUMBA_CACHE_DIR to a writable directory to compile '
+        'them once.',
         RuntimeWarning,
         stacklevel=4,  # the kernel's module: _warn_in_memory < cache_directory/_cached < kernel
     )

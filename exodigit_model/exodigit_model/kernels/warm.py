@@ -1,0 +1,110 @@
+"""Compile every kernel into the cache: ``python -m exodigit_model.kernels.warm``.
+
+Each case drives the public API the way the nodes, runners and tests do, with the argument
+types they pass, so numba compiles (and caches, :mod:`.jit`) every signature they will need; a
+later process only loads. One line per case says how long it took: a cold cache compiles, a
+warm one only loads. Then the caches of older kernel sources are removed (:func:`.jit.prune`).
+
+Add a case to :data:`CASES` for every public entry point that reaches a kernel with new
+argument types. Without JIT (numba missing or ``EXODIGIT_JIT=0``) there is nothing to compile:
+the command says so and does nothing.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from exodigit_model import (
+    GloveModel,
+    GloveSimulation,
+    load_params,
+    params_from_dict,
+    patient_file,
+)
+
+from . import jit
+
+#: Chamber pressures (Pa) of the cases: a point, and rows of a batch.
+PRESSURE = np.array([40e3, 55e3, 30e3])
+PRESSURES = np.linspace([0.0, 0.0, 0.0], [60e3, 50e3, 40e3], 8)
+#: Voluntary effort (N·m) and time step (s) of the stepped solves.
+EFFORT = np.array([0.01, 0.0, -0.01])
+DT = 0.01
+
+
+def _models() -> dict[str, GloveModel]:
+    """The gloves the cases exercise: default, extensible segments and a patient preset."""
+    segments = [{'layer_axial_stiffness': stiffness} for stiffness in (0.0, 50.0, 20.0)]
+    return {
+        'default glove': GloveModel(),
+        'extensible glove': GloveModel(params_from_dict({'exo_digit': {'segments': segments}})),
+        'stroke_moderate patient': GloveModel(load_params(patient_file('stroke_moderate'))),
+    }
+
+
+def exercise_model(model: GloveModel) -> None:
+    """Every solve, inverse and estimator of a :class:`~exodigit_model.GloveModel`."""
+    q = model.solve(PRESSURE).q
+    model.solve(PRESSURE, q)
+    model.solve(PRESSURE, free=True)
+    model.solve(PRESSURE, q_previous=q, dt=DT, effort=EFFORT)
+    rows = model.solve_batch(PRESSURES).q
+    model.solve_batch(PRESSURES, Q_previous=rows, dt=DT)
+    model.pressure_for(q)
+    model.hold(q)
+    model.estimate_forces(q, PRESSURE)
+    model.estimate_forces_batch(rows, PRESSURES)
+    model.fit_stiffness(rows, PRESSURES)
+
+
+def exercise_simulation(model: GloveModel) -> None:
+    """Steps of one glove and of a batch of four (:class:`~exodigit_model.GloveSimulation`)."""
+    one = GloveSimulation(model)
+    one.step(PRESSURE)
+    one.step(PRESSURE, EFFORT)
+    batch = GloveSimulation(model, count=4)
+    batch.step(np.tile(PRESSURE, (4, 1)))
+    batch.step(np.tile(PRESSURE, (4, 1)), np.tile(EFFORT, (4, 1)))
+
+
+CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
+    ('model', exercise_model),
+    ('simulation', exercise_simulation),
+]
+"""What to run on every model of :func:`_models`: (name, function of the model)."""
+
+
+def cases() -> list[tuple[str, Callable[[], object]]]:
+    """The named cases, each a call of no arguments: :data:`CASES` over every model."""
+    return [
+        (f'{name}: {what}', functools.partial(run, model))
+        for name, model in _models().items()
+        for what, run in CASES
+    ]
+
+
+def main() -> int:
+    """Run every case, print its time, prune stale caches; the exit status (always 0)."""
+    if not jit.JIT:
+        print('exodigit_model kernels: no JIT (numba missing or EXODIGIT_JIT=0), nothing to warm')
+        return 0
+    directory = jit.cache_directory()
+    print(f'exodigit_model kernels: cache {directory or "none (compiled in memory)"}')
+    start = time.perf_counter()
+    for name, run in cases():
+        began = time.perf_counter()
+        run()
+        print(f'  {name:<36} {time.perf_counter() - began:7.2f} s', flush=True)
+    for path in jit.prune():
+        print(f'  removed the stale cache {path}')
+    print(f'  total {time.perf_counter() - start:.2f} s')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
