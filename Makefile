@@ -5,7 +5,8 @@
 #                            HAND=1 runs a whole hand instead (five gloves, two processes)
 #   make test                lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
-# requirements or package file changed.
+# requirements or package file changed. Both also compile the model's kernels into numba's cache
+# (`make warm`, README "Compiled model") when their sources changed, so no test or node compiles.
 
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -26,9 +27,16 @@ INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt \
 	$(wildcard exodigit_model/pyproject.toml exodigit_model/setup.py \
 	           exodigit_nodes/setup.py exodigit_nodes/setup.cfg)
 
-.PHONY: run test venv bench clean
+# The kernels' cache is named after their sources (exodigit_model/kernels/jit.py); the modules
+# that call them decide their argument types, hence which signatures the warm-up compiles.
+WARM_INPUTS := $(wildcard exodigit_model/exodigit_model/kernels/*.py \
+	                    exodigit_model/exodigit_model/*.py)
+
+.PHONY: run test venv warm bench clean
 
 venv: $(VENV)/.installed
+
+warm: $(VENV)/.warm
 
 $(VENV)/.installed: $(INSTALL_INPUTS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -38,7 +46,13 @@ $(VENV)/.installed: $(INSTALL_INPUTS)
 	if [ -f exodigit_nodes/setup.py ]; then $(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e ./exodigit_nodes; fi
 	touch $@
 
-run: venv
+# Compiles every kernel into the cache (or only loads it when nothing changed) and removes the
+# caches of older kernel sources.
+$(VENV)/.warm: $(VENV)/.installed $(WARM_INPUTS)
+	$(BIN)/python -m exodigit_model.kernels.warm
+	touch $@
+
+run: warm
 ifdef HAND
 	$(BIN)/python -m exodigit_nodes.hand --duration $(DURATION)
 else
@@ -46,12 +60,12 @@ else
 		$(if $(RECORD),--record)
 endif
 
-test: venv
+test: warm
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
-bench: venv
+bench: warm
 	$(BIN)/python benchmarks/bench_model.py
 
 clean:
