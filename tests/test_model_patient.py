@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+from exodigit_model.kernels.constants import LAW_REST_ANGLE
+from exodigit_model.kernels.patient import finger_torque as joint_torque
 from model_reference import (
     EVERY_TERM,
     coupled_residual,
@@ -72,20 +74,21 @@ def test_defaults_are_the_papers_linear_spring():
 
 
 def test_stiffening_and_spasticity_slopes_equal_differences():
-    for law in FULL_MODEL.laws:
-        from exodigit_model._backend import ScalarOps
-
+    for law in FULL_MODEL.constants.laws:
         for q in (-0.3, 0.2, 1.2):
-            _, slope = law.stiffening_torque(q, ScalarOps)
-            up, _ = law.stiffening_torque(q + STEP, ScalarOps)
-            down, _ = law.stiffening_torque(q - STEP, ScalarOps)
+            _, slope = joint_torque(law, q, 0.0, 0.0)
+            up, _ = joint_torque(law, q + STEP, 0.0, 0.0)
+            down, _ = joint_torque(law, q - STEP, 0.0, 0.0)
             assert slope == pytest.approx((up - down) / (2 * STEP), rel=DIFFERENCE_RTOL)
         for v in (-1.0, -0.31, 0.0, 0.29, 2.0):
-            _, slope = law.spastic_torque(v, ScalarOps)
-            up, _ = law.spastic_torque(v + STEP, ScalarOps)
-            down, _ = law.spastic_torque(v - STEP, ScalarOps)
-            assert slope == pytest.approx((up - down) / (2 * STEP), rel=DIFFERENCE_RTOL, abs=1e-9)
-        assert law.spastic_torque(0.0, ScalarOps)[0] == 0.0  # exactly zero at rest
+            # with dq̇/dq = 1 the slope gains exactly dτ_H/dq̇
+            rate_slope = joint_torque(law, 0.2, v, 1.0)[1] - joint_torque(law, 0.2, v, 0.0)[1]
+            up, _ = joint_torque(law, 0.2, v + STEP, 0.0)
+            down, _ = joint_torque(law, 0.2, v - STEP, 0.0)
+            assert rate_slope == pytest.approx(
+                (up - down) / (2 * STEP), rel=DIFFERENCE_RTOL, abs=1e-9
+            )
+        assert joint_torque(law, law[LAW_REST_ANGLE], 0.0, 1.0)[0] == 0.0  # exactly zero at rest
 
 
 # -- the coupled equation --------------------------------------------------------------------

@@ -73,7 +73,7 @@ def test_eq_12_is_the_first_moment_of_the_region_above_the_base(segment):
 def test_pressure_torque_is_b_r_times_p(case):
     params, model = case
     moments = [region_first_moment(s) for s in params.exo_digit.segments]
-    np.testing.assert_allclose(model.geometry.pressure_moments, moments, rtol=MOMENT_RTOL)
+    np.testing.assert_allclose(model.constants.pressure_moments, moments, rtol=MOMENT_RTOL)
     p = np.array([12e3, 37.5e3, 60e3])
     np.testing.assert_allclose(model.pressure_torque(p), np.array(moments) * p, rtol=MOMENT_RTOL)
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .kernels.stepping import advance_chambers
+
 
 @dataclass(frozen=True)
 class ChamberSettings:
@@ -78,7 +80,8 @@ class Chambers:
     def configure(self, settings: ChamberSettings) -> None:
         """Use new settings from the next step on (the pressures are kept)."""
         self.settings = settings
-        self._decay = settings.decay(self.dt)
+        self.decay = settings.decay(self.dt)
+        """exp(−Δt/T): the share of the old pressure left after a step."""
 
     def reset(self) -> None:
         """Vent every chamber to zero at once."""
@@ -91,15 +94,23 @@ class Chambers:
         ``saturated_now`` says whether this step's command had to be clipped; ``saturation``
         counts such steps per side.
         """
-        supply = self.settings.max_supply_pressure
-        low = bool(command.min() < 0.0)
-        high = bool(command.max() > supply)
-        self.saturated_now = low or high
-        if self.saturated_now:
-            command = np.clip(command, 0.0, supply)
-            self.saturation = Saturation(
-                self.saturation.below_zero + low, self.saturation.above_supply + high
+        self.command = np.array(command, dtype=float)
+        below = above = False
+        for pressure, row in zip(
+            self.pressure.reshape(-1, 3), self.command.reshape(-1, 3), strict=True
+        ):
+            low, high = advance_chambers(
+                pressure, row, self.decay, self.settings.max_supply_pressure
             )
-        self.command = command
-        self.pressure = command + (self.pressure - command) * self._decay
+            below, above = below or low, above or high
+        self.record(below, above)
         return self.pressure
+
+    def record(self, below: bool, above: bool) -> None:
+        """Count a step whose command was clipped at zero (``below``) or at the supply."""
+        self.saturated_now = bool(below or above)
+        if self.saturated_now:
+            self.saturation = Saturation(
+                self.saturation.below_zero + bool(below),
+                self.saturation.above_supply + bool(above),
+            )

@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .kernels.material import stress_and_slope
 from .params import Material
 
 
@@ -46,44 +47,15 @@ def yeoh_energy(material: Material, stretch: ArrayLike) -> NDArray[np.float64]:
 
 
 def stress_of_strain(material: Material, strain: ArrayLike) -> NDArray[np.float64]:
-    """Axial Cauchy stress σ at strain e = λ - 1, Pa (eq 23 corrected; exact as e → 0).
-
-    Uses λ² - λ⁻² = D·S and λ̃ = D² with D = λ - 1/λ, S = λ + 1/λ.
-    """
-    _, d, s = _shear_terms(strain)
-    excess = d * d
-    return 2.0 * d * s * (material.c1 + excess * (2.0 * material.c2 + 3.0 * material.c3 * excess))
+    """Axial Cauchy stress σ at strain e = λ - 1, Pa (eq 23 corrected; exact as e → 0)."""
+    return stress_and_slope_of_strain(material, strain)[0]
 
 
-def stress_slope_of_strain(material: Material, strain: ArrayLike) -> NDArray[np.float64]:
-    """dσ/dλ at strain e = λ - 1, Pa (the tangent modulus along the pure-shear path)."""
-    lam, d, s = _shear_terms(strain)
-    excess = d * d
-    dw_di1 = material.c1 + excess * (2.0 * material.c2 + 3.0 * material.c3 * excess)
-    d2w_di1 = 2.0 * material.c2 + 6.0 * material.c3 * excess
-    d_slope = 1.0 + 1.0 / (lam * lam)  # dD/dλ; and dS/dλ = D/λ
-    return 2.0 * (
-        d_slope * s * dw_di1 + d * (d / lam) * dw_di1 + d * s * d2w_di1 * 2.0 * d * d_slope
-    )
-
-
-def stress_and_slope_of_strain(material: Material, strain: NDArray) -> tuple[NDArray, NDArray]:
-    """σ and dσ/dλ together at strain e = λ - 1 (shared terms computed once), Pa."""
-    lam = 1.0 + strain
-    inverse = 1.0 / lam
-    d = strain * (2.0 + strain) * inverse
-    s = 2.0 + strain * strain * inverse
-    excess = d * d
-    c2, c3 = 2.0 * material.c2, 3.0 * material.c3
-    dw_di1 = material.c1 + excess * (c2 + c3 * excess)
-    ds = d * s
-    stress = 2.0 * ds * dw_di1
-    d_slope = 1.0 + inverse * inverse
-    slope = 2.0 * (
-        (d_slope * s + excess * inverse) * dw_di1
-        + 2.0 * ds * d * d_slope * (c2 + 2.0 * c3 * excess)
-    )
-    return stress, slope
+def stress_and_slope_of_strain(material: Material, strain: ArrayLike) -> tuple[NDArray, NDArray]:
+    """σ and dσ/dλ at strain e = λ - 1, Pa (:func:`.kernels.material.stress_and_slope`)."""
+    e = np.asarray(strain, dtype=float)
+    stress, slope = stress_and_slope(material.c1, material.c2, material.c3, e.ravel())
+    return stress.reshape(e.shape), slope.reshape(e.shape)
 
 
 def yeoh_stress(material: Material, stretch: ArrayLike) -> NDArray[np.float64]:

@@ -21,29 +21,21 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize
 
-from ._backend import ArrayOps, ScalarOps
-from .coupling import (
-    Evaluation,
-    Geometry,
-    allowed_bending,
-    contact_jacobians,
-    solve3,
-    transpose_product,
-    transpose_solve,
-)
-from .extensible import ExtensibleEvaluation, Layers, allowed_stretch, solve_linear
 from .identification import StiffnessFit, fit_stiffness
-from .kinematics import arc_points, chain, chords, finger_chain, robot_jacobian
+from .kernels.constants import GloveConstants
+from .kernels.inverse import contact_torques, estimate, estimate_rows, hold
+from .kernels.kinematics import chord_terms, finger_points, finger_terms, frames, robot_terms
+from .kernels.linear import transpose_solve
+from .kernels.solves import solve_rows, solve_state, validity_rows
+from .kernels.statics import evaluate, finger_load
+from .kernels.structural import DEGREE, PIECES, structural_torques
 from .params import GloveParams, load_params
-from .patient import FingerLoad, JointLaw
-from .section import SectionResultants, pressure_area, pressure_moment
-from .solver import CONVERGED_STEP, STATUS, newton
-from .structural import StructuralTorque
+from .patient import law_row
+from .section import SectionQuadrature, pressure_area, pressure_moment
+from .solver import CONVERGED_STEP, STATUS
+from .structural import torque_tables
 
-STRAIN_XTOL = 1e-13
-"""Relative step tolerance of the bottom-strain roots of the extensible inverse and estimator."""
 VALID_STRETCH = (0.95, 1.5)
 """Fibre stretches the model is validated for (paper §2.1.3; MODEL.md §12: a bottom face
 slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
@@ -204,12 +196,6 @@ def as_joint_vector(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return np.array(as_joint_list(name, value))
 
 
-def _joint_columns(name: str, value: ArrayLike) -> list[NDArray[np.float64]]:
-    """Rows of shape (N, 3) as three columns (the batch backend's per-joint arrays)."""
-    rows = as_joint_rows(name, value)
-    return [rows[:, k] for k in range(3)]
-
-
 def as_joint_rows(name: str, value: ArrayLike) -> NDArray[np.float64]:
     """``value`` as a finite float array of shape (N, 3), or a ValueError naming ``name``."""
     return _joint_array(name, value, rows_only=True)
@@ -241,13 +227,39 @@ def _require_shape(name: str, array: NDArray, reference: str, shape: tuple) -> N
         raise ValueError(f'{name} must have the shape of {reference} {shape}, got {array.shape}')
 
 
+def glove_constants(params: GloveParams) -> GloveConstants:
+    """The kernels' constants of validated ``params`` (the τ_s tables built once, here)."""
+    segments = params.exo_digit.segments
+    rules = [SectionQuadrature.of(segment) for segment in segments]
+    material = params.material
+    constants = GloveConstants(
+        arc_lengths=np.array([s.arc_length for s in segments]),
+        block_half_lengths=np.array(
+            [params.exo_digit.base_block_half_length, *(s.block_half_length for s in segments)]
+        ),
+        finger_half_lengths=np.array([j.link_half_length for j in params.finger.joints]),
+        pressure_moments=np.array([pressure_moment(s) for s in segments]),
+        pressure_areas=np.array([pressure_area(s) for s in segments]),
+        layer_stiffness=np.array([s.layer_axial_stiffness for s in segments]),
+        extensible_segments=np.array([s.extensible for s in segments]),
+        extensible=any(s.extensible for s in segments),
+        strain_per_angle=np.array([s.height / s.arc_length for s in segments]),
+        table=np.zeros((3, DEGREE + 1, PIECES)),
+        heights=np.stack([rule.heights for rule in rules]),
+        weights=np.stack([rule.weights for rule in rules]),
+        material=np.array([material.c1, material.c2, material.c3]),
+        laws=np.stack([law_row(joint) for joint in params.finger.joints]),
+    )
+    return constants._replace(table=torque_tables(constants))
+
+
 class GloveModel:
-    """Quasi-static model of the soft exo-digit strapped to a finger (MODEL.md).
+    """Quasi-static model of the soft exo-digit strapped to a finger (docs/model.md).
 
     Parameters
     ----------
     params : GloveParams, optional
-        Validated parameters; the defaults of MODEL.md §10 when omitted.
+        Validated parameters; the defaults of docs/model.md §10 when omitted.
 
     Examples
     --------
@@ -259,63 +271,35 @@ class GloveModel:
 
     def __init__(self, params: GloveParams | None = None) -> None:
         self.params = load_params() if params is None else params
-        segments = self.params.exo_digit.segments
+        self.constants = glove_constants(self.params)
+        """Everything the kernels need of this glove and finger (:mod:`.kernels.constants`)."""
+        self.extensible = self.constants.extensible
+        """Whether a segment's bottom face stretches (docs/model.md §12): six unknowns."""
         joints = self.params.finger.joints
-        self.geometry = Geometry(
-            arc_lengths=tuple(s.arc_length for s in segments),
-            block_half_lengths=(
-                self.params.exo_digit.base_block_half_length,
-                *(s.block_half_length for s in segments),
-            ),
-            finger_half_lengths=tuple(j.link_half_length for j in joints),
-            pressure_moments=tuple(pressure_moment(s) for s in segments),
-        )
-        self.laws = tuple(JointLaw.of(joint) for joint in joints)
-        """The patient's joint torque laws (eqs 11.1-11.3), MCP, PIP, DIP."""
-        self.viscous = any(law.viscous for law in self.laws)
-        """Whether τ_H depends on the joint speed (damping or spasticity)."""
         self.range_of_motion = (
             np.array([j.rom_min for j in joints]),
             np.array([j.rom_max for j in joints]),
         )
         """(rom_min, rom_max) per joint, rad."""
-        self.structural = StructuralTorque(self.params.material, segments)
-        self._strain_per_angle = tuple(s.height / s.arc_length for s in segments)
-        self.extensible = any(s.extensible for s in segments)
-        """Whether a segment's bottom face stretches (MODEL.md §12): six unknowns, not three."""
-        self.layers = Layers(
-            rest_lengths=self.geometry.arc_lengths,
-            stiffness=tuple(s.layer_axial_stiffness for s in segments),
-            areas=tuple(pressure_area(s) for s in segments),
-            extensible=tuple(s.extensible for s in segments),
-        )
-        if self.extensible:
-            self.resultants = SectionResultants(
-                self.params.material, segments, self.structural.rules
-            )
-            self._newton_options = {
-                'linear_solve': solve_linear,
-                'allowed': lambda x: allowed_stretch(x, self._strain_per_angle),
-            }
-        else:
-            self._newton_options = {
-                'linear_solve': solve3,
-                'allowed': lambda q: allowed_bending(q, self._strain_per_angle),
-            }
 
     # -- torques and Jacobians ------------------------------------------------------------
 
     def structural_torque(self, q: ArrayLike) -> NDArray[np.float64]:
         """τ_s(q), N·m, shape (3,) or (N, 3) like ``q``: negative for q > 0 (eqs 13, 27)."""
-        return self.structural.torque(as_joint_array('q', q))[0]
+        return self._structural(q)[0]
 
     def structural_stiffness(self, q: ArrayLike) -> NDArray[np.float64]:
         """dτ_s/dq, N·m/rad, shape like ``q`` (negative: the segments resist bending)."""
-        return self.structural.torque(as_joint_array('q', q))[1]
+        return self._structural(q)[1]
+
+    def _structural(self, q: ArrayLike) -> tuple[NDArray, NDArray]:
+        angles = as_joint_array('q', q)
+        torque, slope = structural_torques(self.constants, np.atleast_2d(angles))
+        return torque.reshape(angles.shape), slope.reshape(angles.shape)
 
     def pressure_torque(self, p: ArrayLike) -> NDArray[np.float64]:
         """τ_p = B_R p, N·m (eqs 11-12), shape (3,) or (N, 3) like ``p``."""
-        return np.asarray(self.geometry.pressure_moments) * as_joint_array('p', p)
+        return self.constants.pressure_moments * as_joint_array('p', p)
 
     def finger_torque(
         self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
@@ -331,15 +315,27 @@ class GloveModel:
         effort : array_like, shape (3,), optional
             The patient's voluntary effort u, N·m (None: none).
         """
-        angles = as_joint_list('q', q)
-        load = self._load(ScalarOps, qdot=qdot, effort=effort)
-        return np.array(load(angles)[0])
+        angles = as_joint_vector('q', q)
+        motion, rate = self._motion(effort=effort, qdot=qdot)
+        torque = np.empty(3)
+        finger_load(self.constants, angles, motion, rate, torque)
+        return torque
 
     def contact_jacobians(self, q: ArrayLike) -> tuple[NDArray, NDArray]:
-        """(J_R*, J_H*), each (3, 3) lower triangular, J[i, k] = n_i·∂r_i/∂q_k (MODEL.md §3)."""
-        angles = as_joint_vector('q', q).tolist()
-        j_robot, j_finger = contact_jacobians(angles, ScalarOps, self.geometry)
-        return np.array(j_robot), np.array(j_finger)
+        """(J_R*, J_H*), each (3, 3) lower triangular, J[i, k] = n_i·∂r_i/∂q_k (§3)."""
+        angles = as_joint_vector('q', q)
+        glove = self.constants
+        j_robot = robot_terms(angles, glove.arc_lengths, glove.block_half_lengths, False)[0]
+        return j_robot, finger_terms(angles, glove.finger_half_lengths)[0]
+
+    def length_jacobian(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray:
+        """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (docs/model.md §12), (3, 3) lower triangular.
+
+        At angles ``q`` and bottom-face ``lengths`` (m; the rest lengths when omitted).
+        """
+        angles = as_joint_vector('q', q)
+        arcs = self._lengths(lengths)
+        return robot_terms(angles, arcs, self.constants.block_half_lengths, True)[2]
 
     def residual(self, q: ArrayLike, p: ArrayLike, **solve_options) -> NDArray[np.float64]:
         """F(q, p) of eq 36 / 11.4, N·m.
@@ -348,79 +344,69 @@ class GloveModel:
         extensible segments the residual has six rows, (12.4) and ℓ̂ × (12.5), at bottom-face
         ``lengths`` (m; the rest lengths when omitted).
         """
-        return np.array(self._evaluation(q, p, **solve_options).residual)
+        return self._evaluation(q, p, **solve_options)[0]
 
     def residual_jacobian(
         self, q: ArrayLike, p: ArrayLike, **solve_options
     ) -> NDArray[np.float64]:
-        """∂F/∂q of eq 36 / 11.4 (analytic), N·m/rad, shape (3, 3); options as :meth:`residual`."""
-        return np.array(self._evaluation(q, p, **solve_options).jacobian(), dtype=float)
+        """∂F/∂x of eq 36 / 11.4 (analytic), (3, 3) or (6, 6); options as :meth:`residual`."""
+        return self._evaluation(q, p, **solve_options)[1]
 
     def _evaluation(
         self, q, p, *, free=False, effort=None, q_previous=None, dt=None, lengths=None
-    ) -> Evaluation:
-        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
-        return self._evaluate(q, p, load, lengths)
+    ) -> tuple[NDArray, NDArray]:
+        motion, rate = self._motion(effort=effort, q_previous=q_previous, dt=dt)
+        x = self.unknowns(as_joint_vector('q', q), lengths)
+        residual = np.empty(x.size)
+        jacobian = np.empty((x.size, x.size))
+        forces, torque = np.empty(3), np.empty(3)
+        pressure = as_joint_vector('p', p)
+        evaluate(
+            self.constants, x, pressure, free, motion, rate, residual, jacobian, forces, torque
+        )
+        return residual, jacobian
 
-    def length_jacobian(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray:
-        """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (MODEL.md §12), (3, 3) lower triangular.
+    def _motion(self, *, effort=None, q_previous=None, dt=None, qdot=None, rows=None):
+        """The finger's ``motion`` rows (q_prev, speed, effort) and ``rate`` of a solve, checked.
 
-        At angles ``q`` and bottom-face ``lengths`` (m; the rest lengths when omitted).
+        ``rows``: None for one state, else the number of rows of a batch (``motion`` then has
+        shape (rows, 3, 3)).
         """
-        angles = as_joint_list('q', q)
-        arcs = self.geometry.arc_lengths if lengths is None else as_joint_list('lengths', lengths)
-        robot = robot_jacobian(chords(angles, ScalarOps), arcs, self.geometry.block_half_lengths)
-        return np.array(robot.length_terms(arcs)[0])
-
-    def _load(
-        self, ops, *, free=False, effort=None, q_previous=None, dt=None, qdot=None
-    ) -> FingerLoad | None:
-        """The finger of one solve (None for free motion), its arguments checked."""
-        if free:
-            return None
         if (q_previous is None) != (dt is None):
             raise ValueError('q_previous and dt go together: give both for a stepped solve')
         if dt is not None and not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
             raise ValueError(f'dt = {dt!r}: must be a finite time step > 0 s')
-        joint = as_joint_list if ops is ScalarOps else _joint_columns
-        return FingerLoad(
-            self.laws,
-            ops,
-            q_previous=None if q_previous is None else joint('q_previous', q_previous),
-            dt=dt,
-            effort=None if effort is None else joint('effort', effort),
-            qdot=None if qdot is None else joint('qdot', qdot),
-        )
+        shape = (3, 3) if rows is None else (rows, 3, 3)
+        motion = np.zeros(shape)
+        for index, (name, value) in enumerate(
+            (('q_previous', q_previous), ('qdot', qdot), ('effort', effort))
+        ):
+            if value is None:
+                continue
+            if rows is None:
+                motion[index] = as_joint_vector(name, value)
+            else:
+                values = as_joint_rows(name, value)
+                _require_shape(name, values, 'P', (rows, 3))
+                motion[:, index] = values
+        return motion, 0.0 if dt is None else 1.0 / dt
 
-    def _evaluate(self, q, p, load, lengths=None) -> Evaluation:
-        x = self.unknowns(as_joint_list('q', q), lengths)
-        return self._evaluate_at(x, as_joint_list('p', p), load)
+    def _lengths(self, lengths: ArrayLike | None) -> NDArray[np.float64]:
+        """Bottom-face lengths ℓ, m: the rest lengths when None."""
+        if lengths is None:
+            return self.constants.arc_lengths
+        return as_joint_vector('lengths', lengths)
 
-    def unknowns(self, q: list, lengths=None) -> list:
+    def unknowns(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray[np.float64]:
         """The solver's unknowns for angles ``q`` (and bottom-face ``lengths``, m).
 
-        With extensible segments also the strains ε = ℓ/ℓ̂ − 1 (the rest lengths when None).
+        With extensible segments also the strains ε = ℓ/ℓ̂ − 1 (zero when ``lengths`` is None).
         """
+        angles = as_joint_vector('q', q)
         if not self.extensible:
-            return q
-        if lengths is None:
-            return [*q, 0.0, 0.0, 0.0]
-        rest = self.geometry.arc_lengths
-        return [*q, *(length / rest[k] - 1.0 for k, length in enumerate(lengths))]
-
-    def _evaluate_at(self, x: list, p: list, load):
-        if self.extensible:
-            return ExtensibleEvaluation(
-                x, ScalarOps, self.geometry, self.resultants, self.layers, p, load
-            )
-        return Evaluation(x, ScalarOps, self.geometry, self.structural.scalar_joints, p, load)
-
-    def _evaluate_batch(self, x: list, p: list, load):
-        if self.extensible:
-            return ExtensibleEvaluation(
-                x, ArrayOps, self.geometry, self.resultants, self.layers, p, load
-            )
-        return Evaluation(x, ArrayOps, self.geometry, self.structural.array_joints, p, load)
+            return angles
+        strain = self._lengths(lengths) / self.constants.arc_lengths - 1.0
+        return np.concatenate([angles, strain])
 
     # -- forward solves ------------------------------------------------------------------
 
@@ -434,15 +420,15 @@ class GloveModel:
         q_previous: ArrayLike | None = None,
         dt: float | None = None,
     ) -> Solution:
-        """Joint angles and contact forces for chamber pressures ``p`` (eq 36, MODEL.md 11.4).
+        """Joint angles and contact forces for chamber pressures ``p`` (eq 36, docs/model.md 11.4).
 
         Parameters
         ----------
         p : array_like, shape (3,)
             Gauge pressures, Pa.
         q0 : array_like, shape (3,), or Solution, optional
-            Start of the Newton iteration (warm start; a Solution starts from its angles); the
-            previous angles of a stepped solve, else zero, when omitted.
+            Start of the Newton iteration (warm start; a Solution starts from its angles and
+            lengths); the previous angles of a stepped solve, else zero, when omitted.
         free : bool
             Solve free motion (no finger, τ_s + B_R p = 0) instead.
         effort : array_like, shape (3,), optional
@@ -459,65 +445,37 @@ class GloveModel:
             Never raises for a solve that fails to converge: ``status`` and ``message`` say why
             and ``q`` is the last finite iterate.
         """
-        pressure = as_joint_list('p', p)
-        load = self._load(ScalarOps, free=free, effort=effort, q_previous=q_previous, dt=dt)
+        pressure = as_joint_vector('p', p)
+        motion, rate = self._motion(effort=effort, q_previous=q_previous, dt=dt)
         lengths = None
         if isinstance(q0, Solution):
             q0, lengths = q0.q, q0.lengths
-        if q0 is not None:
-            start = as_joint_list('q0', q0)
-        elif load is not None and load.stepped:
-            start = list(load.q_previous)
-        else:
-            start = [0.0, 0.0, 0.0]
-        first = self._evaluate_at(self.unknowns(start, lengths), pressure, load)
-        return self._solve(pressure, first)[0]
-
-    def _solve(self, pressure: list, first) -> tuple[Solution, object]:
-        """Newton from the evaluation ``first`` at pressures ``pressure``; also the final one.
-
-        The final evaluation is what a stepper keeps to warm-start its next solve
-        (:meth:`.Evaluation.at_pressure` re-prices it exactly, F being affine in p).
-        """
-        load = first.load
-
-        def evaluate(x, p_):
-            return self._evaluate_at(x, p_, load)
-
-        outcome = newton(pressure, evaluate, ScalarOps, first, **self._newton_options)
-        q, lengths = self._angles_and_lengths(outcome.q)
-        rom_min, rom_max = self.range_of_motion
-        solution = Solution(
-            q=np.array(q),
-            forces=np.array(outcome.forces),
-            finger_torque=np.array(outcome.finger_torque),
-            pressure=np.array(pressure),
-            status=outcome.status,
-            message=STATUS[outcome.status],
-            iterations=outcome.iterations,
-            residual=outcome.residual,
-            in_valid_range=self._stretches_valid(outcome.q),
-            in_range_of_motion=all(rom_min[k] <= q[k] <= rom_max[k] for k in range(3)),
-            lengths=np.array(lengths),
+        start = motion[0] if q0 is None else as_joint_vector('q0', q0)
+        x = self.unknowns(start, lengths)
+        status, iterations, residual, forces, torque = solve_state(
+            self.constants, pressure, x, free, motion, rate
         )
-        return solution, outcome.final
+        valid, moving_range = validity_rows(self.constants, x[None, :], *VALID_STRETCH)
+        return Solution(
+            q=x[:3],
+            forces=forces,
+            finger_torque=torque,
+            pressure=pressure,
+            status=int(status),
+            message=STATUS[int(status)],
+            iterations=int(iterations),
+            residual=float(residual),
+            in_valid_range=bool(valid[0]),
+            in_range_of_motion=bool(moving_range[0]),
+            lengths=self._lengths_of(x),
+        )
 
-    def _angles_and_lengths(self, x: list) -> tuple[list, list]:
-        """Joint angles and bottom-face lengths ℓ_k (m) of the solver's unknowns."""
-        rest = self.geometry.arc_lengths
+    def _lengths_of(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Bottom-face lengths ℓ_k (m) of the solver's unknowns (one state or rows)."""
+        rest = self.constants.arc_lengths
         if not self.extensible:
-            return x, list(rest)
-        return x[:3], [rest[k] * (1.0 + x[3 + k]) for k in range(3)]
-
-    def _stretches_valid(self, x: list) -> bool:
-        """(12.1) over the whole section of every segment, one state (plain Python, fast)."""
-        low, high = VALID_STRETCH
-        for k in range(3):
-            bottom = 1.0 + x[3 + k] if self.extensible else 1.0
-            top = bottom + x[k] * self._strain_per_angle[k]
-            if not (low <= bottom <= high and low <= top <= high):
-                return False
-        return True
+            return np.broadcast_to(rest, x.shape).copy()
+        return rest * (1.0 + x[..., 3:])
 
     def solve_free(self, p: ArrayLike) -> NDArray[np.float64]:
         """Free bending angles (no finger), rad: τ_s,i(q_i) + (r_pA_p)_i p_i = 0 (paper §3.3).
@@ -545,7 +503,7 @@ class GloveModel:
         dt: float | None = None,
         lengths0: ArrayLike | None = None,
     ) -> BatchSolution:
-        """Vectorised :meth:`solve` over rows.
+        """:meth:`solve` over rows (each row solved as :meth:`solve` solves it).
 
         Parameters
         ----------
@@ -567,64 +525,34 @@ class GloveModel:
         """
         pressure = as_joint_rows('P', P)
         rows = pressure.shape[0]
-        for name, value in (
-            ('Q0', Q0),
-            ('effort', effort),
-            ('Q_previous', Q_previous),
-            ('lengths0', lengths0),
-        ):
-            if value is not None:
-                _require_shape(name, as_joint_rows(name, value), 'P', pressure.shape)
-        load = self._load(ArrayOps, free=free, effort=effort, q_previous=Q_previous, dt=dt)
-        if Q0 is not None:
-            start = as_joint_rows('Q0', Q0)
-        elif Q_previous is not None and dt is not None:
-            start = as_joint_rows('Q_previous', Q_previous)
-        else:
-            start = np.zeros_like(pressure)
-        if rows == 0:
-            empty = np.zeros((0, 3))
-            return BatchSolution(
-                empty,
-                empty,
-                empty,
-                empty,
-                np.zeros(0, int),
-                np.zeros(0, int),
-                np.zeros(0),
-                np.zeros(0, bool),
-                np.zeros(0, bool),
-                empty,
-            )
-
-        def evaluate(x, p_):
-            return self._evaluate_batch(x, p_, load)
-
-        columns = [pressure[:, k] for k in range(3)]
-        x = [start[:, k].copy() for k in range(3)]
+        motion, rate = self._motion(effort=effort, q_previous=Q_previous, dt=dt, rows=rows)
+        start = motion[:, 0] if Q0 is None else as_joint_rows('Q0', Q0)
+        _require_shape('Q0', start, 'P', pressure.shape)
+        x = start
         if self.extensible:
-            rest = self.geometry.arc_lengths
-            lengths = (
-                rest * np.ones((rows, 3))
-                if lengths0 is None
-                else as_joint_rows('lengths0', lengths0)
-            )
-            x += [lengths[:, k] / rest[k] - 1.0 for k in range(3)]
-        first = evaluate(x, columns)
-        outcome = newton(columns, evaluate, ArrayOps, first, **self._newton_options)
-        q = np.column_stack(outcome.q[:3])
-        strain = np.column_stack(outcome.q[3:]) if self.extensible else np.zeros_like(q)
+            rest = self.constants.arc_lengths
+            if lengths0 is None:
+                strain = np.zeros_like(start)
+            else:
+                lengths = as_joint_rows('lengths0', lengths0)
+                _require_shape('lengths0', lengths, 'P', pressure.shape)
+                strain = lengths / rest - 1.0
+            x = np.concatenate([start, strain], axis=1)
+        x, forces, torque, status, iterations, residual = solve_rows(
+            self.constants, pressure, np.ascontiguousarray(x), free, motion, rate
+        )
+        valid, moving_range = validity_rows(self.constants, x, *VALID_STRETCH)
         return BatchSolution(
-            q=q,
-            forces=np.column_stack(outcome.forces),
-            finger_torque=np.column_stack(outcome.finger_torque),
+            q=x[:, :3].copy(),
+            forces=forces,
+            finger_torque=torque,
             pressure=pressure,
-            status=np.asarray(outcome.status, dtype=int),
-            iterations=np.asarray(outcome.iterations, dtype=int),
-            residual=np.asarray(outcome.residual, dtype=float),
-            in_valid_range=self.in_valid_range(q, strain),
-            in_range_of_motion=self.in_range_of_motion(q),
-            lengths=np.asarray(self.geometry.arc_lengths) * (1.0 + strain),
+            status=status,
+            iterations=iterations,
+            residual=residual,
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
+            lengths=self._lengths_of(x),
         )
 
     # -- inverse and estimation ----------------------------------------------------------
@@ -645,60 +573,31 @@ class GloveModel:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The inverse: pressures (Pa) and bottom-face lengths ℓ (m) that hold angles ``q``.
 
-        Constant-length segments: exact. Extensible ones (MODEL.md §12): (12.4) gives p for
-        given strains exactly, and (12.5) with that p is solved for the strains (Newton with the
-        analytic Jacobian of the 6×6 system, by ``scipy.optimize.root``).
+        Constant-length segments: exact. Extensible ones (docs/model.md §12): (12.4) gives p
+        for given strains exactly, and (12.5) with that p is solved for the strains (Newton
+        with their analytic Jacobian, :mod:`.kernels.inverse`).
+
+        Raises
+        ------
+        ValueError
+            If no bottom-face strain balances the segments (extensible segments only).
         """
-        angles = as_joint_list('q', q)
-        load = self._load(ScalarOps, qdot=qdot, effort=effort)
-        moments = np.asarray(self.geometry.pressure_moments)
-        if not self.extensible:
-            residual_at_zero = self._evaluate_at(angles, [0.0, 0.0, 0.0], load).residual
-            return -np.array(residual_at_zero) / moments, np.asarray(self.geometry.arc_lengths)
-        layers = self.layers
-        weight = np.array(
-            [
-                layers.rest_lengths[k] * layers.areas[k] / moments[k]
-                if layers.extensible[k]
-                else 0.0
-                for k in range(3)
-            ]
-        )
-
-        def stretch_balance(strain):
-            evaluation = self._evaluate_at([*angles, *strain], [0.0, 0.0, 0.0], load)
-            residual, jacobian = np.array(evaluation.residual), np.array(evaluation.jacobian())
-            value = residual[3:] - weight * residual[:3]
-            slope = jacobian[3:, 3:] - weight[:, None] * jacobian[:3, 3:]
-            return value, slope
-
-        strain = self._root(stretch_balance, 'hold', jacobian=True)
-        evaluation = self._evaluate_at([*angles, *strain], [0.0, 0.0, 0.0], load)
-        pressure = -np.array(evaluation.residual[:3]) / moments
-        return pressure, np.asarray(layers.rest_lengths) * (1.0 + strain)
-
-    @staticmethod
-    def _root(function, what: str, *, jacobian: bool) -> NDArray[np.float64]:
-        """The bottom strains where ``function`` vanishes (``jacobian``: it gives its own)."""
-        result = optimize.root(
-            function, np.zeros(3), jac=jacobian, method='hybr', options={'xtol': STRAIN_XTOL}
-        )
-        if not result.success:
-            raise ValueError(
-                f'{what}: no bottom-face strain balances the segments ({result.message})'
-            )
-        return result.x
+        angles = as_joint_vector('q', q)
+        motion, _ = self._motion(effort=effort, qdot=qdot)
+        converged, strain, pressure = hold(self.constants, angles, motion)
+        if not converged:
+            raise ValueError('hold: no bottom-face strain balances the segments')
+        return pressure, self.constants.arc_lengths * (1.0 + strain)
 
     def finger_forces(
         self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
     ) -> NDArray[np.float64]:
         """Finger-side contact forces f = (J_H*)^{-T} τ_H(q, q̇, u), N (eqs 34, 11.1)."""
-        angles = as_joint_vector('q', q)
-        _, j_finger = self.contact_jacobians(angles)
-        return np.array(transpose_solve(j_finger.tolist(), self.finger_torque(q, qdot, effort)))
+        _, j_finger = self.contact_jacobians(q)
+        return transpose_solve(j_finger, self.finger_torque(q, qdot, effort))
 
     def estimate_forces(self, q: ArrayLike, p: ArrayLike) -> NDArray[np.float64]:
-        """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (MODEL.md §7).
+        """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (docs/model.md §7).
 
         Needs no finger model: from measured angles and pressures only (with extensible
         segments the bottom strains are solved for too: :meth:`estimate`).
@@ -711,53 +610,28 @@ class GloveModel:
         """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).
 
         From measured angles and pressures, no finger model: (12.4) gives f for given strains,
-        (12.5) with that f is solved for the strains (MODEL.md §12; ``scipy.optimize.root``).
+        (12.5) with that f is solved for the strains (docs/model.md §12).
+
+        Raises
+        ------
+        ValueError
+            If no bottom-face strain balances the segments (extensible segments only).
         """
-        angles = as_joint_vector('q', q)
-        pressure = as_joint_vector('p', p)
-        if not self.extensible:
-            torque = self.structural_torque(angles) + self.pressure_torque(pressure)
-            j_robot, _ = self.contact_jacobians(angles)
-            forces = np.array(transpose_solve(j_robot.tolist(), torque))
-            return forces, np.asarray(self.geometry.arc_lengths)
-        free = self._load(ScalarOps, free=True)
-        angle_list, pressure_list = angles.tolist(), pressure.tolist()
-
-        def forces_at(strain):
-            # the glove alone (no finger): its residual is what the contacts must hold
-            evaluation = self._evaluate_at([*angle_list, *strain], pressure_list, free)
-            robot = evaluation._robot.matrix
-            forces = transpose_solve(robot, evaluation.residual[:3])
-            return evaluation, forces
-
-        def stretch_balance(strain):
-            evaluation, forces = forces_at(strain)
-            lengthwise = transpose_product(evaluation._lengthwise[0], forces)
-            rest = self.layers.rest_lengths
-            return np.array(
-                [
-                    evaluation.residual[3 + k] - rest[k] * lengthwise[k]
-                    if self.layers.extensible[k]
-                    else strain[k]
-                    for k in range(3)
-                ]
-            )
-
-        strain = self._root(stretch_balance, 'estimate', jacobian=False)
-        _, forces = forces_at(strain.tolist())
-        return np.array(forces), np.asarray(self.layers.rest_lengths) * (1.0 + strain)
+        angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
+        converged, strain, forces = estimate(self.constants, angles, pressure)
+        if not converged:
+            raise ValueError('estimate: no bottom-face strain balances the segments')
+        return forces, self.constants.arc_lengths * (1.0 + strain)
 
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         _require_shape('P', pressure, 'Q', angles.shape)
-        if self.extensible:
-            return np.array(
-                [self.estimate(q, p)[0] for q, p in zip(angles, pressure, strict=True)]
-            )
-        torque = self.structural_torque(angles) + self.pressure_torque(pressure)
-        j_robot, _ = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
-        return np.column_stack(transpose_solve(j_robot, list(torque.T)))
+        converged, _, forces = estimate_rows(self.constants, angles, pressure)
+        if not np.all(converged):
+            row = int(np.argmin(converged))
+            raise ValueError(f'estimate: no bottom-face strain balances the segments (row {row})')
+        return forces
 
     def contact_torque(self, q: ArrayLike, forces: ArrayLike) -> NDArray[np.float64]:
         """(J_H*)ᵀ f: the joint torque contact forces f (N) apply to the finger, N·m (eq 34).
@@ -766,14 +640,11 @@ class GloveModel:
         """
         angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
         _require_shape('forces', rows, 'q', angles.shape)
-        if angles.ndim == 1:
-            _, j_finger = self.contact_jacobians(angles)
-            return j_finger.T @ rows
-        _, j_finger = contact_jacobians(list(angles.T), ArrayOps, self.geometry)
-        return np.column_stack(transpose_product(j_finger, list(rows.T)))
+        torque = contact_torques(self.constants, np.atleast_2d(angles), np.atleast_2d(rows))
+        return torque.reshape(angles.shape)
 
     def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
-        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m (MODEL.md §11, "Estimation").
+        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m (docs/model.md §11, "Estimation").
 
         The torque the finger actually resists with, from measured angles and pressures of
         shape (3,) or (N, 3).
@@ -788,7 +659,7 @@ class GloveModel:
 
         Linear least squares with an intercept per joint on the robot-side estimate
         (:meth:`estimate_finger_torque`), whatever the true patient is; the fit's RMSE says
-        how well a linear spring explains the data (MODEL.md §11, "Estimation").
+        how well a linear spring explains the data (docs/model.md §11, "Estimation").
         """
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         return fit_stiffness(angles, self.estimate_finger_torque(angles, pressure))
@@ -804,26 +675,27 @@ class GloveModel:
     ) -> GlovePose:
         """Positions of blocks, arcs, contacts and finger at angles ``q`` (eqs 1-4, 33).
 
-        ``lengths`` are the arcs' bottom-face lengths ℓ (m, MODEL.md §12; a ``Solution``'s
-        ``lengths``); the rest lengths when omitted.
+        ``lengths`` are the arcs' bottom-face lengths ℓ (m, docs/model.md §12; a
+        ``Solution``'s ``lengths``); the rest lengths when omitted. A point at fraction s of
+        arc k is z_k + e^{iφ_k}(2 d_k + s ℓ_k C(s q_k)): the arc traced by the chord formula
+        with a shorter length and angle.
         """
-        angles = as_joint_vector('q', q).tolist()
-        geometry = self.geometry
-        half = geometry.block_half_lengths
-        arcs = geometry.arc_lengths if lengths is None else as_joint_list('lengths', lengths)
-        frames = chain(chords(angles, ScalarOps), arcs, half)
-        joints, contacts = finger_chain(angles, ScalarOps, geometry.finger_half_lengths)
+        angles = as_joint_vector('q', q)
+        half = self.constants.block_half_lengths
+        arcs = self._lengths(lengths)
+        half_turn, chord, _, _ = chord_terms(angles)
+        turns, origins, centres = frames(half_turn, chord, arcs, half)
+        joints, contacts = finger_points(angles, self.constants.finger_half_lengths)
+        fractions = np.linspace(0.0, 1.0, arc_samples)
+        partial = np.array([chord_terms(f * angles)[1] for f in fractions])  # (samples, 3)
+        starts = origins[:3] + turns[:3] * (2.0 * half[:3])
+        points = starts + turns[:3] * (fractions[:, None] * arcs) * partial
         return GlovePose(
-            block_origins=_xy(frames.origins),
-            block_ends=_xy(
-                [
-                    z + t * 2.0 * d
-                    for z, t, d in zip(frames.origins, frames.turns, half, strict=True)
-                ]
-            ),
-            contact_points=_xy(frames.centres),
-            contact_normals=_xy([1j * t for t in frames.turns[1:]]),
-            arcs=_xy(arc_points(angles, arcs, half, arc_samples, ScalarOps)),
+            block_origins=_xy(origins),
+            block_ends=_xy(origins + turns * (2.0 * half)),
+            contact_points=_xy(centres),
+            contact_normals=_xy(1j * turns[1:]),
+            arcs=_xy(points.T),
             finger_joints=_xy(joints),
             finger_contacts=_xy(contacts),
         )
@@ -840,21 +712,21 @@ class GloveModel:
         bottom = 1.0 + np.asarray(strain, dtype=float)
         if bottom.ndim:
             _require_shape('strain', bottom, 'q', angles.shape)
-        return bottom + angles * np.asarray(self._strain_per_angle)
+        return bottom + angles * self.constants.strain_per_angle
 
     def in_valid_range(self, q: ArrayLike, strain: ArrayLike = 0.0) -> NDArray[np.bool_]:
         """Whether every fibre's stretch (12.1) lies in VALID_STRETCH (per row for (N, 3)).
 
         The extreme fibres are the bottom face and the top.
         """
-        low, high = VALID_STRETCH
-        top = self.top_fibre_stretch(q, strain)
-        bottom = np.broadcast_to(1.0 + np.asarray(strain, dtype=float), top.shape)
-        inside = (bottom >= low) & (bottom <= high) & (top >= low) & (top <= high)
-        return np.all(inside, axis=-1)
+        angles = as_joint_array('q', q)
+        strains = np.broadcast_to(np.asarray(strain, dtype=float), angles.shape)
+        x = np.concatenate([np.atleast_2d(angles), np.atleast_2d(strains)], axis=1)
+        valid, _ = validity_rows(self.constants, x, *VALID_STRETCH)
+        return valid[0] if angles.ndim == 1 else valid
 
     def in_range_of_motion(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Whether every joint lies in [rom_min, rom_max] (scalar for (3,), per row for (N, 3))."""
         angles = as_joint_array('q', q)
-        low, high = self.range_of_motion
-        return np.all((angles >= low) & (angles <= high), axis=-1)
+        _, moving_range = validity_rows(self.constants, np.atleast_2d(angles), *VALID_STRETCH)
+        return moving_range[0] if angles.ndim == 1 else moving_range

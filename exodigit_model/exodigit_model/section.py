@@ -27,13 +27,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from .material import stress_and_slope_of_strain, stress_of_strain, stress_slope_of_strain
-from .params import Material, Segment
-
-#: Gloves per block in :meth:`SectionResultants.at` (3 × 44 points each).
-BLOCK_ROWS = 512
+from .params import Segment
 
 
 def pressure_moment(segment: Segment) -> float:
@@ -100,95 +96,3 @@ class SectionQuadrature:
     def integrate(self, integrand: NDArray) -> NDArray:
         """Σ_k w_k g_k over the last axis of ``integrand`` (values at :attr:`heights`)."""
         return integrand @ self.weights
-
-
-def resisting_moment(
-    material: Material, segment: Segment, angle: ArrayLike, rule: SectionQuadrature
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """M(q) = ∫_A σ(1 + y q/ℓ̂) y dA and dM/dq by quadrature (eq 27, MODEL.md §5).
-
-    Parameters
-    ----------
-    material : Material
-    segment : Segment
-    angle : array_like
-        Bending angles q, rad, any shape.
-    rule : SectionQuadrature
-        Quadrature of ``segment``'s cross-section.
-
-    Returns
-    -------
-    moment, slope : ndarray
-        M in N·m and dM/dq in N·m/rad, shaped like ``angle``. τ_s = -M.
-    """
-    q = np.asarray(angle, dtype=float)
-    y = rule.heights
-    strain = q[..., None] * (y / segment.arc_length)
-    moment = rule.integrate(stress_of_strain(material, strain) * y)
-    slope = rule.integrate(stress_slope_of_strain(material, strain) * (y * y / segment.arc_length))
-    return moment, slope
-
-
-class SectionResultants:
-    r"""M, N and their slopes for the three segments at once, by the quadrature of each section.
-
-    With the strain e(y) = ε + y q/ℓ̂ of (12.1) (ε = λ_b − 1, evaluated in strain form):
-
-    .. math::
-
-        M = \int_A \sigma\,y\,dA, \quad N = \int_A \sigma\,dA, \quad
-        \frac{\partial M}{\partial q} = \int_A \sigma' \frac{y^2}{\hat\ell} dA, \quad
-        \frac{\partial M}{\partial \varepsilon} = \int_A \sigma' y\,dA
-        = \hat\ell\,\frac{\partial N}{\partial q}, \quad
-        \frac{\partial N}{\partial \varepsilon} = \int_A \sigma' dA
-
-    (one potential: the extended system is conservative, MODEL.md §12).
-
-    Parameters
-    ----------
-    material : Material
-    segments : sequence of 3 Segment
-    rules : sequence of 3 SectionQuadrature
-        The same number of points each (:meth:`SectionQuadrature.of` with equal orders).
-    """
-
-    def __init__(self, material: Material, segments, rules) -> None:
-        self.material = material
-        heights = np.stack([rule.heights for rule in rules])  # (3, K)
-        weights = np.stack([rule.weights for rule in rules])
-        self.inverse_length = np.array([1.0 / s.arc_length for s in segments])
-        self.per_length = heights * self.inverse_length[:, None]  # y/ℓ̂
-        # Per segment, the columns σ is summed against (M, N) and σ' against (∂M/∂q, ∂M/∂ε,
-        # ∂N/∂ε): (3, K, 2) and (3, K, 3).
-        self._stress_weights = np.stack([weights * heights, weights], axis=-1)
-        self._slope_weights = np.stack(
-            [weights * heights * self.per_length, weights * heights, weights], axis=-1
-        )
-
-    def at(self, q: ArrayLike, strain: ArrayLike) -> tuple[NDArray, ...]:
-        """(M, N, ∂M/∂q, ∂M/∂ε, ∂N/∂q, ∂N/∂ε) for angles and bottom strains of shape (..., 3).
-
-        Units: N·m, N, N·m/rad, N·m, N/rad, N. Large batches go through in blocks of
-        :data:`BLOCK_ROWS` gloves, whose temporaries stay in cache (about 4× faster at 10,000).
-        """
-        q, strain = np.broadcast_arrays(
-            np.asarray(q, dtype=float), np.asarray(strain, dtype=float)
-        )
-        rows_q, rows_strain = q.reshape(-1, 3), strain.reshape(-1, 3)
-        sums = np.empty((rows_q.shape[0], 3, 5))
-        for first in range(0, rows_q.shape[0], BLOCK_ROWS):
-            block = slice(first, first + BLOCK_ROWS)
-            e = rows_strain[block, :, None] + rows_q[block, :, None] * self.per_length
-            stress, slope = stress_and_slope_of_strain(self.material, e)
-            sums[block, :, :2] = (stress[..., None, :] @ self._stress_weights)[..., 0, :]
-            sums[block, :, 2:] = (slope[..., None, :] @ self._slope_weights)[..., 0, :]
-        sums = sums.reshape((*q.shape, 5))
-        moment, force, moment_slope, moment_rate, force_rate = np.moveaxis(sums, -1, 0)
-        return (
-            moment,
-            force,
-            moment_slope,
-            moment_rate,
-            moment_rate * self.inverse_length,
-            force_rate,
-        )

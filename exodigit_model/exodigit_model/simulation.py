@@ -32,9 +32,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._backend import ScalarOps
-from .chambers import Chambers, ChamberSettings
-from .model import BatchSolution, GloveModel, Solution, as_joint_rows, as_joint_vector
+from .chambers import Chambers, ChamberSettings, Saturation
+from .kernels.stepping import run_glove, step_glove, step_gloves
+from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
+from .solver import CONVERGED_STEP
 
 NANOSECONDS = 10**9
 
@@ -96,22 +97,15 @@ class SimulationSettings:
         return ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
 
 
-class KeptState(NamedTuple):
-    """What a step keeps of a solve (or of the last good state where the solve failed)."""
-
-    q: NDArray[np.float64]
-    forces: NDArray[np.float64]
-    finger_torque: NDArray[np.float64]
-    lengths: NDArray[np.float64]
-
-
 FIXED_SETTINGS = ('rate_hz', 'seed')
 """Settings a running simulation cannot change (they define its time grid and noise streams)."""
 
 
-@dataclass(frozen=True)
-class GloveState:
+class GloveState(NamedTuple):
     """The glove (or N gloves) at the end of a step; arrays (3,) or (N, 3), SI units.
+
+    A named tuple: cheap to build at every step. Its arrays are the simulation's own and are
+    never changed afterwards (a step makes new ones): read them, do not write to them.
 
     Attributes
     ----------
@@ -266,39 +260,146 @@ class GloveSimulation:
             If ``command`` or ``effort`` has the wrong shape or a non-finite value.
         """
         command = self._rows('command', command)
-        effort = None if effort is None else self._rows('effort', effort)
-        previous = self.state.q
-        pressure = self.chambers.advance(command)
+        effort = self._zeros if effort is None else self._rows('effort', effort)
+        glove = self.model.constants
         if self.count is None:
-            kept, solution = self._solve_one(pressure, effort)
+            state, applied, qdot, outcome = step_glove(
+                glove, self._kernel_state, command, effort, *self._stepping
+            )
+            status, iterations, residual, valid, moving_range, below, above = outcome
         else:
-            kept, solution = self._solve_batch(pressure, effort)
-        q = kept.q
-        self._q_before = previous  # from now on: where the glove was one step earlier
+            state, applied, qdot, status, iterations, residual, flags = step_gloves(
+                glove, self._kernel_state, command, effort, *self._stepping
+            )
+            valid, moving_range = flags[:, 0], flags[:, 1]
+            below, above = flags[:, 2].any(), flags[:, 3].any()
+        converged = status <= CONVERGED_STEP
+        self._kernel_state = state
+        self.chambers.pressure, self.chambers.command = state[2], applied
+        self.chambers.record(below, above)
+        self.solver_failures += int(np.count_nonzero(~np.asarray(converged)))
         self.step_count += 1
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
+        q = state[0][..., :3]
         self.state = GloveState(
             step=self.step_count,
             t=time_ns / NANOSECONDS,
             time_ns=time_ns,
-            command=self.chambers.command,
+            command=applied,
+            pressure=state[2],
+            pressure_measured=self._measured(state[2], self._pressure_noise, 'pressure'),
+            q=q,
+            q_measured=self._measured(q, self._angle_noise, 'angle'),
+            qdot=qdot,
+            forces=state[3],
+            finger_torque=state[4],
+            lengths=self._lengths(state[0]),
+            effort=effort,
+            converged=converged,
+            iterations=iterations,
+            residual=residual,
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
+            saturated=self.chambers.saturated_now,
+        )
+        return self.state
+
+    def run(self, commands: ArrayLike, efforts: ArrayLike | None = None) -> GloveState:
+        """Take one step per row of ``commands`` (Pa) inside compiled code; every step's state.
+
+        Exactly what as many calls of :meth:`step` give (the same states, noise and counts),
+        without a Python call per step.
+
+        Parameters
+        ----------
+        commands : array_like, shape (T, 3), or (T, N, 3) for a batch
+            The pressure command of each step, Pa.
+        efforts : array_like, shape like ``commands``, optional
+            The patient's voluntary effort of each step, N·m (None: none).
+
+        Returns
+        -------
+        GloveState
+            Every field with a leading axis of T (``step``, ``t``, ``time_ns``, ``converged``,
+            … as arrays of T); :attr:`state` is the last step's.
+        """
+        if self.count is not None:
+            return self._run_batch(commands, efforts)
+        rows = as_joint_rows('commands', commands)
+        if efforts is None:
+            efforts = np.zeros_like(rows)
+        else:
+            efforts = as_joint_rows('efforts', efforts)
+            if efforts.shape != rows.shape:
+                raise ValueError(
+                    f'efforts must have the shape of commands {rows.shape}, got {efforts.shape}'
+                )
+        if rows.shape[0] == 0:
+            raise ValueError('commands must have at least one row (one step)')
+        state, record = run_glove(
+            self.model.constants, self._kernel_state, rows, efforts, *self._stepping
+        )
+        applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record
+        self._kernel_state = state
+        self.chambers.pressure, self.chambers.command = state[2], applied[-1]
+        self.chambers.saturation = Saturation(
+            self.chambers.saturation.below_zero + int(np.count_nonzero(flags[:, 2])),
+            self.chambers.saturation.above_supply + int(np.count_nonzero(flags[:, 3])),
+        )
+        self.chambers.saturated_now = bool(flags[-1, 2] or flags[-1, 3])
+        converged = status <= CONVERGED_STEP
+        self.solver_failures += int(np.count_nonzero(~converged))
+        steps = np.arange(self.step_count + 1, self.step_count + 1 + rows.shape[0])
+        self.step_count = int(steps[-1])
+        time_ns = np.array([step_time_ns(k, self.settings.rate_hz) for k in steps.tolist()])
+        q = x[:, :3]
+        run = GloveState(
+            step=steps,
+            t=time_ns / NANOSECONDS,
+            time_ns=time_ns,
+            command=applied,
             pressure=pressure,
             pressure_measured=self._measured(pressure, self._pressure_noise, 'pressure'),
             q=q,
             q_measured=self._measured(q, self._angle_noise, 'angle'),
-            qdot=(q - previous) / self.period,
-            forces=kept.forces,
-            finger_torque=kept.finger_torque,
-            lengths=kept.lengths,
-            effort=np.zeros(self.shape) if effort is None else effort,
-            converged=solution.converged,
-            iterations=solution.iterations,
-            residual=solution.residual,
-            in_valid_range=solution.in_valid_range,
-            in_range_of_motion=solution.in_range_of_motion,
-            saturated=self.chambers.saturated_now,
+            qdot=qdot,
+            forces=forces,
+            finger_torque=torque,
+            lengths=self._lengths(x),
+            effort=efforts,
+            converged=converged,
+            iterations=iterations,
+            residual=residual,
+            in_valid_range=flags[:, 0],
+            in_range_of_motion=flags[:, 1],
+            saturated=flags[:, 2] | flags[:, 3],
         )
-        return self.state
+        self.state = GloveState(*(_last(value) for value in run))
+        return run
+
+    def _run_batch(self, commands: ArrayLike, efforts: ArrayLike | None) -> GloveState:
+        """:meth:`run` for a batch: one :meth:`step` per command, stacked."""
+        rows = np.asarray(commands, dtype=float)
+        if rows.ndim != 3 or rows.shape[1:] != self.shape or rows.shape[0] == 0:
+            raise ValueError(
+                f'commands must have shape (T, {self.count}, 3), T >= 1, got {rows.shape}'
+            )
+        if efforts is not None and np.shape(efforts) != rows.shape:
+            raise ValueError(
+                f'efforts must have the shape of commands {rows.shape}, got {np.shape(efforts)}'
+            )
+        states = [
+            self.step(rows[t], None if efforts is None else np.asarray(efforts)[t])
+            for t in range(rows.shape[0])
+        ]
+        return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
+
+    def _lengths(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Bottom-face lengths ℓ (m) of unknowns ``x`` (the rest lengths if inextensible)."""
+        rest = self.model.constants.arc_lengths
+        if self.model.extensible:
+            return rest * (1.0 + x[..., 3:])
+        return np.broadcast_to(rest, x.shape)
 
     def _rows(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
         """``value`` checked to the shape of this simulation's commands."""
@@ -308,51 +409,6 @@ class GloveSimulation:
         if rows.shape != self.shape:
             raise ValueError(f'{name} must have shape {self.shape}, got {rows.shape}')
         return rows
-
-    def _solve_one(self, pressure: NDArray[np.float64], effort) -> tuple:
-        p = pressure.tolist()
-        u = None if effort is None else effort.tolist()
-        previous = self.state.q.tolist()
-        lengths = self.state.lengths.tolist()
-        load = self.model._load(ScalarOps, effort=u, q_previous=previous, dt=self.period)
-        if self.model.viscous:
-            # q̇ enters the equation: start where the last step's motion goes on (half the
-            # Newton steps of a start at q_prev for a spastic patient).
-            start = (2.0 * self.state.q - self._q_before).tolist()
-            first = self.model._evaluate_at(self.model.unknowns(start, lengths), p, load)
-        elif u != self._warm_effort:
-            first = self.model._evaluate_at(self.model.unknowns(previous, lengths), p, load)
-        else:
-            # τ_H depends on q alone and F is affine in p: the last good evaluation, re-priced,
-            # is the first Newton iterate.
-            first = self._warm.at_pressure(p)
-        solution, final = self.model._solve(p, first)
-        if solution.converged:
-            self._warm, self._warm_effort = final, u
-            return solution, solution
-        self.solver_failures += 1
-        return self.state, solution
-
-    def _solve_batch(self, pressure: NDArray[np.float64], effort) -> tuple:
-        state = self.state
-        start = 2.0 * state.q - self._q_before if self.model.viscous else state.q
-        solution: BatchSolution = self.model.solve_batch(
-            pressure,
-            Q0=start,
-            effort=effort,
-            Q_previous=state.q,
-            dt=self.period,
-            lengths0=state.lengths,
-        )
-        good = solution.converged[:, None]
-        self.solver_failures += int(np.count_nonzero(~solution.converged))
-        kept = KeptState(
-            *(
-                np.where(good, getattr(solution, name), getattr(state, name))
-                for name in KeptState._fields
-            )
-        )
-        return kept, solution
 
     def _measured(self, true: NDArray[np.float64], rng: np.random.Generator, sensor: str):
         """``true`` plus Gaussian noise of the ``<sensor>_noise_std`` setting from ``rng``.
@@ -367,14 +423,15 @@ class GloveSimulation:
 
     def _rest_state(self) -> GloveState:
         zeros = np.zeros(self.shape)
-        rest: Solution = self.model.solve(np.zeros(3))
-        self._warm = self.model._evaluate(rest.q, np.zeros(3), self.model._load(ScalarOps))
-        self._warm_effort = None
-        q = np.broadcast_to(rest.q, self.shape).copy()
-        self._q_before = q
+        self._zeros = zeros
+        rest = self.model.solve(zeros if self.count is None else np.zeros(3))
+        x = self.model.unknowns(rest.q, rest.lengths)
+        x = np.broadcast_to(x, (*self.shape[:-1], x.size)).copy()
+        q = x[..., :3]
         forces = np.broadcast_to(rest.forces, self.shape).copy()
         torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
-        lengths = np.broadcast_to(rest.lengths, self.shape).copy()
+        self._kernel_state = (x, q.copy(), zeros, forces, torque)
+        self.chambers.pressure = zeros
         batch = self.count is not None
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         return GloveState(
@@ -389,7 +446,7 @@ class GloveSimulation:
             qdot=zeros,
             forces=forces,
             finger_torque=torque,
-            lengths=lengths,
+            lengths=self._lengths(x),
             effort=zeros,
             converged=np.full(self.count, rest.converged) if batch else rest.converged,
             iterations=np.zeros(self.count, int) if batch else 0,
@@ -402,3 +459,19 @@ class GloveSimulation:
             else rest.in_range_of_motion,
             saturated=False,
         )
+
+    @property
+    def _stepping(self) -> tuple:
+        """The kernels' step constants: exp(−Δt/T), supply, 1/Δt and the valid stretch range."""
+        return (
+            self.chambers.decay,
+            self.settings.max_supply_pressure,
+            self.settings.rate_hz,
+            *VALID_STRETCH,
+        )
+
+
+def _last(value):
+    """The last step's entry of one field of a run, as :meth:`GloveSimulation.step` gives it."""
+    last = value[-1]
+    return last.item() if isinstance(last, np.generic) else last

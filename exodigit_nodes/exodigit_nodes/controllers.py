@@ -197,7 +197,7 @@ class ForceController(PIController):
         super().__init__(kp, ki)
         self.model = model
         self.targets = np.array(targets, dtype=float)
-        self._moments = np.asarray(model.geometry.pressure_moments)
+        self._moments = np.asarray(model.constants.pressure_moments)
 
     def feedforward(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
         """Pressures giving the target forces at ``angles``, Pa (MODEL.md §7 solved for p)."""

@@ -220,7 +220,7 @@ def predict(model: GloveModel, samples: Samples) -> Prediction:
     forces = np.zeros_like(samples.angles)
     lengths = np.zeros_like(samples.angles)
     converged = np.ones(samples.free.size, bool)
-    rest = np.asarray(model.geometry.arc_lengths)
+    rest = np.asarray(model.constants.arc_lengths)
     start_angles = np.nan_to_num(samples.angles, nan=0.0)
     start_lengths = np.where(np.isnan(samples.lengths), rest, samples.lengths)
     for free in (True, False):

@@ -196,7 +196,7 @@ def run_curves(args: argparse.Namespace) -> None:
     steps.update()
     figures.force_figure(sweeps, folder / 'forces.png')
     steps.update()
-    figures.length_figure(sweeps, model.geometry.arc_lengths, folder / 'lengths.png')
+    figures.length_figure(sweeps, model.constants.arc_lengths, folder / 'lengths.png')
     steps.update()
     figures.marker_figure(markers, pressure, folder / 'markers.png')
     steps.update()

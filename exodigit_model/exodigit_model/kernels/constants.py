@@ -1,0 +1,79 @@
+"""What the kernels know of one glove: its parameters as flat arrays (SI), built once.
+
+:class:`GloveConstants` is a named tuple of floats and small arrays, the one argument every
+kernel takes for the glove and the finger; :func:`exodigit_model.model.GloveModel` builds it from
+validated parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`,
+whose columns are named by the ``LAW_*`` indices below (docs/model.md §11).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# Columns of GloveConstants.laws (one row per joint; eqs 11.1-11.3).
+LAW_STIFFNESS = 0  # k, N·m/rad
+LAW_REST_ANGLE = 1  # q_r, rad
+LAW_ROM_TORQUE = 2  # a, N·m
+LAW_ROM_SHARPNESS = 3  # β, 1/rad
+LAW_ROM_MIN = 4  # q_min, rad
+LAW_ROM_MAX = 5  # q_max, rad
+LAW_DAMPING = 6  # c, N·m·s/rad
+LAW_SPASTICITY = 7  # g_f, N·m·s/rad
+LAW_EXTENSOR_SPASTICITY = 8  # g_e, N·m·s/rad
+LAW_SPASTICITY_THRESHOLD = 9  # v_t, rad/s
+LAW_UPPER_AT_REST = 10  # exp(β (q_r − q_max)): zeroes e(q_r)
+LAW_LOWER_AT_REST = 11  # exp(β (q_min − q_r))
+LAW_SPASTIC_AT_ZERO = 12  # S(0) of eq 11.3: zeroes s(0)
+LAW_COLUMNS = 13
+
+
+class GloveConstants(NamedTuple):
+    """The glove's and the finger's constants, SI (joint order MCP, PIP, DIP).
+
+    Attributes
+    ----------
+    arc_lengths : ndarray, shape (3,)
+        ℓ̂_k, rest arc lengths of the segments' bottom faces, m.
+    block_half_lengths : ndarray, shape (4,)
+        d_0..d_3, half lengths of the base block and the three blocks, m.
+    finger_half_lengths : ndarray, shape (3,)
+        Half lengths of the finger links, m.
+    pressure_moments : ndarray, shape (3,)
+        (r_p A_p)_k of eq 12, m³ (the diagonal of B_R).
+    pressure_areas : ndarray, shape (3,)
+        A_p,k of (12.3), m².
+    layer_stiffness : ndarray, shape (3,)
+        E_L,k, N (``inf``: inextensible).
+    extensible_segments : ndarray of bool, shape (3,)
+        Whether segment k's bottom face stretches (a finite E_L,k).
+    extensible : bool
+        Whether any does: six unknowns (q, ε) instead of three.
+    strain_per_angle : ndarray, shape (3,)
+        H_k / ℓ̂_k: the top fibre's strain per radian of bending.
+    table : ndarray, shape (3, DEGREE + 1, PIECES)
+        τ_s tables: per joint, the monomial coefficients of G(u) = M(q)/q per piece
+        (:mod:`.structural`).
+    heights, weights : ndarray, shape (3, K)
+        Quadrature of each cross-section: fibre heights y (m) and area weights (m²).
+    material : ndarray, shape (3,)
+        Yeoh C1, C2, C3, Pa.
+    laws : ndarray, shape (3, LAW_COLUMNS)
+        The patient's joint laws, columns ``LAW_*``.
+    """
+
+    arc_lengths: np.ndarray
+    block_half_lengths: np.ndarray
+    finger_half_lengths: np.ndarray
+    pressure_moments: np.ndarray
+    pressure_areas: np.ndarray
+    layer_stiffness: np.ndarray
+    extensible_segments: np.ndarray
+    extensible: bool
+    strain_per_angle: np.ndarray
+    table: np.ndarray
+    heights: np.ndarray
+    weights: np.ndarray
+    material: np.ndarray
+    laws: np.ndarray

@@ -1,0 +1,196 @@
+r"""The inverse (pressures that hold given angles) and the robot-side estimator (§7, §12).
+
+Both are exact for inextensible segments:
+
+.. math::
+
+    p = B_R^{-1}\bigl((J_R^*)^T f - \tau_s(q)\bigr), \quad f = (J_H^*)^{-T}\tau_H
+    \quad\text{(inverse)}, \qquad
+    f = (J_R^*)^{-T}\bigl(\tau_s(q) + B_R\,p\bigr) \quad\text{(estimator)}.
+
+With extensible segments the bottom strains ε are unknown too. (12.4) gives p (inverse) or f
+(estimator) for given ε exactly; substituted into (12.5) it leaves three equations in ε, solved
+by Newton with their analytic Jacobian from ε = 0:
+
+- inverse: g(ε) = S(ε, 0) − w ∘ R(ε, 0), w_k = ℓ̂_k A_p,k / (r_pA_p)_k (residuals at p = 0);
+- estimator: h(ε) = S_free − ℓ̂ ∘ (J_ℓ*)ᵀ f with f = (J_R*)^{-T} R_free (the glove alone at the
+  measured p), and (J_R*)ᵀ ∂f/∂ε_m = ∂R_free/∂ε_m − ℓ̂_m (∂J_R*/∂ℓ_m)ᵀ f.
+
+An inextensible segment of a mixed glove keeps the equation ε_k = 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+from .kinematics import finger_terms, robot_terms
+from .linear import solve, transpose_product, transpose_solve
+from .newton import ARMIJO, MAX_HALVINGS, MAX_ITERATIONS, RTOL, XTOL, allowed, norm
+from .statics import evaluate
+
+
+@kernel
+def strain_balance(glove, q, strain, pressure, motion, estimating):
+    """The three strain equations at ``strain`` (module docstring), their Jacobian and scale.
+
+    Returns (value (3,), slope (3, 3), scale, other): ``other`` is p (Pa) for the inverse and
+    f (N) for the estimator, at this ``strain``.
+    """
+    x = np.empty(6)
+    x[:3] = q
+    x[3:] = strain
+    residual = np.empty(6)
+    jacobian = np.empty((6, 6))
+    forces = np.empty(3)
+    torque = np.empty(3)
+    value = np.empty(3)
+    slope = np.empty((3, 3))
+    other = np.empty(3)
+    rest = glove.arc_lengths
+    if not estimating:
+        zero = np.zeros(3)
+        scale = evaluate(glove, x, zero, False, motion, 0.0, residual, jacobian, forces, torque)
+        for k in range(3):
+            other[k] = -residual[k] / glove.pressure_moments[k]
+            w = 0.0
+            if glove.extensible_segments[k]:
+                w = rest[k] * glove.pressure_areas[k] / glove.pressure_moments[k]
+            value[k] = residual[3 + k] - w * residual[k]
+            for m in range(3):
+                slope[k, m] = jacobian[3 + k, 3 + m] - w * jacobian[k, 3 + m]
+        return value, slope, scale, other
+    scale = evaluate(glove, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque)
+    lengths = np.empty(3)
+    for k in range(3):
+        lengths[k] = rest[k] * (1.0 + strain[k])
+    j_robot, _, j_length, _, robot_length_slopes = robot_terms(
+        q, lengths, glove.block_half_lengths, True
+    )
+    other[:] = transpose_solve(j_robot, residual[:3])
+    stretching = transpose_product(j_length, other)
+    rhs = np.empty(3)
+    for m in range(3):
+        for k in range(3):
+            rhs[k] = jacobian[k, 3 + m]
+            for i in range(3):
+                rhs[k] -= rest[m] * robot_length_slopes[m, i, k] * other[i]
+        column = transpose_product(j_length, transpose_solve(j_robot, rhs))
+        for k in range(3):
+            slope[k, m] = jacobian[3 + k, 3 + m]
+            if glove.extensible_segments[k]:
+                slope[k, m] -= rest[k] * column[k]
+    for k in range(3):
+        if glove.extensible_segments[k]:
+            value[k] = residual[3 + k] - rest[k] * stretching[k]
+        else:
+            value[k] = residual[3 + k]
+    return value, slope, scale, other
+
+
+@kernel
+def balance_strains(glove, q, pressure, motion, estimating):
+    """Newton on :func:`strain_balance` from ε = 0.
+
+    Returns (converged, strain (3,), other (3,)): ``other`` as in :func:`strain_balance`.
+    """
+    strain = np.zeros(3)
+    trial = np.empty(3)
+    x = np.empty(6)
+    x[:3] = q
+    value, slope, scale, other = strain_balance(glove, q, strain, pressure, motion, estimating)
+    size = norm(value)
+    outcome = (value, slope, scale, other)
+    trial_size = size
+    for _ in range(MAX_ITERATIONS):
+        if size <= RTOL * scale:
+            return True, strain, other
+        step = solve(slope, -value)
+        step_size = norm(step)
+        if not math.isfinite(step_size):
+            return False, strain, other
+        alpha = 1.0
+        accepted = False
+        for _ in range(MAX_HALVINGS):
+            for k in range(3):
+                trial[k] = strain[k] + alpha * step[k]
+                x[3 + k] = trial[k]
+            if allowed(glove, x):
+                outcome = strain_balance(glove, q, trial, pressure, motion, estimating)
+                trial_size = norm(outcome[0])
+                if math.isfinite(trial_size) and (
+                    step_size <= XTOL or trial_size <= (1.0 - ARMIJO * alpha) * size
+                ):
+                    accepted = True
+                    break
+            alpha *= 0.5
+        if not accepted:
+            return False, strain, other
+        strain[:] = trial
+        value, slope, scale, other = outcome
+        size = trial_size
+        if step_size <= XTOL:
+            return True, strain, other
+    return size <= RTOL * scale, strain, other
+
+
+@kernel
+def hold(glove, q, motion):
+    """Pressures (Pa) that hold angles ``q`` and the bottom strains; whether that converged.
+
+    ``motion`` as in :func:`.statics.finger_load` (the speed row gives q̇; ``rate`` is 0).
+    """
+    if glove.extensible:
+        return balance_strains(glove, q, np.zeros(3), motion, False)
+    x = q.copy()
+    residual = np.empty(3)
+    jacobian = np.empty((3, 3))
+    forces = np.empty(3)
+    torque = np.empty(3)
+    evaluate(glove, x, np.zeros(3), False, motion, 0.0, residual, jacobian, forces, torque)
+    pressure = np.empty(3)
+    for k in range(3):
+        pressure[k] = -residual[k] / glove.pressure_moments[k]
+    return True, np.zeros(3), pressure
+
+
+@kernel
+def estimate(glove, q, pressure):
+    """Robot-side contact forces (N) from measured ``q`` and ``pressure``, bottom strains.
+
+    Returns (converged, strain (3,), forces (3,)); needs no finger model.
+    """
+    motion = np.zeros((3, 3))
+    if glove.extensible:
+        return balance_strains(glove, q, pressure, motion, True)
+    residual = np.empty(3)
+    jacobian = np.empty((3, 3))
+    forces = np.empty(3)
+    torque = np.empty(3)
+    evaluate(glove, q.copy(), pressure, True, motion, 0.0, residual, jacobian, forces, torque)
+    j_robot = robot_terms(q, glove.arc_lengths, glove.block_half_lengths, False)[0]
+    return True, np.zeros(3), transpose_solve(j_robot, residual)
+
+
+@kernel
+def estimate_rows(glove, angles, pressures):
+    """:func:`estimate` for rows (N, 3): (converged (N,), strains (N, 3), forces (N, 3))."""
+    rows = angles.shape[0]
+    converged = np.empty(rows, np.bool_)
+    strains = np.empty((rows, 3))
+    forces = np.empty((rows, 3))
+    for r in range(rows):
+        converged[r], strains[r], forces[r] = estimate(glove, angles[r], pressures[r])
+    return converged, strains, forces
+
+
+@kernel
+def contact_torques(glove, angles, forces):
+    """(J_H*)ᵀ f per row of angles and contact forces (N, 3): the finger's joint torque, N·m."""
+    torque = np.empty(angles.shape)
+    for r in range(angles.shape[0]):
+        j_finger = finger_terms(angles[r], glove.finger_half_lengths)[0]
+        torque[r] = transpose_product(j_finger, forces[r])
+    return torque

@@ -1,0 +1,193 @@
+r"""Planar kinematics of the exo-digit and the finger and their contact Jacobians (§2-3, §12).
+
+Points of the plane are complex numbers z = x + iy; a rotation by a is a product with e^{ia}.
+Joint order MCP, PIP, DIP (index 0, 1, 2); φ_j = q_0 + … + q_{j−1} orients body j (φ_0 = 0).
+
+**Exo-digit** (eqs 1-4, y-row of eq 4 corrected, docs/model.md §9). An arc of length ℓ bent by q
+has the chord ℓ·C(q) with
+
+.. math:: C(q) = \frac{e^{iq} - 1}{iq} = \frac{\sin(q/2)}{q/2}\,e^{iq/2}
+
+(x = ℓ sin q / q, y = ℓ (1 − cos q)/q, smooth at q = 0 in the sinc form), so body k+1 starts
+at z_{k+1} = z_k + e^{iφ_k}(2 d_k + ℓ_k C(q_k)) and its centre is
+zc_k = z_{k+1} + e^{iφ_{k+1}} d_{k+1}.
+
+**Contact Jacobians** (§3). Contact i pushes along n_i = i e^{iφ_{i+1}} at zc_i, so
+J*[i, k] = n_i · ∂zc_i/∂q_k. With D_ik = ∂zc_i/∂q_k = i(zc_i − z_{k+1}) + e^{iφ_k} ℓ_k C'(q_k)
+(k ≤ i) and A_ik = e^{−iφ_{i+1}} D_ik,
+
+.. math:: J^*_{R,ik} = \operatorname{Im} A_{ik}, \qquad
+          \frac{\partial J^*_{R,ik}}{\partial q_m} = \begin{cases}
+          \operatorname{Re}(A_{im} - A_{ik}) & k < m \le i \\
+          -\operatorname{Re} A_{ik} + \operatorname{Im}\bigl(e^{-i\varphi_{i+1}}
+          (e^{i\varphi_k}\ell_k C''(q_k) - (zc_i - z_{k+1}))\bigr) & m = k \\
+          0 & \text{otherwise.} \end{cases}
+
+**Extensible segments** (§12). With B_ik = e^{i(φ_k − φ_{i+1})} C(q_k),
+∂zc_i/∂ℓ_k = e^{iφ_k} C(q_k) (k ≤ i), so J*_ℓ,ik = Im B_ik (it does not depend on ℓ),
+∂J*_ℓ,ik/∂q_m = −Re B_ik + [m = k] Im(e^{i(φ_k − φ_{i+1})} C'(q_k)) (k ≤ m ≤ i),
+∂J*_R,im/∂ℓ_k = Re B_ik (m < k ≤ i) and ∂J*_R,ik/∂ℓ_k = Im(e^{i(φ_k − φ_{i+1})} C'(q_k)).
+
+**Finger** (eqs 32-34): hinges, link k of length 2ℓ_k with its contact at ℓ_k from joint k:
+J*_H[i, k] = ℓ_i + Σ_{j=k}^{i−1} 2ℓ_j cos(q_{j+1} + … + q_i), the paper's printed (J_H*)ᵀ.
+
+Both Jacobians are lower triangular with positive diagonals (d_{k+1} + ℓ_k(1 − cos q_k)/q_k²
+and ℓ_k): always invertible. Slopes are arrays ``[m, i, k]`` = ∂J[i, k]/∂q_m.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+
+SERIES_LIMIT = 0.25
+"""Below this half-angle, sinc and its derivatives come from their Taylor series."""
+
+
+@kernel
+def sinc_terms(x):
+    """s(x) = sin(x)/x, s'(x) and s''(x), smooth and accurate at x = 0.
+
+    The closed forms cancel catastrophically for small |x|, where the Taylor series in x²
+    (coefficients (−1)ⁿ/(2n+1)!, error below 1e-17 for |x| < SERIES_LIMIT) is used.
+    """
+    if abs(x) < SERIES_LIMIT:
+        a1, a2, a3 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0
+        a4, a5 = 1.0 / 362880.0, -1.0 / 39916800.0
+        x2 = x * x
+        s = 1.0 + x2 * (a1 + x2 * (a2 + x2 * (a3 + x2 * (a4 + x2 * a5))))
+        s1 = x * (2 * a1 + x2 * (4 * a2 + x2 * (6 * a3 + x2 * (8 * a4 + x2 * 10 * a5))))
+        s2 = 2 * a1 + x2 * (12 * a2 + x2 * (30 * a3 + x2 * (56 * a4 + x2 * 90 * a5)))
+        return s, s1, s2
+    s = math.sin(x) / x
+    s1 = (math.cos(x) - s) / x
+    return s, s1, -s - 2.0 * s1 / x
+
+
+@kernel
+def chord_terms(q):
+    """Per joint: e^{iq/2}, the unit chord C(q), C'(q) and C''(q) (complex arrays (3,))."""
+    half_turn = np.empty(3, np.complex128)
+    chord = np.empty(3, np.complex128)
+    slope = np.empty(3, np.complex128)
+    curvature = np.empty(3, np.complex128)
+    for k in range(3):
+        x = 0.5 * q[k]
+        s, s1, s2 = sinc_terms(x)
+        h = complex(math.cos(x), math.sin(x))
+        half_turn[k] = h
+        chord[k] = s * h
+        slope[k] = 0.5 * h * complex(s1, s)
+        curvature[k] = 0.25 * h * complex(s2 - s, 2.0 * s1)
+    return half_turn, chord, slope, curvature
+
+
+@kernel
+def frames(half_turn, chord, lengths, half_lengths):
+    """e^{iφ_j} (4), body origins z_j (4) and contact points zc_k (3) of the exo-digit (eq 4).
+
+    ``lengths`` are the arcs' bottom-face lengths ℓ_k, ``half_lengths`` d_0..d_3 (m).
+    """
+    turns = np.empty(4, np.complex128)
+    origins = np.empty(4, np.complex128)
+    centres = np.empty(3, np.complex128)
+    turns[0] = 1.0
+    origins[0] = 0.0
+    for k in range(3):
+        origins[k + 1] = origins[k] + turns[k] * (2.0 * half_lengths[k] + lengths[k] * chord[k])
+        turns[k + 1] = turns[k] * half_turn[k] * half_turn[k]
+        centres[k] = origins[k + 1] + turns[k + 1] * half_lengths[k + 1]
+    return turns, origins, centres
+
+
+@kernel
+def robot_terms(q, lengths, half_lengths, with_lengths):
+    """J_R* and its slopes; with ``with_lengths`` also J_ℓ* and the slopes §12 adds.
+
+    Returns
+    -------
+    j_robot : (3, 3)
+        J_R*[i, k].
+    robot_slopes : (3, 3, 3)
+        [m, i, k] = ∂J_R*[i, k]/∂q_m.
+    j_length : (3, 3)
+        J_ℓ*[i, k] (zero unless ``with_lengths``).
+    length_slopes : (3, 3, 3)
+        [m, i, k] = ∂J_ℓ*[i, k]/∂q_m.
+    robot_length_slopes : (3, 3, 3)
+        [k, i, m] = ∂J_R*[i, m]/∂ℓ_k.
+    """
+    half_turn, chord, slope, curvature = chord_terms(q)
+    turns, origins, centres = frames(half_turn, chord, lengths, half_lengths)
+    j_robot = np.zeros((3, 3))
+    robot_slopes = np.zeros((3, 3, 3))
+    j_length = np.zeros((3, 3))
+    length_slopes = np.zeros((3, 3, 3))
+    robot_length_slopes = np.zeros((3, 3, 3))
+    local = np.zeros((3, 3), np.complex128)
+    for i in range(3):
+        back = turns[i + 1].conjugate()
+        for k in range(i + 1):
+            relative = back * (centres[i] - origins[k + 1])
+            unit_turn = back * turns[k]
+            turn = unit_turn * lengths[k]
+            a = 1j * relative + turn * slope[k]
+            local[i, k] = a
+            j_robot[i, k] = a.imag
+            robot_slopes[k, i, k] = (turn * curvature[k] - relative).imag - a.real
+            if with_lengths:
+                b = unit_turn * chord[k]
+                b_slope = (unit_turn * slope[k]).imag
+                j_length[i, k] = b.imag
+                length_slopes[k, i, k] = b_slope - b.real
+                robot_length_slopes[k, i, k] = b_slope
+                for m in range(k + 1, i + 1):
+                    length_slopes[m, i, k] = -b.real
+                for m in range(k):
+                    robot_length_slopes[k, i, m] = b.real
+    for i in range(3):
+        for k in range(i + 1):
+            for m in range(k + 1, i + 1):
+                robot_slopes[m, i, k] = (local[i, m] - local[i, k]).real
+    return j_robot, robot_slopes, j_length, length_slopes, robot_length_slopes
+
+
+@kernel
+def finger_terms(q, half_lengths):
+    """J_H*[i, k] of the finger (3, 3) and its slopes [m, i, k] = ∂J_H*[i, k]/∂q_m."""
+    l0, l1, l2 = half_lengths[0], half_lengths[1], half_lengths[2]
+    c1, s1 = math.cos(q[1]), math.sin(q[1])
+    c2, s2 = math.cos(q[2]), math.sin(q[2])
+    q12 = q[1] + q[2]
+    c12, s12 = math.cos(q12), math.sin(q12)
+    row2 = l2 + 2.0 * l1 * c2
+    matrix = np.zeros((3, 3))
+    matrix[0, 0] = l0
+    matrix[1, 0] = l1 + 2.0 * l0 * c1
+    matrix[1, 1] = l1
+    matrix[2, 0] = row2 + 2.0 * l0 * c12
+    matrix[2, 1] = row2
+    matrix[2, 2] = l2
+    slopes = np.zeros((3, 3, 3))
+    slopes[1, 1, 0] = -2.0 * l0 * s1
+    slopes[1, 2, 0] = -2.0 * l0 * s12
+    slopes[2, 2, 1] = -2.0 * l1 * s2
+    slopes[2, 2, 0] = -2.0 * l1 * s2 - 2.0 * l0 * s12
+    return matrix, slopes
+
+
+@kernel
+def finger_points(q, half_lengths):
+    """Finger joints (MCP at the origin) and fingertip (4), link centres (3), complex."""
+    joints = np.zeros(4, np.complex128)
+    centres = np.empty(3, np.complex128)
+    phi = 0.0
+    for k in range(3):
+        phi = phi + q[k]
+        turn = complex(math.cos(phi), math.sin(phi))
+        centres[k] = joints[k] + turn * half_lengths[k]
+        joints[k + 1] = joints[k] + turn * (2.0 * half_lengths[k])
+    return joints, centres

@@ -1,0 +1,139 @@
+"""Damped Newton iteration for the coupled quasi-statics (docs/model.md §7, §11, §12).
+
+The iteration uses the analytic Jacobian of :func:`.statics.evaluate`, starts from the caller's
+guess (warm start) and backtracks along the Newton direction until the squared residual norm
+decreases enough (Armijo, factor ``ARMIJO``). Trial states that would compress a fibre below
+``MIN_STRETCH`` (where the material law stops being meaningful) are never evaluated. The
+iteration never raises and never returns NaN: a state that cannot be improved keeps its last
+finite value and is reported as not converged.
+
+Convergence is judged relative to the problem, so that it means the same for a glove a thousand
+times smaller or larger than the default one: the residual against the size of the terms it is
+made of (``RTOL``), or, where rounding keeps the residual from going lower, a Newton step below
+``XTOL`` (quadratic convergence puts the root within a tiny fraction of it). Each solve ends
+with a status code (:data:`exodigit_model.solver.STATUS` says each in words), as scipy's do.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+from .linear import solve
+from .statics import evaluate
+
+RTOL = 1e-12
+"""Converged when ‖F‖ ≤ RTOL · ‖|τ_s| + |B_R p| + |(J_R*)ᵀ f|‖ (the terms F is made of)."""
+XTOL = 1e-12
+"""Converged when the full Newton step is at most this (rad, or unit strain)."""
+MAX_ITERATIONS = 60
+"""Newton steps at most."""
+MAX_HALVINGS = 40
+"""Step halvings at most per Newton step."""
+ARMIJO = 1e-4
+"""Sufficient-decrease factor of the line search."""
+MIN_STRETCH = 0.2
+"""Lowest fibre stretch a trial state may have (the material law's domain, with margin)."""
+
+CONVERGED, CONVERGED_STEP, ITERATION_LIMIT, NO_DECREASE, NOT_FINITE = range(5)
+"""Status codes (codes below ITERATION_LIMIT are converged)."""
+
+
+@kernel
+def allowed(glove, x):
+    """Whether every segment's bottom face and top fibre keep a stretch ≥ MIN_STRETCH (12.1)."""
+    for k in range(3):
+        bottom = 1.0 + x[3 + k] if x.size == 6 else 1.0
+        if bottom < MIN_STRETCH or bottom + x[k] * glove.strain_per_angle[k] < MIN_STRETCH:
+            return False
+    return True
+
+
+@kernel
+def norm(v):
+    """Euclidean norm of a small vector."""
+    total = 0.0
+    for value in v:
+        total += value * value
+    return math.sqrt(total)
+
+
+@kernel
+def newton(glove, x, pressure, free, motion, rate, forces, torque):
+    """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
+
+    ``free``, ``motion`` and ``rate`` describe the finger (:func:`.statics.evaluate`);
+    ``forces`` and ``torque`` receive f (N) and τ_H (N·m) at the final ``x``.
+
+    Returns
+    -------
+    status : int
+        ``CONVERGED`` … ``NOT_FINITE``.
+    iterations : int
+        Newton steps taken.
+    residual : float
+        Residual norm at the final ``x``, N·m.
+    """
+    n = x.size
+    residual = np.empty(n)
+    jacobian = np.empty((n, n))
+    trial = np.empty(n)
+    trial_residual = np.empty(n)
+    trial_jacobian = np.empty((n, n))
+    trial_forces = np.empty(3)
+    trial_torque = np.empty(3)
+    scale = evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces, torque)
+    size_of_residual = norm(residual)
+    if not math.isfinite(size_of_residual):
+        return NOT_FINITE, 0, size_of_residual
+    if size_of_residual <= RTOL * scale:
+        return CONVERGED, 0, size_of_residual
+    iterations = 0
+    for _ in range(MAX_ITERATIONS):
+        step = solve(jacobian, -residual)
+        step_size = norm(step)
+        if not math.isfinite(step_size):
+            return NOT_FINITE, iterations, size_of_residual
+        small = step_size <= XTOL
+        alpha = 1.0
+        accepted = False
+        for _ in range(MAX_HALVINGS):
+            for k in range(n):
+                trial[k] = x[k] + alpha * step[k]
+            if allowed(glove, trial):
+                trial_scale = evaluate(
+                    glove,
+                    trial,
+                    pressure,
+                    free,
+                    motion,
+                    rate,
+                    trial_residual,
+                    trial_jacobian,
+                    trial_forces,
+                    trial_torque,
+                )
+                trial_size = norm(trial_residual)
+                # A step below XTOL is taken whole: at the root, rounding may not let F decrease.
+                if math.isfinite(trial_size) and (
+                    small or trial_size <= (1.0 - ARMIJO * alpha) * size_of_residual
+                ):
+                    accepted = True
+                    break
+            alpha *= 0.5
+        if not accepted:
+            return NO_DECREASE, iterations, size_of_residual
+        x[:] = trial
+        residual[:] = trial_residual
+        jacobian[:, :] = trial_jacobian
+        forces[:] = trial_forces
+        torque[:] = trial_torque
+        scale, size_of_residual = trial_scale, trial_size
+        iterations += 1
+        if size_of_residual <= RTOL * scale:
+            return CONVERGED, iterations, size_of_residual
+        if small:
+            return CONVERGED_STEP, iterations, size_of_residual
+    return ITERATION_LIMIT, iterations, size_of_residual

@@ -1,0 +1,179 @@
+r"""The coupled quasi-statics at one state: residual, contact forces and analytic Jacobian.
+
+Inextensible segments (eqs 31, 34-36, docs/model.md §7, §11): the unknowns are the angles q and
+
+.. math::
+
+    F(q, p) = \tau_s(q) + B_R\,p - (J_R^*)^T f = 0, \qquad
+    f = (J_H^*)^{-T}\,\tau_H(q, \dot q, u)  \qquad (36, 11.4)
+
+with the Jacobian
+
+.. math::
+
+    \frac{\partial F_k}{\partial q_m} = \delta_{km}\tau_{s,k}'
+      - \sum_i \frac{\partial J^*_{R,ik}}{\partial q_m} f_i - \sum_i J^*_{R,ik}
+      \frac{\partial f_i}{\partial q_m}, \qquad
+    (J_H^*)^T\frac{\partial f}{\partial q_m} = \frac{\partial \tau_{H,m}}{\partial q_m} e_m
+      - \Bigl(\frac{\partial J_H^*}{\partial q_m}\Bigr)^T f.
+
+Extensible segments (§12): the unknowns are x = (q, ε), ε_k = λ_b,k − 1, and the rows are
+
+.. math::
+
+    R_k = -M_k + (r_pA_p)_k p_k - [(J_R^*)^T f]_k \qquad (12.4)
+
+    S_k = \hat\ell_k \bigl(-N_k - E_{L,k} \varepsilon_k + A_{p,k} p_k
+          - [(J_\ell^*)^T f]_k\bigr) \qquad (12.5)
+
+(12.5) is written as the generalized force conjugate to ε (the factor ℓ̂_k = ∂ℓ_k/∂ε_k) so
+that all six rows are in N·m; an inextensible segment of a mixed glove keeps the row ε_k = 0.
+The finger side depends on q only, so ∂f/∂ε = 0. With no finger (free motion) f = 0.
+
+Every residual is affine in p, and each row is judged against the size of the terms it is made
+of (``scale``, what :mod:`.newton` compares the residual norm with).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .jit import kernel
+from .kinematics import finger_terms, robot_terms
+from .linear import transpose_product, transpose_solve
+from .patient import finger_torque
+from .section import resultants
+from .structural import structural_torque
+
+
+@kernel
+def finger_load(glove, q, motion, rate, torque):
+    """τ_H of (11.1) at ``q`` into ``torque`` (N·m); returns dτ_H,k/dq_k (N·m/rad), (3,).
+
+    ``motion`` rows: the previous angles q_prev (rad), a given speed v (rad/s) and the effort u
+    (N·m); q̇ = v + (q − q_prev)·rate, with ``rate`` = 1/Δt in a stepped solve (v = 0) and 0
+    in a static one or at a given speed.
+    """
+    slopes = np.empty(3)
+    for k in range(3):
+        speed = motion[1, k] + (q[k] - motion[0, k]) * rate
+        value, slope = finger_torque(glove.laws[k], q[k], speed, rate)
+        effort = motion[2, k]
+        torque[k] = value - effort
+        slopes[k] = slope
+    return slopes
+
+
+@kernel
+def evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces, torque):
+    """F (or (R, S)) at unknowns ``x`` into ``residual``, ∂/∂x into ``jacobian``; the scale.
+
+    Parameters
+    ----------
+    glove : GloveConstants
+    x : ndarray, shape (3,) or (6,)
+        q (rad), and ε with extensible segments (``glove.extensible``).
+    pressure : ndarray, shape (3,)
+        Chamber pressures, Pa.
+    free : bool
+        No finger (paper §3.3): f = 0.
+    motion, rate : ndarray (3, 3), float
+        The finger's history, speed and effort (:func:`finger_load`).
+    residual, jacobian, forces, torque : ndarray
+        Filled: the rows (N·m), their Jacobian, f (N) and τ_H (N·m).
+
+    Returns
+    -------
+    float
+        ‖|terms|‖: the norm of the per-row sums of the absolute terms, N·m.
+    """
+    n = x.size
+    extensible = n == 6
+    rest = glove.arc_lengths
+    lengths = np.empty(3)
+    for k in range(3):
+        lengths[k] = rest[k] * (1.0 + x[3 + k]) if extensible else rest[k]
+    tau = np.empty(3)
+    tau_slope = np.empty(3)
+    moment_rate = np.zeros(3)
+    axial = np.zeros(3)  # N of (12.2)
+    force_rate = np.zeros(3)
+    for k in range(3):
+        if extensible:
+            moment, axial[k], moment_slope, moment_rate[k], force_rate[k] = resultants(
+                glove, k, x[k], x[3 + k]
+            )
+            tau[k], tau_slope[k] = -moment, -moment_slope
+        else:
+            tau[k], tau_slope[k] = structural_torque(glove, k, x[k])
+    jacobian[:, :] = 0.0
+    coupling = np.zeros(3)
+    stretching = np.zeros(3)
+    if free:
+        forces[:] = 0.0
+        torque[:] = 0.0
+        for m in range(3):
+            jacobian[m, m] = tau_slope[m]
+    else:
+        q = x[:3]
+        j_robot, robot_slopes, j_length, length_slopes, robot_length_slopes = robot_terms(
+            q, lengths, glove.block_half_lengths, extensible
+        )
+        j_finger, finger_slopes = finger_terms(q, glove.finger_half_lengths)
+        load_slopes = finger_load(glove, q, motion, rate, torque)
+        forces[:] = transpose_solve(j_finger, torque)
+        coupling = transpose_product(j_robot, forces)
+        if extensible:
+            stretching = transpose_product(j_length, forces)
+        rhs = np.empty(3)
+        for m in range(3):
+            for k in range(3):
+                rhs[k] = load_slopes[k] if k == m else 0.0
+                for i in range(3):
+                    rhs[k] -= finger_slopes[m, i, k] * forces[i]
+            force_slope = transpose_solve(j_finger, rhs)
+            column = transpose_product(j_robot, force_slope)
+            for k in range(3):
+                value = -column[k]
+                for i in range(3):
+                    value -= robot_slopes[m, i, k] * forces[i]
+                jacobian[k, m] = value + (tau_slope[m] if k == m else 0.0)
+            if extensible:
+                column = transpose_product(j_length, force_slope)
+                for k in range(3):
+                    if glove.extensible_segments[k]:
+                        value = -column[k]
+                        for i in range(3):
+                            value -= length_slopes[m, i, k] * forces[i]
+                        jacobian[3 + k, m] = rest[k] * value
+            for k in range(3):
+                if extensible:
+                    for i in range(3):
+                        jacobian[k, 3 + m] -= rest[m] * robot_length_slopes[m, i, k] * forces[i]
+    if extensible:
+        for m in range(3):
+            jacobian[m, 3 + m] -= moment_rate[m]  # ∂R_m/∂ε_m = −∂M_m/∂ε_m
+            if glove.extensible_segments[m]:
+                jacobian[3 + m, m] -= moment_rate[m]  # ℓ̂ ∂N/∂q = ∂M/∂ε
+                jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + glove.layer_stiffness[m])
+            else:
+                jacobian[3 + m, 3 + m] = 1.0
+    total = 0.0
+    for k in range(3):
+        drive = glove.pressure_moments[k] * pressure[k]
+        residual[k] = tau[k] + drive - coupling[k]
+        size = abs(tau[k]) + abs(drive) + abs(coupling[k])
+        total += size * size
+    if extensible:
+        for k in range(3):
+            if glove.extensible_segments[k]:
+                layer = glove.layer_stiffness[k] * x[3 + k]
+                area = glove.pressure_areas[k] * pressure[k]
+                residual[3 + k] = rest[k] * (-axial[k] - layer + area - stretching[k])
+                size = rest[k] * (abs(axial[k]) + abs(layer) + abs(area) + abs(stretching[k]))
+                total += size * size
+            else:
+                residual[3 + k] = x[3 + k]
+    return math.sqrt(total)
