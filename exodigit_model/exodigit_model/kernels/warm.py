@@ -35,6 +35,8 @@ PRESSURES = np.linspace([0.0, 0.0, 0.0], [60e3, 50e3, 40e3], 8)
 #: Voluntary effort (N·m) and time step (s) of the stepped solves.
 EFFORT = np.array([0.01, 0.0, -0.01])
 DT = 0.01
+#: Steps of a simulation's run.
+STEPS = 5
 
 
 def _models() -> dict[str, GloveModel]:
@@ -63,13 +65,17 @@ def exercise_model(model: GloveModel) -> None:
 
 
 def exercise_simulation(model: GloveModel) -> None:
-    """Steps of one glove and of a batch of four (:class:`~exodigit_model.GloveSimulation`)."""
+    """Steps and runs of one glove and of four (:class:`~exodigit_model.GloveSimulation`)."""
     one = GloveSimulation(model)
     one.step(PRESSURE)
     one.step(PRESSURE, EFFORT)
+    one.run(np.tile(PRESSURE, (STEPS, 1)))
+    one.run(np.tile(PRESSURE, (STEPS, 1)), np.tile(EFFORT, (STEPS, 1)))
     batch = GloveSimulation(model, count=4)
     batch.step(np.tile(PRESSURE, (4, 1)))
     batch.step(np.tile(PRESSURE, (4, 1)), np.tile(EFFORT, (4, 1)))
+    batch.run(np.tile(PRESSURE, (STEPS, 4, 1)))
+    batch.run(np.tile(PRESSURE, (STEPS, 4, 1)), np.tile(EFFORT, (STEPS, 4, 1)))
 
 
 CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
