@@ -175,13 +175,6 @@ def test_run_without_efforts_gives_what_as_many_steps_give():
     assert counts(ran) == counts(stepped)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason='GloveSimulation._measured draws noise of shape self.shape, (3,), for all T rows of '
-    'a run: every step of a run gets the same noise and the streams advance one draw, not T '
-    '(rng.normal(0.0, std, true.shape) would draw what T steps draw)',
-)
 def test_run_draws_each_steps_sensor_noise_as_step_does():
     ran, stepped, record, history = run_and_steps('stroke', NOISY)
     for field in MEASURED:
@@ -249,24 +242,12 @@ def spoiled(array, value, index):
     return copy
 
 
-def wrong_name(reason: str, raises=AssertionError):
-    """The mark of a refusal that does not (yet) name the argument or happens too late."""
-    return pytest.mark.xfail(strict=True, raises=raises, reason=reason)
-
-
 def describe(value) -> str:
     """A short test id for a parameter: arrays by shape (and whether all finite)."""
     if isinstance(value, np.ndarray):
         finite = '' if np.all(np.isfinite(value)) else ' non-finite'
         return f'array{value.shape}{finite}'
     return repr(value)
-
-
-LATE = (
-    "_run_batch checks shapes only and leaves finiteness to step(): the error names step()'s "
-    'argument (command/effort) and comes after the rows before it were stepped'
-)
-NUMPY_MESSAGE = "_run_batch's np.asarray raises numpy's own error, which names no argument"
 
 
 @pytest.mark.parametrize(
@@ -292,38 +273,12 @@ NUMPY_MESSAGE = "_run_batch's np.asarray raises numpy's own error, which names n
         (3, None, None, 'commands'),
         (3, GOOD_BATCH, np.zeros((T - 1, 3, 3)), 'efforts'),
         (3, GOOD_BATCH, 'abc', 'efforts'),
-        pytest.param(
-            3, spoiled(GOOD_BATCH, np.nan, (2, 1, 0)), None, 'commands', marks=wrong_name(LATE)
-        ),
-        pytest.param(
-            3,
-            GOOD_BATCH,
-            spoiled(np.zeros((T, 3, 3)), np.inf, (1, 0, 0)),
-            'efforts',
-            marks=wrong_name(LATE),
-        ),
-        pytest.param(3, 'abc', None, 'commands', marks=wrong_name(NUMPY_MESSAGE)),
-        pytest.param(
-            3,
-            [[[1.0, 2.0, 3.0]] * 3, [[1.0, 2.0, 3.0]] * 2],
-            None,
-            'commands',
-            marks=wrong_name(NUMPY_MESSAGE),
-        ),
-        pytest.param(
-            3,
-            GOOD_BATCH,
-            [[[0.0, 0.0, 0.0]] * 3, [[0.0, 0.0, 0.0]] * 2],
-            'efforts',
-            marks=wrong_name(NUMPY_MESSAGE),
-        ),
-        pytest.param(
-            3,
-            {'mcp': 1.0},
-            None,
-            'commands',
-            marks=wrong_name("_run_batch's np.asarray raises a TypeError", raises=TypeError),
-        ),
+        (3, spoiled(GOOD_BATCH, np.nan, (2, 1, 0)), None, 'commands'),
+        (3, GOOD_BATCH, spoiled(np.zeros((T, 3, 3)), np.inf, (1, 0, 0)), 'efforts'),
+        (3, 'abc', None, 'commands'),
+        (3, [[[1.0, 2.0, 3.0]] * 3, [[1.0, 2.0, 3.0]] * 2], None, 'commands'),
+        (3, GOOD_BATCH, [[[0.0, 0.0, 0.0]] * 3, [[0.0, 0.0, 0.0]] * 2], 'efforts'),
+        (3, {'mcp': 1.0}, None, 'commands'),
     ],
     ids=describe,
 )

@@ -23,13 +23,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .identification import StiffnessFit, fit_stiffness
-from .kernels.constants import GloveConstants
-from .kernels.inverse import contact_torques, estimate, estimate_rows, hold
-from .kernels.kinematics import chord_terms, finger_points, finger_terms, frames, robot_terms
+from .kernels.constants import DEGREE, PIECES, GloveConstants, pack
+from .kernels.inverse import contact_torques, estimate_rows, hold
+from .kernels.kinematics import chord_terms, finger_points, frames
 from .kernels.linear import transpose_solve
-from .kernels.solves import solve_rows, solve_state, validity_rows
-from .kernels.statics import evaluate, finger_load
-from .kernels.structural import DEGREE, PIECES, structural_torques
+from .kernels.solves import (
+    evaluate_state,
+    finger_torques,
+    jacobians_at,
+    solve_rows,
+    solve_state,
+    validity_rows,
+)
+from .kernels.structural import structural_torques
 from .params import GloveParams, load_params
 from .patient import law_row
 from .section import SectionQuadrature, pressure_area, pressure_moment
@@ -227,6 +233,13 @@ def _require_shape(name: str, array: NDArray, reference: str, shape: tuple) -> N
         raise ValueError(f'{name} must have the shape of {reference} {shape}, got {array.shape}')
 
 
+def _chords(q: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """e^{iq/2} and the unit chords C(q) of the arcs (:func:`.kernels.kinematics.chord_terms`)."""
+    terms = [np.empty(3, complex) for _ in range(4)]
+    chord_terms(q, *terms)
+    return terms[0], terms[1]
+
+
 def glove_constants(params: GloveParams) -> GloveConstants:
     """The kernels' constants of validated ``params`` (the τ_s tables built once, here)."""
     segments = params.exo_digit.segments
@@ -241,7 +254,7 @@ def glove_constants(params: GloveParams) -> GloveConstants:
         pressure_moments=np.array([pressure_moment(s) for s in segments]),
         pressure_areas=np.array([pressure_area(s) for s in segments]),
         layer_stiffness=np.array([s.layer_axial_stiffness for s in segments]),
-        extensible_segments=np.array([s.extensible for s in segments]),
+        extensible_segments=np.array([float(s.extensible) for s in segments]),
         extensible=any(s.extensible for s in segments),
         strain_per_angle=np.array([s.height / s.arc_length for s in segments]),
         table=np.zeros((3, DEGREE + 1, PIECES)),
@@ -273,6 +286,8 @@ class GloveModel:
         self.params = load_params() if params is None else params
         self.constants = glove_constants(self.params)
         """Everything the kernels need of this glove and finger (:mod:`.kernels.constants`)."""
+        self.packed = pack(self.constants)
+        """The same constants as one array: what the kernels are called with from Python."""
         self.extensible = self.constants.extensible
         """Whether a segment's bottom face stretches (docs/model.md §12): six unknowns."""
         joints = self.params.finger.joints
@@ -294,7 +309,7 @@ class GloveModel:
 
     def _structural(self, q: ArrayLike) -> tuple[NDArray, NDArray]:
         angles = as_joint_array('q', q)
-        torque, slope = structural_torques(self.constants, np.atleast_2d(angles))
+        torque, slope = structural_torques(self.packed, np.atleast_2d(angles))
         return torque.reshape(angles.shape), slope.reshape(angles.shape)
 
     def pressure_torque(self, p: ArrayLike) -> NDArray[np.float64]:
@@ -316,17 +331,14 @@ class GloveModel:
             The patient's voluntary effort u, N·m (None: none).
         """
         angles = as_joint_vector('q', q)
-        motion, rate = self._motion(effort=effort, qdot=qdot)
-        torque = np.empty(3)
-        finger_load(self.constants, angles, motion, rate, torque)
-        return torque
+        motion, _ = self._motion(effort=effort, qdot=qdot)
+        return finger_torques(self.packed, angles, motion)
 
     def contact_jacobians(self, q: ArrayLike) -> tuple[NDArray, NDArray]:
         """(J_R*, J_H*), each (3, 3) lower triangular, J[i, k] = n_i·∂r_i/∂q_k (§3)."""
         angles = as_joint_vector('q', q)
-        glove = self.constants
-        j_robot = robot_terms(angles, glove.arc_lengths, glove.block_half_lengths, False)[0]
-        return j_robot, finger_terms(angles, glove.finger_half_lengths)[0]
+        j_robot, j_finger, _ = jacobians_at(self.packed, angles, self.constants.arc_lengths)
+        return j_robot, j_finger
 
     def length_jacobian(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray:
         """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (docs/model.md §12), (3, 3) lower triangular.
@@ -335,7 +347,7 @@ class GloveModel:
         """
         angles = as_joint_vector('q', q)
         arcs = self._lengths(lengths)
-        return robot_terms(angles, arcs, self.constants.block_half_lengths, True)[2]
+        return jacobians_at(self.packed, angles, arcs)[2]
 
     def residual(self, q: ArrayLike, p: ArrayLike, **solve_options) -> NDArray[np.float64]:
         """F(q, p) of eq 36 / 11.4, N·m.
@@ -357,14 +369,8 @@ class GloveModel:
     ) -> tuple[NDArray, NDArray]:
         motion, rate = self._motion(effort=effort, q_previous=q_previous, dt=dt)
         x = self.unknowns(as_joint_vector('q', q), lengths)
-        residual = np.empty(x.size)
-        jacobian = np.empty((x.size, x.size))
-        forces, torque = np.empty(3), np.empty(3)
         pressure = as_joint_vector('p', p)
-        evaluate(
-            self.constants, x, pressure, free, motion, rate, residual, jacobian, forces, torque
-        )
-        return residual, jacobian
+        return evaluate_state(self.packed, x, pressure, free, motion, rate)
 
     def _motion(self, *, effort=None, q_previous=None, dt=None, qdot=None, rows=None):
         """The finger's ``motion`` rows (q_prev, speed, effort) and ``rate`` of a solve, checked.
@@ -453,9 +459,9 @@ class GloveModel:
         start = motion[0] if q0 is None else as_joint_vector('q0', q0)
         x = self.unknowns(start, lengths)
         status, iterations, residual, forces, torque = solve_state(
-            self.constants, pressure, x, free, motion, rate
+            self.packed, pressure, x, free, motion, rate
         )
-        valid, moving_range = validity_rows(self.constants, x[None, :], *VALID_STRETCH)
+        valid, moving_range = validity_rows(self.packed, x[None, :], *VALID_STRETCH)
         return Solution(
             q=x[:3],
             forces=forces,
@@ -539,9 +545,9 @@ class GloveModel:
                 strain = lengths / rest - 1.0
             x = np.concatenate([start, strain], axis=1)
         x, forces, torque, status, iterations, residual = solve_rows(
-            self.constants, pressure, np.ascontiguousarray(x), free, motion, rate
+            self.packed, pressure, np.ascontiguousarray(x), free, motion, rate
         )
-        valid, moving_range = validity_rows(self.constants, x, *VALID_STRETCH)
+        valid, moving_range = validity_rows(self.packed, x, *VALID_STRETCH)
         return BatchSolution(
             q=x[:, :3].copy(),
             forces=forces,
@@ -584,7 +590,7 @@ class GloveModel:
         """
         angles = as_joint_vector('q', q)
         motion, _ = self._motion(effort=effort, qdot=qdot)
-        converged, strain, pressure = hold(self.constants, angles, motion)
+        converged, strain, pressure = hold(self.packed, angles, motion)
         if not converged:
             raise ValueError('hold: no bottom-face strain balances the segments')
         return pressure, self.constants.arc_lengths * (1.0 + strain)
@@ -594,7 +600,9 @@ class GloveModel:
     ) -> NDArray[np.float64]:
         """Finger-side contact forces f = (J_H*)^{-T} τ_H(q, q̇, u), N (eqs 34, 11.1)."""
         _, j_finger = self.contact_jacobians(q)
-        return transpose_solve(j_finger, self.finger_torque(q, qdot, effort))
+        forces = np.empty(3)
+        transpose_solve(j_finger, self.finger_torque(q, qdot, effort), forces)
+        return forces
 
     def estimate_forces(self, q: ArrayLike, p: ArrayLike) -> NDArray[np.float64]:
         """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (docs/model.md §7).
@@ -618,16 +626,16 @@ class GloveModel:
             If no bottom-face strain balances the segments (extensible segments only).
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        converged, strain, forces = estimate(self.constants, angles, pressure)
-        if not converged:
+        converged, strains, forces = estimate_rows(self.packed, angles[None], pressure[None])
+        if not converged[0]:
             raise ValueError('estimate: no bottom-face strain balances the segments')
-        return forces, self.constants.arc_lengths * (1.0 + strain)
+        return forces[0], self.constants.arc_lengths * (1.0 + strains[0])
 
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         _require_shape('P', pressure, 'Q', angles.shape)
-        converged, _, forces = estimate_rows(self.constants, angles, pressure)
+        converged, _, forces = estimate_rows(self.packed, angles, pressure)
         if not np.all(converged):
             row = int(np.argmin(converged))
             raise ValueError(f'estimate: no bottom-face strain balances the segments (row {row})')
@@ -640,7 +648,7 @@ class GloveModel:
         """
         angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
         _require_shape('forces', rows, 'q', angles.shape)
-        torque = contact_torques(self.constants, np.atleast_2d(angles), np.atleast_2d(rows))
+        torque = contact_torques(self.packed, np.atleast_2d(angles), np.atleast_2d(rows))
         return torque.reshape(angles.shape)
 
     def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
@@ -683,11 +691,13 @@ class GloveModel:
         angles = as_joint_vector('q', q)
         half = self.constants.block_half_lengths
         arcs = self._lengths(lengths)
-        half_turn, chord, _, _ = chord_terms(angles)
-        turns, origins, centres = frames(half_turn, chord, arcs, half)
+        half_turn, chord = _chords(angles)
+        turns, origins = np.empty(4, complex), np.empty(4, complex)
+        centres = np.empty(3, complex)
+        frames(half_turn, chord, arcs, half, turns, origins, centres)
         joints, contacts = finger_points(angles, self.constants.finger_half_lengths)
         fractions = np.linspace(0.0, 1.0, arc_samples)
-        partial = np.array([chord_terms(f * angles)[1] for f in fractions])  # (samples, 3)
+        partial = np.array([_chords(f * angles)[1] for f in fractions])  # (samples, 3)
         starts = origins[:3] + turns[:3] * (2.0 * half[:3])
         points = starts + turns[:3] * (fractions[:, None] * arcs) * partial
         return GlovePose(
@@ -722,11 +732,11 @@ class GloveModel:
         angles = as_joint_array('q', q)
         strains = np.broadcast_to(np.asarray(strain, dtype=float), angles.shape)
         x = np.concatenate([np.atleast_2d(angles), np.atleast_2d(strains)], axis=1)
-        valid, _ = validity_rows(self.constants, x, *VALID_STRETCH)
+        valid, _ = validity_rows(self.packed, x, *VALID_STRETCH)
         return valid[0] if angles.ndim == 1 else valid
 
     def in_range_of_motion(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Whether every joint lies in [rom_min, rom_max] (scalar for (3,), per row for (N, 3))."""
         angles = as_joint_array('q', q)
-        _, moving_range = validity_rows(self.constants, np.atleast_2d(angles), *VALID_STRETCH)
+        _, moving_range = validity_rows(self.packed, np.atleast_2d(angles), *VALID_STRETCH)
         return moving_range[0] if angles.ndim == 1 else moving_range

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .chambers import Chambers, ChamberSettings, Saturation
-from .kernels.stepping import run_glove, step_glove, step_gloves
+from .kernels.stepping import run_glove, step_gloves, step_one
 from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
 from .solver import CONVERGED_STEP
 
@@ -261,9 +261,9 @@ class GloveSimulation:
         """
         command = self._rows('command', command)
         effort = self._zeros if effort is None else self._rows('effort', effort)
-        glove = self.model.constants
+        glove = self.model.packed
         if self.count is None:
-            state, applied, qdot, outcome = step_glove(
+            state, applied, qdot, outcome = step_one(
                 glove, self._kernel_state, command, effort, *self._stepping
             )
             status, iterations, residual, valid, moving_range, below, above = outcome
@@ -323,21 +323,17 @@ class GloveSimulation:
             Every field with a leading axis of T (``step``, ``t``, ``time_ns``, ``converged``,
             … as arrays of T); :attr:`state` is the last step's.
         """
+        rows = self._steps('commands', commands)
+        efforts = np.zeros_like(rows) if efforts is None else self._steps('efforts', efforts)
+        if efforts.shape != rows.shape:
+            raise ValueError(
+                f'efforts must have the shape of commands {rows.shape}, got {efforts.shape}'
+            )
         if self.count is not None:
-            return self._run_batch(commands, efforts)
-        rows = as_joint_rows('commands', commands)
-        if efforts is None:
-            efforts = np.zeros_like(rows)
-        else:
-            efforts = as_joint_rows('efforts', efforts)
-            if efforts.shape != rows.shape:
-                raise ValueError(
-                    f'efforts must have the shape of commands {rows.shape}, got {efforts.shape}'
-                )
-        if rows.shape[0] == 0:
-            raise ValueError('commands must have at least one row (one step)')
+            states = [self.step(rows[t], efforts[t]) for t in range(rows.shape[0])]
+            return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
         state, record = run_glove(
-            self.model.constants, self._kernel_state, rows, efforts, *self._stepping
+            self.model.packed, self._kernel_state, rows, efforts, *self._stepping
         )
         applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record
         self._kernel_state = state
@@ -377,22 +373,21 @@ class GloveSimulation:
         self.state = GloveState(*(_last(value) for value in run))
         return run
 
-    def _run_batch(self, commands: ArrayLike, efforts: ArrayLike | None) -> GloveState:
-        """:meth:`run` for a batch: one :meth:`step` per command, stacked."""
-        rows = np.asarray(commands, dtype=float)
-        if rows.ndim != 3 or rows.shape[1:] != self.shape or rows.shape[0] == 0:
-            raise ValueError(
-                f'commands must have shape (T, {self.count}, 3), T >= 1, got {rows.shape}'
-            )
-        if efforts is not None and np.shape(efforts) != rows.shape:
-            raise ValueError(
-                f'efforts must have the shape of commands {rows.shape}, got {np.shape(efforts)}'
-            )
-        states = [
-            self.step(rows[t], None if efforts is None else np.asarray(efforts)[t])
-            for t in range(rows.shape[0])
-        ]
-        return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
+    def _steps(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
+        """``value`` as T >= 1 finite rows of this simulation's commands, or a ValueError."""
+        shape = ('T', *self.shape)
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            array = None
+        if array is None or array.shape[1:] != self.shape or array.ndim != len(shape):
+            got = 'no array of numbers' if array is None else f'shape {array.shape}'
+            raise ValueError(f'{name} must have shape {shape} (one row per step), got {got}')
+        if array.shape[0] == 0:
+            raise ValueError(f'{name} must have at least one row (one step)')
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f'{name} must be finite')
+        return array
 
     def _lengths(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bottom-face lengths ℓ (m) of unknowns ``x`` (the rest lengths if inextensible)."""
@@ -419,7 +414,7 @@ class GloveSimulation:
         std = getattr(self.settings, f'{sensor}_noise_std')
         if std == 0.0:
             return true
-        return true + rng.normal(0.0, std, self.shape)
+        return true + rng.normal(0.0, std, true.shape)
 
     def _rest_state(self) -> GloveState:
         zeros = np.zeros(self.shape)

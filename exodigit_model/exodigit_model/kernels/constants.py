@@ -1,9 +1,13 @@
 """What the kernels know of one glove: its parameters as flat arrays (SI), built once.
 
-:class:`GloveConstants` is a named tuple of floats and small arrays, the one argument every
-kernel takes for the glove and the finger; :func:`exodigit_model.model.GloveModel` builds it from
-validated parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`,
-whose columns are named by the ``LAW_*`` indices below (docs/model.md §11).
+:class:`GloveConstants` is a named tuple of small arrays, the one argument every kernel takes for
+the glove and the finger; :func:`exodigit_model.model.glove_constants` builds it from validated
+parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`, whose columns
+are named by the ``LAW_*`` indices below (docs/model.md §11).
+
+From Python the kernels are called with the same constants packed into one array
+(:func:`pack`), which the entry kernels :func:`unpack` into views: numba takes a named tuple of
+fourteen arrays apart at every call from Python (about 3 µs), one array in about 0.3 µs.
 """
 
 from __future__ import annotations
@@ -11,6 +15,19 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+
+from .jit import kernel
+
+U_MIN = -0.6
+"""Lowest tabulated top-fibre strain (λ_top = 0.4)."""
+U_MAX = 1.6
+"""Highest tabulated top-fibre strain (λ_top = 2.6)."""
+PIECES = 44
+"""Number of equal pieces of the table in u."""
+DEGREE = 9
+"""Polynomial degree of each piece."""
+PIECE_WIDTH = (U_MAX - U_MIN) / PIECES
+"""Width of one piece in u."""
 
 # Columns of GloveConstants.laws (one row per joint; eqs 11.1-11.3).
 LAW_STIFFNESS = 0  # k, N·m/rad
@@ -46,8 +63,8 @@ class GloveConstants(NamedTuple):
         A_p,k of (12.3), m².
     layer_stiffness : ndarray, shape (3,)
         E_L,k, N (``inf``: inextensible).
-    extensible_segments : ndarray of bool, shape (3,)
-        Whether segment k's bottom face stretches (a finite E_L,k).
+    extensible_segments : ndarray, shape (3,)
+        1.0 where segment k's bottom face stretches (a finite E_L,k), else 0.0.
     extensible : bool
         Whether any does: six unknowns (q, ε) instead of three.
     strain_per_angle : ndarray, shape (3,)
@@ -77,3 +94,74 @@ class GloveConstants(NamedTuple):
     weights: np.ndarray
     material: np.ndarray
     laws: np.ndarray
+
+
+QUADRATURE_POINTS = 44
+"""Points of each cross-section's quadrature (:class:`..section.SectionQuadrature`)."""
+_SHAPES = (
+    (3,),
+    (4,),
+    (3,),
+    (3,),
+    (3,),
+    (3,),
+    (3,),
+    (),
+    (3,),
+    (3, DEGREE + 1, PIECES),
+    (3, QUADRATURE_POINTS),
+    (3, QUADRATURE_POINTS),
+    (3,),
+    (3, LAW_COLUMNS),
+)
+"""The shape of each field of GloveConstants, in order (``extensible`` is one number)."""
+_SIZES = tuple(int(np.prod(shape)) for shape in _SHAPES)
+_ENDS = tuple(int(end) for end in np.cumsum(_SIZES))
+PACKED_SIZE = _ENDS[-1]
+"""Length of a packed GloveConstants."""
+(
+    _ARCS,
+    _BLOCKS,
+    _LINKS,
+    _MOMENTS,
+    _AREAS,
+    _LAYERS,
+    _EXTENSIBLE_SEGMENTS,
+    _EXTENSIBLE,
+    _STRAIN,
+    _TABLE,
+    _HEIGHTS,
+    _WEIGHTS,
+    _MATERIAL,
+    _LAWS,
+) = (end - size for end, size in zip(_ENDS, _SIZES, strict=True))
+
+
+def pack(glove: GloveConstants) -> np.ndarray:
+    """``glove`` as one float array of PACKED_SIZE (what the entry kernels take)."""
+    fields = [np.asarray(value, dtype=float).ravel() for value in glove]
+    for name, value, size in zip(GloveConstants._fields, fields, _SIZES, strict=True):
+        if value.size != size:
+            raise ValueError(f'GloveConstants.{name} has {value.size} numbers, not {size}')
+    return np.concatenate(fields)
+
+
+@kernel(inline=True)
+def unpack(packed):
+    """The GloveConstants whose fields are views of ``packed`` (:func:`pack`)."""
+    return GloveConstants(
+        packed[_ARCS:_BLOCKS],
+        packed[_BLOCKS:_LINKS],
+        packed[_LINKS:_MOMENTS],
+        packed[_MOMENTS:_AREAS],
+        packed[_AREAS:_LAYERS],
+        packed[_LAYERS:_EXTENSIBLE_SEGMENTS],
+        packed[_EXTENSIBLE_SEGMENTS:_EXTENSIBLE],
+        packed[_EXTENSIBLE] != 0.0,
+        packed[_STRAIN:_TABLE],
+        packed[_TABLE:_HEIGHTS].reshape((3, DEGREE + 1, PIECES)),
+        packed[_HEIGHTS:_WEIGHTS].reshape((3, QUADRATURE_POINTS)),
+        packed[_WEIGHTS:_MATERIAL].reshape((3, QUADRATURE_POINTS)),
+        packed[_MATERIAL:_LAWS],
+        packed[_LAWS:].reshape((3, LAW_COLUMNS)),
+    )

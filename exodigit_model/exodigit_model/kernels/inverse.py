@@ -25,15 +25,17 @@ import math
 
 import numpy as np
 
+from .constants import unpack
 from .jit import kernel
 from .kinematics import finger_terms, robot_terms
 from .linear import solve, transpose_product, transpose_solve
 from .newton import ARMIJO, MAX_HALVINGS, MAX_ITERATIONS, RTOL, XTOL, allowed, norm
 from .statics import evaluate
+from .workspace import workspace
 
 
 @kernel
-def strain_balance(glove, q, strain, pressure, motion, estimating):
+def strain_balance(glove, work, q, strain, pressure, motion, estimating):
     """The three strain equations at ``strain`` (module docstring), their Jacobian and scale.
 
     Returns (value (3,), slope (3, 3), scale, other): ``other`` is p (Pa) for the inverse and
@@ -52,7 +54,9 @@ def strain_balance(glove, q, strain, pressure, motion, estimating):
     rest = glove.arc_lengths
     if not estimating:
         zero = np.zeros(3)
-        scale = evaluate(glove, x, zero, False, motion, 0.0, residual, jacobian, forces, torque)
+        scale = evaluate(
+            glove, work, x, zero, False, motion, 0.0, residual, jacobian, forces, torque
+        )
         for k in range(3):
             other[k] = -residual[k] / glove.pressure_moments[k]
             w = 0.0
@@ -62,22 +66,27 @@ def strain_balance(glove, q, strain, pressure, motion, estimating):
             for m in range(3):
                 slope[k, m] = jacobian[3 + k, 3 + m] - w * jacobian[k, 3 + m]
         return value, slope, scale, other
-    scale = evaluate(glove, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque)
+    scale = evaluate(
+        glove, work, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque
+    )
     lengths = np.empty(3)
     for k in range(3):
         lengths[k] = rest[k] * (1.0 + strain[k])
-    j_robot, _, j_length, _, robot_length_slopes = robot_terms(
-        q, lengths, glove.block_half_lengths, True
-    )
-    other[:] = transpose_solve(j_robot, residual[:3])
-    stretching = transpose_product(j_length, other)
+    robot_terms(q, lengths, glove.block_half_lengths, True, work)
+    j_robot, j_length = work.j_robot, work.j_length
+    transpose_solve(j_robot, residual[:3], other)
+    stretching = np.empty(3)
+    transpose_product(j_length, other, stretching)
     rhs = np.empty(3)
+    force_slope = np.empty(3)
+    column = np.empty(3)
     for m in range(3):
         for k in range(3):
             rhs[k] = jacobian[k, 3 + m]
             for i in range(3):
-                rhs[k] -= rest[m] * robot_length_slopes[m, i, k] * other[i]
-        column = transpose_product(j_length, transpose_solve(j_robot, rhs))
+                rhs[k] -= rest[m] * work.robot_length_slopes[m, i, k] * other[i]
+        transpose_solve(j_robot, rhs, force_slope)
+        transpose_product(j_length, force_slope, column)
         for k in range(3):
             slope[k, m] = jacobian[3 + k, 3 + m]
             if glove.extensible_segments[k]:
@@ -91,7 +100,7 @@ def strain_balance(glove, q, strain, pressure, motion, estimating):
 
 
 @kernel
-def balance_strains(glove, q, pressure, motion, estimating):
+def balance_strains(glove, work, q, pressure, motion, estimating):
     """Newton on :func:`strain_balance` from ε = 0.
 
     Returns (converged, strain (3,), other (3,)): ``other`` as in :func:`strain_balance`.
@@ -100,14 +109,17 @@ def balance_strains(glove, q, pressure, motion, estimating):
     trial = np.empty(3)
     x = np.empty(6)
     x[:3] = q
-    value, slope, scale, other = strain_balance(glove, q, strain, pressure, motion, estimating)
+    value, slope, scale, other = strain_balance(
+        glove, work, q, strain, pressure, motion, estimating
+    )
     size = norm(value)
     outcome = (value, slope, scale, other)
     trial_size = size
     for _ in range(MAX_ITERATIONS):
         if size <= RTOL * scale:
             return True, strain, other
-        step = solve(slope, -value)
+        step = np.empty(3)
+        solve(slope, -value, step, work.matrix)
         step_size = norm(step)
         if not math.isfinite(step_size):
             return False, strain, other
@@ -118,7 +130,7 @@ def balance_strains(glove, q, pressure, motion, estimating):
                 trial[k] = strain[k] + alpha * step[k]
                 x[3 + k] = trial[k]
             if allowed(glove, x):
-                outcome = strain_balance(glove, q, trial, pressure, motion, estimating)
+                outcome = strain_balance(glove, work, q, trial, pressure, motion, estimating)
                 trial_size = norm(outcome[0])
                 if math.isfinite(trial_size) and (
                     step_size <= XTOL or trial_size <= (1.0 - ARMIJO * alpha) * size
@@ -137,19 +149,20 @@ def balance_strains(glove, q, pressure, motion, estimating):
 
 
 @kernel
-def hold(glove, q, motion):
+def hold(packed, q, motion):
     """Pressures (Pa) that hold angles ``q`` and the bottom strains; whether that converged.
 
     ``motion`` as in :func:`.statics.finger_load` (the speed row gives q̇; ``rate`` is 0).
     """
+    glove, work = unpack(packed), workspace()
     if glove.extensible:
-        return balance_strains(glove, q, np.zeros(3), motion, False)
+        return balance_strains(glove, work, q, np.zeros(3), motion, False)
     x = q.copy()
     residual = np.empty(3)
     jacobian = np.empty((3, 3))
     forces = np.empty(3)
     torque = np.empty(3)
-    evaluate(glove, x, np.zeros(3), False, motion, 0.0, residual, jacobian, forces, torque)
+    evaluate(glove, work, x, np.zeros(3), False, motion, 0.0, residual, jacobian, forces, torque)
     pressure = np.empty(3)
     for k in range(3):
         pressure[k] = -residual[k] / glove.pressure_moments[k]
@@ -157,40 +170,44 @@ def hold(glove, q, motion):
 
 
 @kernel
-def estimate(glove, q, pressure):
+def estimate(glove, work, q, pressure):
     """Robot-side contact forces (N) from measured ``q`` and ``pressure``, bottom strains.
 
     Returns (converged, strain (3,), forces (3,)); needs no finger model.
     """
     motion = np.zeros((3, 3))
     if glove.extensible:
-        return balance_strains(glove, q, pressure, motion, True)
+        return balance_strains(glove, work, q, pressure, motion, True)
     residual = np.empty(3)
     jacobian = np.empty((3, 3))
     forces = np.empty(3)
     torque = np.empty(3)
-    evaluate(glove, q.copy(), pressure, True, motion, 0.0, residual, jacobian, forces, torque)
-    j_robot = robot_terms(q, glove.arc_lengths, glove.block_half_lengths, False)[0]
-    return True, np.zeros(3), transpose_solve(j_robot, residual)
+    x = q.copy()
+    evaluate(glove, work, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque)
+    robot_terms(q, glove.arc_lengths, glove.block_half_lengths, False, work)
+    transpose_solve(work.j_robot, residual, forces)
+    return True, np.zeros(3), forces
 
 
 @kernel
-def estimate_rows(glove, angles, pressures):
+def estimate_rows(packed, angles, pressures):
     """:func:`estimate` for rows (N, 3): (converged (N,), strains (N, 3), forces (N, 3))."""
+    glove, work = unpack(packed), workspace()
     rows = angles.shape[0]
     converged = np.empty(rows, np.bool_)
     strains = np.empty((rows, 3))
     forces = np.empty((rows, 3))
     for r in range(rows):
-        converged[r], strains[r], forces[r] = estimate(glove, angles[r], pressures[r])
+        converged[r], strains[r], forces[r] = estimate(glove, work, angles[r], pressures[r])
     return converged, strains, forces
 
 
 @kernel
-def contact_torques(glove, angles, forces):
+def contact_torques(packed, angles, forces):
     """(J_H*)ᵀ f per row of angles and contact forces (N, 3): the finger's joint torque, N·m."""
+    glove, work = unpack(packed), workspace()
     torque = np.empty(angles.shape)
     for r in range(angles.shape[0]):
-        j_finger = finger_terms(angles[r], glove.finger_half_lengths)[0]
-        torque[r] = transpose_product(j_finger, forces[r])
+        finger_terms(angles[r], glove.finger_half_lengths, work.j_finger, work.finger_slopes)
+        transpose_product(work.j_finger, forces[r], torque[r])
     return torque

@@ -83,35 +83,46 @@ _warned = False
 Function = TypeVar('Function', bound=Callable)
 
 
-def kernel(function: Function) -> Function:
+def kernel(function: Function | None = None, *, inline: bool = False):
     """Compile ``function`` with numba, cached (module docstring); return it as is without JIT.
+
+    ``@kernel`` or ``@kernel(inline=True)``.
 
     Parameters
     ----------
     function : callable
         A kernel of this package: a flat function of floats and small numpy arrays.
+    inline : bool
+        Inline the kernel into the kernels that call it, at numba's level (``inline='always'``).
+        For the small leaf kernels of the hot path: a call between compiled functions costs the
+        reference counts of its array arguments, more than the arithmetic of a 3×3 problem
+        (measured: one evaluation of the statics 3.4 µs with calls, 1.3 µs inlined). Not for
+        large kernels: every call site compiles its own copy.
 
     Returns
     -------
     callable
         numba's dispatcher, or ``function`` itself when :data:`JIT` is false.
     """
+    if function is None:
+        return lambda decorated: kernel(decorated, inline=inline)
     if not JIT:
         return function
+    options = {**_OPTIONS, 'inline': 'always'} if inline else _OPTIONS
     directory = cache_directory()
     if directory is not None:
-        compiled = _cached(function, directory)
+        compiled = _cached(function, directory, options)
         if compiled is not None:
             return compiled
-    return numba.njit(cache=False, **_OPTIONS)(function)
+    return numba.njit(cache=False, **options)(function)
 
 
-def _cached(function: Callable, directory: Path) -> Callable | None:
+def _cached(function: Callable, directory: Path, options: dict) -> Callable | None:
     """The cached dispatcher numba makes of ``function`` in ``directory``, or None."""
     previous = numba.config.CACHE_DIR
     numba.config.CACHE_DIR = str(directory)
     try:
-        compiled = numba.njit(cache=True, **_OPTIONS)(function)
+        compiled = numba.njit(cache=True, **options)(function)
     except RuntimeError as error:
         if 'cannot cache' not in str(error):
             raise

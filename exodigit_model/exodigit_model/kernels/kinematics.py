@@ -32,7 +32,8 @@ J*[i, k] = n_i · ∂zc_i/∂q_k. With D_ik = ∂zc_i/∂q_k = i(zc_i − z_{k+1
 J*_H[i, k] = ℓ_i + Σ_{j=k}^{i−1} 2ℓ_j cos(q_{j+1} + … + q_i), the paper's printed (J_H*)ᵀ.
 
 Both Jacobians are lower triangular with positive diagonals (d_{k+1} + ℓ_k(1 − cos q_k)/q_k²
-and ℓ_k): always invertible. Slopes are arrays ``[m, i, k]`` = ∂J[i, k]/∂q_m.
+and ℓ_k): always invertible. Slopes are arrays ``[m, i, k]`` = ∂J[i, k]/∂q_m. The kernels
+fill arrays of a :class:`.workspace.Workspace` (or given ones) in place.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ SERIES_LIMIT = 0.25
 """Below this half-angle, sinc and its derivatives come from their Taylor series."""
 
 
-@kernel
+@kernel(inline=True)
 def sinc_terms(x):
     """s(x) = sin(x)/x, s'(x) and s''(x), smooth and accurate at x = 0.
 
@@ -67,13 +68,9 @@ def sinc_terms(x):
     return s, s1, -s - 2.0 * s1 / x
 
 
-@kernel
-def chord_terms(q):
-    """Per joint: e^{iq/2}, the unit chord C(q), C'(q) and C''(q) (complex arrays (3,))."""
-    half_turn = np.empty(3, np.complex128)
-    chord = np.empty(3, np.complex128)
-    slope = np.empty(3, np.complex128)
-    curvature = np.empty(3, np.complex128)
+@kernel(inline=True)
+def chord_terms(q, half_turn, chord, slope, curvature):
+    """Per joint, into the complex arrays (3,): e^{iq/2}, the unit chord C(q), C'(q), C''(q)."""
     for k in range(3):
         x = 0.5 * q[k]
         s, s1, s2 = sinc_terms(x)
@@ -82,52 +79,40 @@ def chord_terms(q):
         chord[k] = s * h
         slope[k] = 0.5 * h * complex(s1, s)
         curvature[k] = 0.25 * h * complex(s2 - s, 2.0 * s1)
-    return half_turn, chord, slope, curvature
 
 
-@kernel
-def frames(half_turn, chord, lengths, half_lengths):
-    """e^{iφ_j} (4), body origins z_j (4) and contact points zc_k (3) of the exo-digit (eq 4).
+@kernel(inline=True)
+def frames(half_turn, chord, lengths, half_lengths, turns, origins, centres):
+    """Into ``turns`` e^{iφ_j} (4), body origins z_j (4) and contact points zc_k (3) (eq 4).
 
     ``lengths`` are the arcs' bottom-face lengths ℓ_k, ``half_lengths`` d_0..d_3 (m).
     """
-    turns = np.empty(4, np.complex128)
-    origins = np.empty(4, np.complex128)
-    centres = np.empty(3, np.complex128)
     turns[0] = 1.0
     origins[0] = 0.0
     for k in range(3):
         origins[k + 1] = origins[k] + turns[k] * (2.0 * half_lengths[k] + lengths[k] * chord[k])
         turns[k + 1] = turns[k] * half_turn[k] * half_turn[k]
         centres[k] = origins[k + 1] + turns[k + 1] * half_lengths[k + 1]
-    return turns, origins, centres
 
 
-@kernel
-def robot_terms(q, lengths, half_lengths, with_lengths):
-    """J_R* and its slopes; with ``with_lengths`` also J_ℓ* and the slopes §12 adds.
+@kernel(inline=True)
+def robot_terms(q, lengths, half_lengths, with_lengths, work):
+    """J_R* and its slopes into ``work`` (:class:`.workspace.Workspace`).
 
-    Returns
-    -------
-    j_robot : (3, 3)
-        J_R*[i, k].
-    robot_slopes : (3, 3, 3)
-        [m, i, k] = ∂J_R*[i, k]/∂q_m.
-    j_length : (3, 3)
-        J_ℓ*[i, k] (zero unless ``with_lengths``).
-    length_slopes : (3, 3, 3)
-        [m, i, k] = ∂J_ℓ*[i, k]/∂q_m.
-    robot_length_slopes : (3, 3, 3)
-        [k, i, m] = ∂J_R*[i, m]/∂ℓ_k.
+    With ``with_lengths`` also J_ℓ* and the slopes §12 adds (``j_length``, ``length_slopes``,
+    ``robot_length_slopes``; left as they are otherwise).
     """
-    half_turn, chord, slope, curvature = chord_terms(q)
-    turns, origins, centres = frames(half_turn, chord, lengths, half_lengths)
-    j_robot = np.zeros((3, 3))
-    robot_slopes = np.zeros((3, 3, 3))
-    j_length = np.zeros((3, 3))
-    length_slopes = np.zeros((3, 3, 3))
-    robot_length_slopes = np.zeros((3, 3, 3))
-    local = np.zeros((3, 3), np.complex128)
+    chord, slope, curvature = work.chord, work.chord_slope, work.curvature
+    turns, origins, centres, local = work.turns, work.origins, work.centres, work.local
+    chord_terms(q, work.half_turn, chord, slope, curvature)
+    frames(work.half_turn, chord, lengths, half_lengths, turns, origins, centres)
+    j_robot, robot_slopes = work.j_robot, work.robot_slopes
+    j_robot[:, :] = 0.0
+    robot_slopes[:, :, :] = 0.0
+    if with_lengths:
+        work.j_length[:, :] = 0.0
+        work.length_slopes[:, :, :] = 0.0
+        work.robot_length_slopes[:, :, :] = 0.0
     for i in range(3):
         back = turns[i + 1].conjugate()
         for k in range(i + 1):
@@ -141,42 +126,40 @@ def robot_terms(q, lengths, half_lengths, with_lengths):
             if with_lengths:
                 b = unit_turn * chord[k]
                 b_slope = (unit_turn * slope[k]).imag
-                j_length[i, k] = b.imag
-                length_slopes[k, i, k] = b_slope - b.real
-                robot_length_slopes[k, i, k] = b_slope
+                work.j_length[i, k] = b.imag
+                work.length_slopes[k, i, k] = b_slope - b.real
+                work.robot_length_slopes[k, i, k] = b_slope
                 for m in range(k + 1, i + 1):
-                    length_slopes[m, i, k] = -b.real
+                    work.length_slopes[m, i, k] = -b.real
                 for m in range(k):
-                    robot_length_slopes[k, i, m] = b.real
+                    work.robot_length_slopes[k, i, m] = b.real
     for i in range(3):
         for k in range(i + 1):
             for m in range(k + 1, i + 1):
                 robot_slopes[m, i, k] = (local[i, m] - local[i, k]).real
-    return j_robot, robot_slopes, j_length, length_slopes, robot_length_slopes
 
 
-@kernel
-def finger_terms(q, half_lengths):
-    """J_H*[i, k] of the finger (3, 3) and its slopes [m, i, k] = ∂J_H*[i, k]/∂q_m."""
+@kernel(inline=True)
+def finger_terms(q, half_lengths, matrix, slopes):
+    """J_H*[i, k] of the finger into ``matrix`` (3, 3), its slopes [m, i, k] into ``slopes``."""
     l0, l1, l2 = half_lengths[0], half_lengths[1], half_lengths[2]
     c1, s1 = math.cos(q[1]), math.sin(q[1])
     c2, s2 = math.cos(q[2]), math.sin(q[2])
     q12 = q[1] + q[2]
     c12, s12 = math.cos(q12), math.sin(q12)
     row2 = l2 + 2.0 * l1 * c2
-    matrix = np.zeros((3, 3))
+    matrix[:, :] = 0.0
     matrix[0, 0] = l0
     matrix[1, 0] = l1 + 2.0 * l0 * c1
     matrix[1, 1] = l1
     matrix[2, 0] = row2 + 2.0 * l0 * c12
     matrix[2, 1] = row2
     matrix[2, 2] = l2
-    slopes = np.zeros((3, 3, 3))
+    slopes[:, :, :] = 0.0
     slopes[1, 1, 0] = -2.0 * l0 * s1
     slopes[1, 2, 0] = -2.0 * l0 * s12
     slopes[2, 2, 1] = -2.0 * l1 * s2
     slopes[2, 2, 0] = -2.0 * l1 * s2 - 2.0 * l0 * s12
-    return matrix, slopes
 
 
 @kernel

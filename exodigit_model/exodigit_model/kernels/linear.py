@@ -7,34 +7,30 @@ import numpy as np
 from .jit import kernel
 
 
-@kernel
-def transpose_solve(lower, rhs):
-    """Solve Lᵀ x = rhs for a lower-triangular 3×3 L (back substitution)."""
-    x = np.empty(3)
+@kernel(inline=True)
+def transpose_solve(lower, rhs, x):
+    """Solve Lᵀ x = rhs for a lower-triangular 3×3 L (back substitution), into ``x``."""
     x[2] = rhs[2] / lower[2, 2]
     x[1] = (rhs[1] - lower[2, 1] * x[2]) / lower[1, 1]
     x[0] = (rhs[0] - lower[1, 0] * x[1] - lower[2, 0] * x[2]) / lower[0, 0]
-    return x
 
 
-@kernel
-def transpose_product(lower, v):
-    """Lᵀ v for a lower-triangular 3×3 L."""
-    x = np.empty(3)
+@kernel(inline=True)
+def transpose_product(lower, v, x):
+    """Lᵀ v for a lower-triangular 3×3 L, into ``x``."""
     x[0] = lower[0, 0] * v[0] + lower[1, 0] * v[1] + lower[2, 0] * v[2]
     x[1] = lower[1, 1] * v[1] + lower[2, 1] * v[2]
     x[2] = lower[2, 2] * v[2]
-    return x
 
 
-@kernel
-def solve(a, b):
-    """Solve A x = b for a square A (3×3 by cofactors, larger by pivoted elimination).
+@kernel(inline=True)
+def solve(a, b, x, scratch):
+    """Solve A x = b into ``x`` for a square A (3×3 by cofactors, larger by pivoted elimination).
 
-    A singular A gives a non-finite x (never an exception): the caller judges it.
+    ``scratch`` (at least n² numbers) takes the elimination's copy of A. A singular A gives a
+    non-finite x (never an exception): the caller judges it.
     """
     n = b.size
-    x = np.empty(n)
     if n == 3:
         c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
         c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
@@ -42,7 +38,7 @@ def solve(a, b):
         determinant = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
         if determinant == 0.0:
             x[:] = np.nan
-            return x
+            return
         inv_det = 1.0 / determinant
         c10 = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
         c11 = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
@@ -53,8 +49,9 @@ def solve(a, b):
         x[0] = (c00 * b[0] + c10 * b[1] + c20 * b[2]) * inv_det
         x[1] = (c01 * b[0] + c11 * b[1] + c21 * b[2]) * inv_det
         x[2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv_det
-        return x
-    m = a.copy()
+        return
+    m = scratch[: n * n].reshape((n, n))
+    m[:, :] = a
     x[:] = b
     for col in range(n):
         pivot = col
@@ -63,7 +60,7 @@ def solve(a, b):
                 pivot = row
         if m[pivot, col] == 0.0:
             x[:] = np.nan
-            return x
+            return
         if pivot != col:
             for j in range(n):
                 m[col, j], m[pivot, j] = m[pivot, j], m[col, j]
@@ -78,4 +75,3 @@ def solve(a, b):
         for j in range(row + 1, n):
             total -= m[row, j] * x[j]
         x[row] = total / m[row, row]
-    return x

@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .jit import kernel
 from .linear import solve
 from .statics import evaluate
@@ -41,7 +39,7 @@ CONVERGED, CONVERGED_STEP, ITERATION_LIMIT, NO_DECREASE, NOT_FINITE = range(5)
 """Status codes (codes below ITERATION_LIMIT are converged)."""
 
 
-@kernel
+@kernel(inline=True)
 def allowed(glove, x):
     """Whether every segment's bottom face and top fibre keep a stretch ≥ MIN_STRETCH (12.1)."""
     for k in range(3):
@@ -51,7 +49,7 @@ def allowed(glove, x):
     return True
 
 
-@kernel
+@kernel(inline=True)
 def norm(v):
     """Euclidean norm of a small vector."""
     total = 0.0
@@ -61,11 +59,12 @@ def norm(v):
 
 
 @kernel
-def newton(glove, x, pressure, free, motion, rate, forces, torque):
+def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
 
-    ``free``, ``motion`` and ``rate`` describe the finger (:func:`.statics.evaluate`);
-    ``forces`` and ``torque`` receive f (N) and τ_H (N·m) at the final ``x``.
+    ``work`` is the scratch (:mod:`.workspace`); ``free``, ``motion`` and ``rate`` describe the
+    finger (:func:`.statics.evaluate`); ``forces`` and ``torque`` receive f (N) and τ_H (N·m)
+    at the final ``x``.
 
     Returns
     -------
@@ -77,14 +76,14 @@ def newton(glove, x, pressure, free, motion, rate, forces, torque):
         Residual norm at the final ``x``, N·m.
     """
     n = x.size
-    residual = np.empty(n)
-    jacobian = np.empty((n, n))
-    trial = np.empty(n)
-    trial_residual = np.empty(n)
-    trial_jacobian = np.empty((n, n))
-    trial_forces = np.empty(3)
-    trial_torque = np.empty(3)
-    scale = evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces, torque)
+    residual, trial_residual = work.residual[:n], work.trial_residual[:n]
+    jacobian = work.jacobian[: n * n].reshape((n, n))
+    trial_jacobian = work.trial_jacobian[: n * n].reshape((n, n))
+    trial, step = work.trial[:n], work.step[:n]
+    trial_forces, trial_torque = work.trial_forces, work.trial_torque
+    scale = evaluate(
+        glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque
+    )
     size_of_residual = norm(residual)
     if not math.isfinite(size_of_residual):
         return NOT_FINITE, 0, size_of_residual
@@ -92,19 +91,23 @@ def newton(glove, x, pressure, free, motion, rate, forces, torque):
         return CONVERGED, 0, size_of_residual
     iterations = 0
     for _ in range(MAX_ITERATIONS):
-        step = solve(jacobian, -residual)
+        for k in range(n):
+            trial_residual[k] = -residual[k]
+        solve(jacobian, trial_residual, step, work.matrix)
         step_size = norm(step)
         if not math.isfinite(step_size):
             return NOT_FINITE, iterations, size_of_residual
         small = step_size <= XTOL
         alpha = 1.0
         accepted = False
+        trial_scale = trial_size = 0.0
         for _ in range(MAX_HALVINGS):
             for k in range(n):
                 trial[k] = x[k] + alpha * step[k]
             if allowed(glove, trial):
                 trial_scale = evaluate(
                     glove,
+                    work,
                     trial,
                     pressure,
                     free,

@@ -9,29 +9,37 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import LAW_ROM_MAX, LAW_ROM_MIN
+from .constants import LAW_ROM_MAX, LAW_ROM_MIN, unpack
 from .jit import kernel
+from .kinematics import finger_terms, robot_terms
 from .newton import newton
+from .statics import evaluate, finger_load
+from .workspace import workspace
 
 
 @kernel
-def solve_state(glove, pressure, x, free, motion, rate):
-    """Newton from ``x`` (updated in place) at ``pressure`` (Pa).
+def solve_state(packed, pressure, x, free, motion, rate):
+    """Newton from ``x`` (updated in place) at ``pressure`` (Pa), ``packed`` constants.
 
     Returns status, iterations, residual norm (N·m), f (N) and τ_H (N·m).
     """
+    glove = unpack(packed)
     forces = np.empty(3)
     torque = np.empty(3)
-    status, iterations, residual = newton(glove, x, pressure, free, motion, rate, forces, torque)
+    work = workspace()
+    status, iterations, residual = newton(
+        glove, work, x, pressure, free, motion, rate, forces, torque
+    )
     return status, iterations, residual, forces, torque
 
 
 @kernel
-def solve_rows(glove, pressures, starts, free, motions, rate):
+def solve_rows(packed, pressures, starts, free, motions, rate):
     """:func:`solve_state` for every row: pressures (N, 3), starts (N, n), motions (N, 3, 3).
 
     Returns x (N, n), f (N, 3), τ_H (N, 3), status (N,), iterations (N,), residual (N,).
     """
+    glove = unpack(packed)
     rows = pressures.shape[0]
     x = starts.copy()
     forces = np.empty((rows, 3))
@@ -39,14 +47,15 @@ def solve_rows(glove, pressures, starts, free, motions, rate):
     status = np.empty(rows, np.int64)
     iterations = np.empty(rows, np.int64)
     residual = np.empty(rows)
+    work = workspace()
     for r in range(rows):
         status[r], iterations[r], residual[r] = newton(
-            glove, x[r], pressures[r], free, motions[r], rate, forces[r], torque[r]
+            glove, work, x[r], pressures[r], free, motions[r], rate, forces[r], torque[r]
         )
     return x, forces, torque, status, iterations, residual
 
 
-@kernel
+@kernel(inline=True)
 def stretch_in_range(glove, x, low, high):
     """Whether every fibre's stretch (12.1) lies in [low, high] (the bottom face and the top)."""
     for k in range(3):
@@ -57,7 +66,7 @@ def stretch_in_range(glove, x, low, high):
     return True
 
 
-@kernel
+@kernel(inline=True)
 def in_range_of_motion(glove, q):
     """Whether every joint lies in its range of motion [rom_min, rom_max]."""
     for k in range(3):  # noqa: SIM110 (numba compiles no generator expressions)
@@ -67,8 +76,9 @@ def in_range_of_motion(glove, q):
 
 
 @kernel
-def validity_rows(glove, x, low, high):
+def validity_rows(packed, x, low, high):
     """Rows of x (N, n): :func:`stretch_in_range`, :func:`in_range_of_motion`."""
+    glove = unpack(packed)
     rows = x.shape[0]
     valid = np.empty(rows, np.bool_)
     moving_range = np.empty(rows, np.bool_)
@@ -76,3 +86,32 @@ def validity_rows(glove, x, low, high):
         valid[r] = stretch_in_range(glove, x[r], low, high)
         moving_range[r] = in_range_of_motion(glove, x[r])
     return valid, moving_range
+
+
+@kernel
+def evaluate_state(packed, x, pressure, free, motion, rate):
+    """The residual (N·m) and its Jacobian at unknowns ``x`` (:func:`.statics.evaluate`)."""
+    residual = np.empty(x.size)
+    jacobian = np.empty((x.size, x.size))
+    forces = np.empty(3)
+    torque = np.empty(3)
+    glove, work = unpack(packed), workspace()
+    evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque)
+    return residual, jacobian
+
+
+@kernel
+def finger_torques(packed, q, motion):
+    """τ_H of (11.1) at angles ``q`` for ``motion`` (:func:`.statics.finger_load`), N·m."""
+    torque = np.empty(3)
+    finger_load(unpack(packed), q, motion, 0.0, torque, np.empty(3))
+    return torque
+
+
+@kernel
+def jacobians_at(packed, q, lengths):
+    """(J_R*, J_H*, J_ℓ*) at angles ``q`` and bottom-face ``lengths`` (m), each (3, 3)."""
+    glove, work = unpack(packed), workspace()
+    robot_terms(q, lengths, glove.block_half_lengths, True, work)
+    finger_terms(q, glove.finger_half_lengths, work.j_finger, work.finger_slopes)
+    return work.j_robot.copy(), work.j_finger.copy(), work.j_length.copy()

@@ -38,8 +38,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .jit import kernel
 from .kinematics import finger_terms, robot_terms
 from .linear import transpose_product, transpose_solve
@@ -48,31 +46,29 @@ from .section import resultants
 from .structural import structural_torque
 
 
-@kernel
-def finger_load(glove, q, motion, rate, torque):
-    """τ_H of (11.1) at ``q`` into ``torque`` (N·m); returns dτ_H,k/dq_k (N·m/rad), (3,).
+@kernel(inline=True)
+def finger_load(glove, q, motion, rate, torque, slopes):
+    """τ_H of (11.1) at ``q`` into ``torque`` (N·m), dτ_H,k/dq_k into ``slopes`` (N·m/rad).
 
     ``motion`` rows: the previous angles q_prev (rad), a given speed v (rad/s) and the effort u
     (N·m); q̇ = v + (q − q_prev)·rate, with ``rate`` = 1/Δt in a stepped solve (v = 0) and 0
     in a static one or at a given speed.
     """
-    slopes = np.empty(3)
     for k in range(3):
         speed = motion[1, k] + (q[k] - motion[0, k]) * rate
-        value, slope = finger_torque(glove.laws[k], q[k], speed, rate)
-        effort = motion[2, k]
-        torque[k] = value - effort
-        slopes[k] = slope
-    return slopes
+        value, slopes[k] = finger_torque(glove.laws[k], q[k], speed, rate)
+        torque[k] = value - motion[2, k]
 
 
-@kernel
-def evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces, torque):
+@kernel(inline=True)
+def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque):
     """F (or (R, S)) at unknowns ``x`` into ``residual``, ∂/∂x into ``jacobian``; the scale.
 
     Parameters
     ----------
     glove : GloveConstants
+    work : Workspace
+        Scratch (:mod:`.workspace`).
     x : ndarray, shape (3,) or (6,)
         q (rad), and ε with extensible segments (``glove.extensible``).
     pressure : ndarray, shape (3,)
@@ -89,28 +85,24 @@ def evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces,
     float
         ‖|terms|‖: the norm of the per-row sums of the absolute terms, N·m.
     """
-    n = x.size
-    extensible = n == 6
+    extensible = x.size == 6
     rest = glove.arc_lengths
-    lengths = np.empty(3)
-    for k in range(3):
-        lengths[k] = rest[k] * (1.0 + x[3 + k]) if extensible else rest[k]
-    tau = np.empty(3)
-    tau_slope = np.empty(3)
-    moment_rate = np.zeros(3)
-    axial = np.zeros(3)  # N of (12.2)
-    force_rate = np.zeros(3)
+    lengths, tau, tau_slope = work.lengths, work.tau, work.tau_slope
+    moment_rate, axial, force_rate = work.moment_rate, work.axial, work.force_rate
+    coupling, stretching = work.coupling, work.stretching
     for k in range(3):
         if extensible:
+            lengths[k] = rest[k] * (1.0 + x[3 + k])
             moment, axial[k], moment_slope, moment_rate[k], force_rate[k] = resultants(
                 glove, k, x[k], x[3 + k]
             )
             tau[k], tau_slope[k] = -moment, -moment_slope
         else:
+            lengths[k] = rest[k]
             tau[k], tau_slope[k] = structural_torque(glove, k, x[k])
     jacobian[:, :] = 0.0
-    coupling = np.zeros(3)
-    stretching = np.zeros(3)
+    coupling[:] = 0.0
+    stretching[:] = 0.0
     if free:
         forces[:] = 0.0
         torque[:] = 0.0
@@ -118,40 +110,39 @@ def evaluate(glove, x, pressure, free, motion, rate, residual, jacobian, forces,
             jacobian[m, m] = tau_slope[m]
     else:
         q = x[:3]
-        j_robot, robot_slopes, j_length, length_slopes, robot_length_slopes = robot_terms(
-            q, lengths, glove.block_half_lengths, extensible
-        )
-        j_finger, finger_slopes = finger_terms(q, glove.finger_half_lengths)
-        load_slopes = finger_load(glove, q, motion, rate, torque)
-        forces[:] = transpose_solve(j_finger, torque)
-        coupling = transpose_product(j_robot, forces)
+        robot_terms(q, lengths, glove.block_half_lengths, extensible, work)
+        j_robot, j_length, j_finger = work.j_robot, work.j_length, work.j_finger
+        finger_terms(q, glove.finger_half_lengths, j_finger, work.finger_slopes)
+        finger_load(glove, q, motion, rate, torque, work.load_slopes)
+        transpose_solve(j_finger, torque, forces)
+        transpose_product(j_robot, forces, coupling)
         if extensible:
-            stretching = transpose_product(j_length, forces)
-        rhs = np.empty(3)
+            transpose_product(j_length, forces, stretching)
+        rhs, force_slope, column = work.rhs, work.force_slope, work.column
         for m in range(3):
             for k in range(3):
-                rhs[k] = load_slopes[k] if k == m else 0.0
+                rhs[k] = work.load_slopes[k] if k == m else 0.0
                 for i in range(3):
-                    rhs[k] -= finger_slopes[m, i, k] * forces[i]
-            force_slope = transpose_solve(j_finger, rhs)
-            column = transpose_product(j_robot, force_slope)
+                    rhs[k] -= work.finger_slopes[m, i, k] * forces[i]
+            transpose_solve(j_finger, rhs, force_slope)
+            transpose_product(j_robot, force_slope, column)
             for k in range(3):
                 value = -column[k]
                 for i in range(3):
-                    value -= robot_slopes[m, i, k] * forces[i]
+                    value -= work.robot_slopes[m, i, k] * forces[i]
                 jacobian[k, m] = value + (tau_slope[m] if k == m else 0.0)
             if extensible:
-                column = transpose_product(j_length, force_slope)
+                transpose_product(j_length, force_slope, column)
                 for k in range(3):
                     if glove.extensible_segments[k]:
                         value = -column[k]
                         for i in range(3):
-                            value -= length_slopes[m, i, k] * forces[i]
+                            value -= work.length_slopes[m, i, k] * forces[i]
                         jacobian[3 + k, m] = rest[k] * value
-            for k in range(3):
-                if extensible:
+                for k in range(3):
                     for i in range(3):
-                        jacobian[k, 3 + m] -= rest[m] * robot_length_slopes[m, i, k] * forces[i]
+                        slope = work.robot_length_slopes[m, i, k]
+                        jacobian[k, 3 + m] -= rest[m] * slope * forces[i]
     if extensible:
         for m in range(3):
             jacobian[m, 3 + m] -= moment_rate[m]  # ∂R_m/∂ε_m = −∂M_m/∂ε_m

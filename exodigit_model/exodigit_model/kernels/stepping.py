@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import LAW_DAMPING, LAW_EXTENSOR_SPASTICITY, LAW_SPASTICITY
+from .constants import LAW_DAMPING, LAW_EXTENSOR_SPASTICITY, LAW_SPASTICITY, unpack
 from .jit import kernel
 from .newton import CONVERGED_STEP, newton
 from .solves import in_range_of_motion, stretch_in_range
+from .workspace import workspace
 
 
-@kernel
+@kernel(inline=True)
 def moves_with_speed(glove):
     """Whether τ_H depends on the joint speed (damping or spasticity at some joint)."""
     for k in range(3):
@@ -35,7 +36,7 @@ def moves_with_speed(glove):
     return False
 
 
-@kernel
+@kernel(inline=True)
 def advance_chambers(pressure, command, decay, supply):
     """Clip ``command`` to [0, supply] and lag ``pressure`` toward it, both in place (Pa).
 
@@ -54,12 +55,14 @@ def advance_chambers(pressure, command, decay, supply):
 
 
 @kernel
-def step_glove(glove, state, command, effort, decay, supply, rate, valid_low, valid_high):
+def step_glove(glove, work, state, command, effort, decay, supply, rate, valid_low, valid_high):
     """One glove one step on: the new state in new arrays (the inputs are left as they are).
 
     Parameters
     ----------
     glove : GloveConstants
+    work : Workspace
+        Scratch (:mod:`.workspace`).
     state : tuple of ndarray
         (x, q_before, pressure, forces, torque): the unknowns of the last good state, the
         angles one step before it (rad), the chamber pressures (Pa), f (N) and τ_H (N·m).
@@ -97,7 +100,7 @@ def step_glove(glove, state, command, effort, decay, supply, rate, valid_low, va
     forces = np.empty(3)
     torque = np.empty(3)
     status, iterations, residual = newton(
-        glove, start, pressure, False, motion, rate, forces, torque
+        glove, work, start, pressure, False, motion, rate, forces, torque
     )
     valid = stretch_in_range(glove, start, valid_low, valid_high)
     moving_range = in_range_of_motion(glove, start)
@@ -113,7 +116,16 @@ def step_glove(glove, state, command, effort, decay, supply, rate, valid_low, va
 
 
 @kernel
-def run_glove(glove, state, commands, efforts, decay, supply, rate, valid_low, valid_high):
+def step_one(packed, state, command, effort, decay, supply, rate, valid_low, valid_high):
+    """:func:`step_glove` from Python (``packed`` constants)."""
+    glove, work = unpack(packed), workspace()
+    return step_glove(
+        glove, work, state, command, effort, decay, supply, rate, valid_low, valid_high
+    )
+
+
+@kernel
+def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, valid_high):
     """:func:`step_glove` for every row of ``commands`` and ``efforts`` (T, 3), recorded.
 
     Returns
@@ -124,6 +136,7 @@ def run_glove(glove, state, commands, efforts, decay, supply, rate, valid_low, v
         Per step: the clipped command, the pressure, q̇, f, τ_H (T, 3) and the unknowns x
         (T, n); status, iterations, residual (T,); the flags of the outcome (T, 4).
     """
+    glove, work = unpack(packed), workspace()
     steps = commands.shape[0]
     n = state[0].size
     applied = np.empty((steps, 3))
@@ -138,7 +151,7 @@ def run_glove(glove, state, commands, efforts, decay, supply, rate, valid_low, v
     flags = np.empty((steps, 4), np.bool_)
     for t in range(steps):
         state, applied[t], qdot[t], outcome = step_glove(
-            glove, state, commands[t], efforts[t], decay, supply, rate, valid_low, valid_high
+            glove, work, state, commands[t], efforts[t], decay, supply, rate, valid_low, valid_high
         )
         unknowns[t], pressure[t], forces[t], torque[t] = state[0], state[2], state[3], state[4]
         status[t], iterations[t], residual[t] = outcome[0], outcome[1], outcome[2]
@@ -159,12 +172,13 @@ def run_glove(glove, state, commands, efforts, decay, supply, rate, valid_low, v
 
 
 @kernel
-def step_gloves(glove, states, commands, efforts, decay, supply, rate, valid_low, valid_high):
+def step_gloves(packed, states, commands, efforts, decay, supply, rate, valid_low, valid_high):
     """:func:`step_glove` for every glove of a batch: ``states`` of arrays with a leading N.
 
     Returns the new states, the clipped commands, q̇ (N, 3), status, iterations, residual (N,)
     and the flags (N, 4) of :func:`run_glove`.
     """
+    glove, work = unpack(packed), workspace()
     rows = commands.shape[0]
     new = (
         states[0].copy(),
@@ -182,7 +196,7 @@ def step_gloves(glove, states, commands, efforts, decay, supply, rate, valid_low
     for r in range(rows):
         state = (states[0][r], states[1][r], states[2][r], states[3][r], states[4][r])
         state, applied[r], qdot[r], outcome = step_glove(
-            glove, state, commands[r], efforts[r], decay, supply, rate, valid_low, valid_high
+            glove, work, state, commands[r], efforts[r], decay, supply, rate, valid_low, valid_high
         )
         for j in range(5):
             new[j][r] = state[j]

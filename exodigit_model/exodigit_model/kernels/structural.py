@@ -14,22 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .constants import DEGREE, PIECE_WIDTH, PIECES, U_MIN, unpack
 from .jit import kernel
 from .section import resultants
 
-U_MIN = -0.6
-"""Lowest tabulated top-fibre strain (λ_top = 0.4)."""
-U_MAX = 1.6
-"""Highest tabulated top-fibre strain (λ_top = 2.6)."""
-PIECES = 44
-"""Number of equal pieces of the table in u."""
-DEGREE = 9
-"""Polynomial degree of each piece."""
-PIECE_WIDTH = (U_MAX - U_MIN) / PIECES
-"""Width of one piece in u."""
 
-
-@kernel
+@kernel(inline=True)
 def structural_torque(glove, k, q):
     """τ_s = −M(q) (N·m) and dτ_s/dq (N·m/rad) of segment ``k`` at angle ``q`` (rad)."""
     u_per_q = glove.strain_per_angle[k]
@@ -49,8 +39,9 @@ def structural_torque(glove, k, q):
 
 
 @kernel
-def structural_torques(glove, angles):
-    """τ_s (N·m) and dτ_s/dq (N·m/rad) for rows of angles (N, 3), rad."""
+def structural_torques(packed, angles):
+    """τ_s (N·m) and dτ_s/dq (N·m/rad) for rows of angles (N, 3), rad (``packed`` constants)."""
+    glove = unpack(packed)
     torque = np.empty(angles.shape)
     slope = np.empty(angles.shape)
     for r in range(angles.shape[0]):
