@@ -143,7 +143,7 @@ class GloveSession:
 
     def stiffness_identified(self, since: float) -> bool:
         """An identified stiffness after ``since`` within tolerance of the model's K_H."""
-        true = np.array([law.stiffness for law in self.model.laws])
+        true = np.array([joint.stiffness for joint in self.model.params.finger.joints])
         return any(
             np.allclose(m.data, true, rtol=STIFFNESS_TOLERANCE, atol=0)
             for m in self.inbox['estimated_finger_stiffness'].messages(since)

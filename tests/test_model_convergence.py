@@ -27,8 +27,7 @@ why.
 
 Hypothesis runs derandomized here: the same examples every run, so that the shared suite stays
 deterministic (the properties also passed with random seeds and eight times the examples). The
-failures the exploration found are pinned by the xfail regressions at the end: they pass once
-the inverse is fixed.
+failures the exploration found are pinned by the regressions at the end.
 """
 
 import math
@@ -458,7 +457,9 @@ def test_the_inverse_of_any_angles_in_the_range_holds_them_or_raises(layers, joi
     try:
         pressure, lengths = model.hold(q)
     except ValueError as error:
-        assert str(error).startswith('hold: '), str(error)  # why: the xfail regression below
+        assert str(error).startswith('hold: '), str(
+            error
+        )  # why: test_an_inverse_that_cannot_hold_says_why
         return
     assert np.all(np.isfinite(pressure)) and np.all(np.isfinite(lengths))
     assert_holds(model, q, pressure, lengths)
@@ -466,14 +467,10 @@ def test_the_inverse_of_any_angles_in_the_range_holds_them_or_raises(layers, joi
 
 # -- regressions: what the exploration found -----------------------------------------------------
 
-FOLD = (
-    'hold: the Newton on the bottom strains starts from eps = 0; between there and the root '
-    '(eps_MCP = 0.20-0.25) the MCP strain balance g(eps) has a positive local minimum (g > 0, '
-    "g' = 0 at eps_MCP = 0.08-0.15): Newton descends into it, its step grows without bound as "
-    "g' -> 0 and the line search finds no decrease, so hold raises although the forward solve "
-    'reaches the state inside the validated range and the range of motion (no tolerance: the '
-    'same at s, m = 1e-3 and 1e3; from eps_MCP = 0.3 the same Newton converges in 5-7 steps)'
-)
+# hold once started its Newton on the bottom strains from eps = 0 only; between there and the
+# root (eps_MCP = 0.20-0.25) the MCP strain balance g(eps) has a positive local minimum (g > 0,
+# g' = 0 at eps_MCP = 0.08-0.15) where Newton stalled, so hold raised although the forward solve
+# reaches these states inside the validated range and the range of motion.
 FOLDED_STATES = [
     ('stroke_moderate', 0.0, (100e3, 0.0, 90e3)),
     ('stroke_moderate', 0.1, (80e3, 0.0, 90e3)),
@@ -492,7 +489,6 @@ def test_the_folded_states_are_model_states(name, layer, p):
     assert_same_forces(forces, solution.forces, 1.0)
 
 
-@pytest.mark.xfail(strict=True, reason=FOLD)
 @pytest.mark.parametrize(('name', 'layer', 'p'), FOLDED_STATES)
 def test_hold_finds_the_strains_of_a_state_the_forward_solve_reaches(name, layer, p):
     model = preset_glove(name, (layer, math.inf, math.inf))
@@ -505,12 +501,6 @@ CONDITION = re.compile(r'stretch|range of motion|suction|negative pressure|compr
 """Words that name why the inverse cannot hold angles (the validated stretch, ...)."""
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason='hold raises "no bottom-face strain balances the segments" and does not say which '
-    'condition failed: here the DIP top fibre is past the validated stretch (1.87 > 1.5 at '
-    'eps = 0); the only root found lies far outside it (p_DIP = 5.8 MPa, lambda_b,DIP = 3.3)',
-)
 def test_an_inverse_that_cannot_hold_says_why():
     model = glove((0.0, 0.0, 0.0))
     q = np.radians([10.0, 10.0, 60.0])

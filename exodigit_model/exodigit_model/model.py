@@ -36,7 +36,7 @@ from .kernels.solves import (
     validity_rows,
 )
 from .kernels.structural import structural_torques
-from .params import GloveParams, load_params
+from .params import JOINT_NAMES, GloveParams, load_params
 from .patient import law_row
 from .section import SectionQuadrature, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS
@@ -590,10 +590,25 @@ class GloveModel:
         """
         angles = as_joint_vector('q', q)
         motion, _ = self._motion(effort=effort, qdot=qdot)
-        converged, strain, pressure = hold(self.packed, angles, motion)
+        converged, strain, pressure, left = hold(self.packed, angles, motion)
         if not converged:
-            raise ValueError('hold: no bottom-face strain balances the segments')
+            raise ValueError(self._unbalanced('hold', angles, strain, left))
         return pressure, self.constants.arc_lengths * (1.0 + strain)
+
+    def _unbalanced(self, what: str, q: NDArray, strain: NDArray, left: NDArray) -> str:
+        """Why the strain balance of ``what`` failed: the segment left most out of balance."""
+        k = int(np.argmax(np.abs(left)))
+        stretch = self.top_fibre_stretch(q, strain)[k]
+        low, high = VALID_STRETCH
+        where = (
+            'inside' if low <= 1.0 + strain[k] <= high and low <= stretch <= high else 'outside'
+        )
+        return (
+            f'{what}: no bottom-face strain balances the segments at q = {np.round(q, 6)} rad '
+            f'(the {JOINT_NAMES[k]} segment stopped {left[k]:.3g} N·m out of balance at '
+            f'bottom stretch {1.0 + strain[k]:.4g}, top {stretch:.4g}: {where} the validated '
+            f'range {low:g}..{high:g})'
+        )
 
     def finger_forces(
         self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
@@ -626,19 +641,20 @@ class GloveModel:
             If no bottom-face strain balances the segments (extensible segments only).
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        converged, strains, forces = estimate_rows(self.packed, angles[None], pressure[None])
+        converged, strains, forces, left = estimate_rows(self.packed, angles[None], pressure[None])
         if not converged[0]:
-            raise ValueError('estimate: no bottom-face strain balances the segments')
+            raise ValueError(self._unbalanced('estimate', angles, strains[0], left[0]))
         return forces[0], self.constants.arc_lengths * (1.0 + strains[0])
 
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         _require_shape('P', pressure, 'Q', angles.shape)
-        converged, _, forces = estimate_rows(self.packed, angles, pressure)
+        converged, strains, forces, left = estimate_rows(self.packed, angles, pressure)
         if not np.all(converged):
             row = int(np.argmin(converged))
-            raise ValueError(f'estimate: no bottom-face strain balances the segments (row {row})')
+            message = self._unbalanced('estimate', angles[row], strains[row], left[row])
+            raise ValueError(f'{message} (row {row})')
         return forces
 
     def contact_torque(self, q: ArrayLike, forces: ArrayLike) -> NDArray[np.float64]:

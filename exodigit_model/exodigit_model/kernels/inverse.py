@@ -99,14 +99,45 @@ def strain_balance(glove, work, q, strain, pressure, motion, estimating):
     return value, slope, scale, other
 
 
+STRAIN_STARTS = (0.0, 0.3, 0.6)
+"""Bottom strains the strain balance starts from, in turn, on the extensible segments.
+
+Between the unstretched layer and the root, the balance of a soft layer under a high pressure
+and a stiff finger can have a local minimum above zero (g > 0, g' = 0): Newton from ε = 0
+stalls there. The balance falls without bound as ε grows, so a start beyond the root converges;
+the first start that converges gives the root returned (the one nearest the unstretched layer
+when several exist)."""
+
+
 @kernel
 def balance_strains(glove, work, q, pressure, motion, estimating):
-    """Newton on :func:`strain_balance` from ε = 0.
+    """Newton on :func:`strain_balance`, from each of STRAIN_STARTS until one converges.
 
-    Returns (converged, strain (3,), other (3,)): ``other`` as in :func:`strain_balance`.
+    Returns (converged, strain (3,), other (3,), value (3,)): ``other`` as in
+    :func:`strain_balance`, ``value`` the balance left at ``strain`` (zero when converged).
     """
     strain = np.zeros(3)
+    other = np.zeros(3)
+    value = np.zeros(3)
+    for start in STRAIN_STARTS:
+        for k in range(3):
+            strain[k] = start if glove.extensible_segments[k] else 0.0
+        converged, other, value = newton_on_strains(
+            glove, work, q, strain, pressure, motion, estimating
+        )
+        if converged:
+            break
+    return converged, strain, other, value
+
+
+@kernel
+def newton_on_strains(glove, work, q, strain, pressure, motion, estimating):
+    """Damped Newton on :func:`strain_balance` from ``strain`` (updated in place).
+
+    Returns (converged, other (3,), value (3,)) at the final ``strain``.
+    """
     trial = np.empty(3)
+    step = np.empty(3)
     x = np.empty(6)
     x[:3] = q
     value, slope, scale, other = strain_balance(
@@ -117,12 +148,11 @@ def balance_strains(glove, work, q, pressure, motion, estimating):
     trial_size = size
     for _ in range(MAX_ITERATIONS):
         if size <= RTOL * scale:
-            return True, strain, other
-        step = np.empty(3)
+            return True, other, value
         solve(slope, -value, step, work.matrix)
         step_size = norm(step)
         if not math.isfinite(step_size):
-            return False, strain, other
+            return False, other, value
         alpha = 1.0
         accepted = False
         for _ in range(MAX_HALVINGS):
@@ -139,18 +169,18 @@ def balance_strains(glove, work, q, pressure, motion, estimating):
                     break
             alpha *= 0.5
         if not accepted:
-            return False, strain, other
+            return False, other, value
         strain[:] = trial
         value, slope, scale, other = outcome
         size = trial_size
         if step_size <= XTOL:
-            return True, strain, other
-    return size <= RTOL * scale, strain, other
+            return True, other, value
+    return size <= RTOL * scale, other, value
 
 
 @kernel
 def hold(packed, q, motion):
-    """Pressures (Pa) that hold angles ``q`` and the bottom strains; whether that converged.
+    """(converged, bottom strains, pressures (Pa), balance left) that hold angles ``q``.
 
     ``motion`` as in :func:`.statics.finger_load` (the speed row gives q̇; ``rate`` is 0).
     """
@@ -166,14 +196,14 @@ def hold(packed, q, motion):
     pressure = np.empty(3)
     for k in range(3):
         pressure[k] = -residual[k] / glove.pressure_moments[k]
-    return True, np.zeros(3), pressure
+    return True, np.zeros(3), pressure, np.zeros(3)
 
 
 @kernel
 def estimate(glove, work, q, pressure):
     """Robot-side contact forces (N) from measured ``q`` and ``pressure``, bottom strains.
 
-    Returns (converged, strain (3,), forces (3,)); needs no finger model.
+    Returns (converged, strain (3,), forces (3,), balance left (3,)); needs no finger model.
     """
     motion = np.zeros((3, 3))
     if glove.extensible:
@@ -186,20 +216,23 @@ def estimate(glove, work, q, pressure):
     evaluate(glove, work, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque)
     robot_terms(q, glove.arc_lengths, glove.block_half_lengths, False, work)
     transpose_solve(work.j_robot, residual, forces)
-    return True, np.zeros(3), forces
+    return True, np.zeros(3), forces, np.zeros(3)
 
 
 @kernel
 def estimate_rows(packed, angles, pressures):
-    """:func:`estimate` for rows (N, 3): (converged (N,), strains (N, 3), forces (N, 3))."""
+    """:func:`estimate` for rows (N, 3): converged (N,), strains, forces, balance left (N, 3)."""
     glove, work = unpack(packed), workspace()
     rows = angles.shape[0]
     converged = np.empty(rows, np.bool_)
     strains = np.empty((rows, 3))
     forces = np.empty((rows, 3))
+    left = np.empty((rows, 3))
     for r in range(rows):
-        converged[r], strains[r], forces[r] = estimate(glove, work, angles[r], pressures[r])
-    return converged, strains, forces
+        converged[r], strains[r], forces[r], left[r] = estimate(
+            glove, work, angles[r], pressures[r]
+        )
+    return converged, strains, forces, left
 
 
 @kernel

@@ -107,12 +107,17 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
     chord_terms(q, work.half_turn, chord, slope, curvature)
     frames(work.half_turn, chord, lengths, half_lengths, turns, origins, centres)
     j_robot, robot_slopes = work.j_robot, work.robot_slopes
+    j_length, length_slopes, robot_length_slopes = (
+        work.j_length,
+        work.length_slopes,
+        work.robot_length_slopes,
+    )
     j_robot[:, :] = 0.0
     robot_slopes[:, :, :] = 0.0
     if with_lengths:
-        work.j_length[:, :] = 0.0
-        work.length_slopes[:, :, :] = 0.0
-        work.robot_length_slopes[:, :, :] = 0.0
+        j_length[:, :] = 0.0
+        length_slopes[:, :, :] = 0.0
+        robot_length_slopes[:, :, :] = 0.0
     for i in range(3):
         back = turns[i + 1].conjugate()
         for k in range(i + 1):
@@ -126,13 +131,13 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
             if with_lengths:
                 b = unit_turn * chord[k]
                 b_slope = (unit_turn * slope[k]).imag
-                work.j_length[i, k] = b.imag
-                work.length_slopes[k, i, k] = b_slope - b.real
-                work.robot_length_slopes[k, i, k] = b_slope
+                j_length[i, k] = b.imag
+                length_slopes[k, i, k] = b_slope - b.real
+                robot_length_slopes[k, i, k] = b_slope
                 for m in range(k + 1, i + 1):
-                    work.length_slopes[m, i, k] = -b.real
+                    length_slopes[m, i, k] = -b.real
                 for m in range(k):
-                    work.robot_length_slopes[k, i, m] = b.real
+                    robot_length_slopes[k, i, m] = b.real
     for i in range(3):
         for k in range(i + 1):
             for m in range(k + 1, i + 1):

@@ -42,9 +42,10 @@ CONVERGED, CONVERGED_STEP, ITERATION_LIMIT, NO_DECREASE, NOT_FINITE = range(5)
 @kernel(inline=True)
 def allowed(glove, x):
     """Whether every segment's bottom face and top fibre keep a stretch ≥ MIN_STRETCH (12.1)."""
+    strain_per_angle = glove.strain_per_angle
     for k in range(3):
         bottom = 1.0 + x[3 + k] if x.size == 6 else 1.0
-        if bottom < MIN_STRETCH or bottom + x[k] * glove.strain_per_angle[k] < MIN_STRETCH:
+        if bottom < MIN_STRETCH or bottom + x[k] * strain_per_angle[k] < MIN_STRETCH:
             return False
     return True
 
@@ -80,7 +81,7 @@ def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     jacobian = work.jacobian[: n * n].reshape((n, n))
     trial_jacobian = work.trial_jacobian[: n * n].reshape((n, n))
     trial, step = work.trial[:n], work.step[:n]
-    trial_forces, trial_torque = work.trial_forces, work.trial_torque
+    trial_forces, trial_torque, matrix = work.trial_forces, work.trial_torque, work.matrix
     scale = evaluate(
         glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque
     )
@@ -93,7 +94,7 @@ def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     for _ in range(MAX_ITERATIONS):
         for k in range(n):
             trial_residual[k] = -residual[k]
-        solve(jacobian, trial_residual, step, work.matrix)
+        solve(jacobian, trial_residual, step, matrix)
         step_size = norm(step)
         if not math.isfinite(step_size):
             return NOT_FINITE, iterations, size_of_residual

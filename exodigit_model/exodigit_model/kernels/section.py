@@ -31,9 +31,10 @@ def resultants(glove, k, q, strain):
     """
     c1, c2, c3 = glove.material[0], glove.material[1], glove.material[2]
     per_length = 1.0 / glove.arc_lengths[k]
+    heights, weights = glove.heights, glove.weights
     moment = force = moment_slope = moment_rate = force_rate = 0.0
-    for j in range(glove.heights.shape[1]):
-        y, w = glove.heights[k, j], glove.weights[k, j]
+    for j in range(heights.shape[1]):
+        y, w = heights[k, j], weights[k, j]
         y_per_length = y * per_length
         stress, slope = stress_and_slope(c1, c2, c3, strain + q * y_per_length)
         wy = w * y

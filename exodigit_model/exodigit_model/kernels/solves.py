@@ -58,9 +58,10 @@ def solve_rows(packed, pressures, starts, free, motions, rate):
 @kernel(inline=True)
 def stretch_in_range(glove, x, low, high):
     """Whether every fibre's stretch (12.1) lies in [low, high] (the bottom face and the top)."""
+    strain_per_angle = glove.strain_per_angle
     for k in range(3):
         bottom = 1.0 + x[3 + k] if x.size == 6 else 1.0
-        top = bottom + x[k] * glove.strain_per_angle[k]
+        top = bottom + x[k] * strain_per_angle[k]
         if not (low <= bottom <= high and low <= top <= high):
             return False
     return True
@@ -69,8 +70,9 @@ def stretch_in_range(glove, x, low, high):
 @kernel(inline=True)
 def in_range_of_motion(glove, q):
     """Whether every joint lies in its range of motion [rom_min, rom_max]."""
+    laws = glove.laws
     for k in range(3):  # noqa: SIM110 (numba compiles no generator expressions)
-        if not glove.laws[k, LAW_ROM_MIN] <= q[k] <= glove.laws[k, LAW_ROM_MAX]:
+        if not laws[k, LAW_ROM_MIN] <= q[k] <= laws[k, LAW_ROM_MAX]:
             return False
     return True
 

@@ -54,9 +54,10 @@ def finger_load(glove, q, motion, rate, torque, slopes):
     (N·m); q̇ = v + (q − q_prev)·rate, with ``rate`` = 1/Δt in a stepped solve (v = 0) and 0
     in a static one or at a given speed.
     """
+    laws = glove.laws
     for k in range(3):
         speed = motion[1, k] + (q[k] - motion[0, k]) * rate
-        value, slopes[k] = finger_torque(glove.laws[k], q[k], speed, rate)
+        value, slopes[k] = finger_torque(laws[k], q[k], speed, rate)
         torque[k] = value - motion[2, k]
 
 
@@ -90,6 +91,14 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
     lengths, tau, tau_slope = work.lengths, work.tau, work.tau_slope
     moment_rate, axial, force_rate = work.moment_rate, work.axial, work.force_rate
     coupling, stretching = work.coupling, work.stretching
+    # Arrays are taken out of the named tuples once, here: inside a loop every access would
+    # cost a reference count pair (most of an evaluation's time, measured).
+    segments_stretch = glove.extensible_segments
+    layer_stiffness, moments, areas = (
+        glove.layer_stiffness,
+        glove.pressure_moments,
+        glove.pressure_areas,
+    )
     for k in range(3):
         if extensible:
             lengths[k] = rest[k] * (1.0 + x[3 + k])
@@ -112,8 +121,11 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
         q = x[:3]
         robot_terms(q, lengths, glove.block_half_lengths, extensible, work)
         j_robot, j_length, j_finger = work.j_robot, work.j_length, work.j_finger
-        finger_terms(q, glove.finger_half_lengths, j_finger, work.finger_slopes)
-        finger_load(glove, q, motion, rate, torque, work.load_slopes)
+        robot_slopes, length_slopes = work.robot_slopes, work.length_slopes
+        robot_length_slopes = work.robot_length_slopes
+        finger_slopes, load_slopes = work.finger_slopes, work.load_slopes
+        finger_terms(q, glove.finger_half_lengths, j_finger, finger_slopes)
+        finger_load(glove, q, motion, rate, torque, load_slopes)
         transpose_solve(j_finger, torque, forces)
         transpose_product(j_robot, forces, coupling)
         if extensible:
@@ -121,47 +133,47 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
         rhs, force_slope, column = work.rhs, work.force_slope, work.column
         for m in range(3):
             for k in range(3):
-                rhs[k] = work.load_slopes[k] if k == m else 0.0
+                rhs[k] = load_slopes[k] if k == m else 0.0
                 for i in range(3):
-                    rhs[k] -= work.finger_slopes[m, i, k] * forces[i]
+                    rhs[k] -= finger_slopes[m, i, k] * forces[i]
             transpose_solve(j_finger, rhs, force_slope)
             transpose_product(j_robot, force_slope, column)
             for k in range(3):
                 value = -column[k]
                 for i in range(3):
-                    value -= work.robot_slopes[m, i, k] * forces[i]
+                    value -= robot_slopes[m, i, k] * forces[i]
                 jacobian[k, m] = value + (tau_slope[m] if k == m else 0.0)
             if extensible:
                 transpose_product(j_length, force_slope, column)
                 for k in range(3):
-                    if glove.extensible_segments[k]:
+                    if segments_stretch[k]:
                         value = -column[k]
                         for i in range(3):
-                            value -= work.length_slopes[m, i, k] * forces[i]
+                            value -= length_slopes[m, i, k] * forces[i]
                         jacobian[3 + k, m] = rest[k] * value
                 for k in range(3):
                     for i in range(3):
-                        slope = work.robot_length_slopes[m, i, k]
+                        slope = robot_length_slopes[m, i, k]
                         jacobian[k, 3 + m] -= rest[m] * slope * forces[i]
     if extensible:
         for m in range(3):
             jacobian[m, 3 + m] -= moment_rate[m]  # ∂R_m/∂ε_m = −∂M_m/∂ε_m
-            if glove.extensible_segments[m]:
+            if segments_stretch[m]:
                 jacobian[3 + m, m] -= moment_rate[m]  # ℓ̂ ∂N/∂q = ∂M/∂ε
-                jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + glove.layer_stiffness[m])
+                jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + layer_stiffness[m])
             else:
                 jacobian[3 + m, 3 + m] = 1.0
     total = 0.0
     for k in range(3):
-        drive = glove.pressure_moments[k] * pressure[k]
+        drive = moments[k] * pressure[k]
         residual[k] = tau[k] + drive - coupling[k]
         size = abs(tau[k]) + abs(drive) + abs(coupling[k])
         total += size * size
     if extensible:
         for k in range(3):
-            if glove.extensible_segments[k]:
-                layer = glove.layer_stiffness[k] * x[3 + k]
-                area = glove.pressure_areas[k] * pressure[k]
+            if segments_stretch[k]:
+                layer = layer_stiffness[k] * x[3 + k]
+                area = areas[k] * pressure[k]
                 residual[3 + k] = rest[k] * (-axial[k] - layer + area - stretching[k])
                 size = rest[k] * (abs(axial[k]) + abs(layer) + abs(area) + abs(stretching[k]))
                 total += size * size

@@ -27,8 +27,9 @@ from .workspace import workspace
 @kernel(inline=True)
 def moves_with_speed(glove):
     """Whether τ_H depends on the joint speed (damping or spasticity at some joint)."""
+    laws = glove.laws
     for k in range(3):
-        law = glove.laws[k]
+        law = laws[k]
         if law[LAW_DAMPING] > 0.0 or law[LAW_SPASTICITY] > 0.0:
             return True
         if law[LAW_EXTENSOR_SPASTICITY] > 0.0:

@@ -29,12 +29,12 @@ def structural_torque(glove, k, q):
         return -moment, -moment_slope
     piece = int(s)
     t = 2.0 * (s - piece) - 1.0
-    rows = glove.table[k]
-    g = rows[DEGREE, piece]
+    table = glove.table
+    g = table[k, DEGREE, piece]
     dg = 0.0
     for n in range(DEGREE - 1, -1, -1):
         dg = dg * t + g
-        g = g * t + rows[n, piece]
+        g = g * t + table[k, n, piece]
     return -q * g, -g - q * dg * (2.0 * u_per_q / PIECE_WIDTH)
 
 
