@@ -1,9 +1,9 @@
 """exodigit_model: quasi-static model of a soft pneumatic exo-digit strapped to a finger.
 
-A ROS-free package (numpy, scipy, PyYAML) implementing MODEL.md: the kinematics of the exo-digit
-and the finger, the Yeoh material, pressure and structural torques, the coupled quasi-static solve
-and its inverse, the contact-force estimators, the stepper that advances gloves in time, and the
-joiner that pairs the samples of a glove's streams by time.
+A ROS-free package (numpy, scipy, PyYAML, numba) implementing docs/model.md: the kinematics of
+the exo-digit and the finger, the Yeoh material, pressure and structural torques, the coupled
+quasi-static solve and its inverse, the contact-force estimators, the stepper that advances gloves
+in time, and the joiner that pairs the samples of a glove's streams by time.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())

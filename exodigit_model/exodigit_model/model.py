@@ -198,7 +198,13 @@ def as_joint_list(name: str, value: ArrayLike) -> list[float]:
 
 
 def as_joint_vector(name: str, value: ArrayLike) -> NDArray[np.float64]:
-    """``value`` as a finite float array of shape (3,), or a ValueError naming ``name``."""
+    """``value`` as a finite float array of shape (3,) (a copy), or a ValueError naming it."""
+    if type(value) is np.ndarray and value.shape == (3,) and value.dtype == np.float64:
+        # the hot path of every step: an array of three floats already
+        q0, q1, q2 = value.tolist()
+        if not (math.isfinite(q0) and math.isfinite(q1) and math.isfinite(q2)):
+            raise ValueError(f'{name} must be finite, got {[q0, q1, q2]}')
+        return value.copy()
     return np.array(as_joint_list(name, value))
 
 

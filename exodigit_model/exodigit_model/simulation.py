@@ -277,7 +277,7 @@ class GloveSimulation:
         self._kernel_state = state
         self.chambers.pressure, self.chambers.command = state[2], applied
         self.chambers.record(below, above)
-        self.solver_failures += int(np.count_nonzero(~np.asarray(converged)))
+        self.solver_failures += int(np.count_nonzero(~converged)) if self.count else not converged
         self.step_count += 1
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         q = state[0][..., :3]
@@ -394,6 +394,8 @@ class GloveSimulation:
         rest = self.model.constants.arc_lengths
         if self.model.extensible:
             return rest * (1.0 + x[..., 3:])
+        if x.shape == self.shape:
+            return self._rest_lengths  # the same read-only array at every step
         return np.broadcast_to(rest, x.shape)
 
     def _rows(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
@@ -419,6 +421,7 @@ class GloveSimulation:
     def _rest_state(self) -> GloveState:
         zeros = np.zeros(self.shape)
         self._zeros = zeros
+        self._rest_lengths = np.broadcast_to(self.model.constants.arc_lengths, self.shape)
         rest = self.model.solve(zeros if self.count is None else np.zeros(3))
         x = self.model.unknowns(rest.q, rest.lengths)
         x = np.broadcast_to(x, (*self.shape[:-1], x.size)).copy()
