@@ -304,3 +304,13 @@ def test_patient_parameters_are_validated_naming_key_value_and_rule(terms, fragm
 def test_a_bad_stepped_solve_is_refused_naming_the_argument(kwargs, fragment):
     with pytest.raises(ValueError, match=fragment):
         NOMINAL.solve([10e3] * 3, **kwargs)
+
+
+def test_each_named_law_column_holds_the_parameter_of_its_name():
+    # one table: the LAW_* indices the kernels read by and the parameters law_row copies in
+    from exodigit_model.kernels import constants
+
+    joint = FULL_MODEL.params.finger.joints[1]
+    row = FULL_MODEL.constants.laws[1]
+    for name in constants.LAW_PARAMETERS:
+        assert row[getattr(constants, f'LAW_{name.upper()}')] == getattr(joint, name)

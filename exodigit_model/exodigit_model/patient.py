@@ -15,42 +15,19 @@ from numpy.typing import NDArray
 
 from .kernels.constants import (
     LAW_COLUMNS,
-    LAW_DAMPING,
-    LAW_EXTENSOR_SPASTICITY,
     LAW_LOWER_AT_REST,
-    LAW_REST_ANGLE,
-    LAW_ROM_MAX,
-    LAW_ROM_MIN,
-    LAW_ROM_SHARPNESS,
-    LAW_ROM_TORQUE,
+    LAW_PARAMETERS,
     LAW_SPASTIC_AT_ZERO,
-    LAW_SPASTICITY,
-    LAW_SPASTICITY_THRESHOLD,
-    LAW_STIFFNESS,
     LAW_UPPER_AT_REST,
 )
 from .kernels.patient import SPASTICITY_WIDTH, softplus_and_sigmoid
 from .params import FingerJoint
 
-_COLUMNS = {
-    LAW_STIFFNESS: 'stiffness',
-    LAW_REST_ANGLE: 'rest_angle',
-    LAW_ROM_TORQUE: 'rom_torque',
-    LAW_ROM_SHARPNESS: 'rom_sharpness',
-    LAW_ROM_MIN: 'rom_min',
-    LAW_ROM_MAX: 'rom_max',
-    LAW_DAMPING: 'damping',
-    LAW_SPASTICITY: 'spasticity',
-    LAW_EXTENSOR_SPASTICITY: 'extensor_spasticity',
-    LAW_SPASTICITY_THRESHOLD: 'spasticity_threshold',
-}
-"""Columns copied from the parameter of the same name."""
-
 
 def law_row(joint: FingerJoint) -> NDArray[np.float64]:
     """The constants of (11.1)-(11.3) for one validated joint, shape (LAW_COLUMNS,)."""
     row = np.zeros(LAW_COLUMNS)
-    for column, name in _COLUMNS.items():
+    for column, name in enumerate(LAW_PARAMETERS):
         row[column] = getattr(joint, name)
     beta = joint.rom_sharpness
     row[LAW_UPPER_AT_REST] = math.exp(beta * (joint.rest_angle - joint.rom_max))

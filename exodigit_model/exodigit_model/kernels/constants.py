@@ -29,6 +29,19 @@ DEGREE = 9
 PIECE_WIDTH = (U_MAX - U_MIN) / PIECES
 """Width of one piece in u."""
 
+LAW_PARAMETERS = (
+    'stiffness',
+    'rest_angle',
+    'rom_torque',
+    'rom_sharpness',
+    'rom_min',
+    'rom_max',
+    'damping',
+    'spasticity',
+    'extensor_spasticity',
+    'spasticity_threshold',
+)
+"""The first columns of GloveConstants.laws: the finger joint's parameter of that name."""
 # Columns of GloveConstants.laws (one row per joint; eqs 11.1-11.3).
 LAW_STIFFNESS = 0  # k, N·m/rad
 LAW_REST_ANGLE = 1  # q_r, rad
