@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+import rclpy
 from builtin_interfaces.msg import Time
 from exodigit_nodes.catalog import NODES
 from exodigit_nodes.controllers import (
@@ -25,11 +26,14 @@ from exodigit_nodes.inputs import (
     stamp_age,
     stamp_seconds,
 )
+from exodigit_nodes.node_base import descriptor
 from exodigit_nodes.parameters import ParamSpec, ParamTable
 from exodigit_nodes.safety import SafetyLimiter, SafetyLimits
 from exodigit_nodes.watchdog import Watchdog
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from exodigit_model import GloveModel, load_params, params_from_dict
@@ -178,6 +182,41 @@ def test_good_values_are_converted_to_the_parameter_type():
     assert MODE.check('hold') == 'hold'
     with pytest.raises(ValueError, match='not a parameter'):
         ParamTable([RATE]).check({'rate': 1.0})
+
+
+@pytest.mark.parametrize('default', [5.0, 5], ids=['float', 'int'])
+@pytest.mark.parametrize(
+    ('bounds', 'beyond', 'open_side', 'rule'),
+    [({'low': 0.0}, -1, 10**9, '>= 0'), ({'high': 10.0}, 11, -(10**9), '<= 10')],
+    ids=['low only', 'high only'],
+)
+def test_a_parameter_with_one_bound_is_described_listed_and_checked(
+    ros_domain, default, bounds, beyond, open_side, rule
+):
+    spec = ParamSpec('gain', default, 'gain, Pa/rad', **bounds)
+    kind = type(default)
+    assert spec.help_line() == f'  gain = {default!r} {rule}\n      gain, Pa/rad'
+    with pytest.raises(ValueError, match=f'gain must be {rule}, got'):
+        spec.check(kind(beyond))
+    assert spec.check(kind(open_side)) == open_side
+    # The node's declaration: rclpy takes the descriptor and refuses what lies past the bound
+    # (a local node in its own context, without parameter services or rosout: no traffic).
+    context = rclpy.Context()
+    rclpy.init(
+        context=context, domain_id=ros_domain, signal_handler_options=SignalHandlerOptions.NO
+    )
+    try:
+        node = rclpy.create_node(
+            'one_bound', context=context, start_parameter_services=False, enable_rosout=False
+        )
+        node.declare_parameter('gain', default, descriptor(spec))
+        refused = node.set_parameters([Parameter('gain', value=kind(beyond))])[0]
+        accepted = node.set_parameters([Parameter('gain', value=kind(open_side))])[0]
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+    assert not refused.successful and 'out of range' in refused.reason, refused.reason
+    assert accepted.successful, accepted.reason
 
 
 # -- controllers ---------------------------------------------------------------------------

@@ -45,6 +45,9 @@ LOG_THROTTLE = 2.0
 DROP_WARNING = 5.0
 """How long after the latest dropped input message the diagnostics stay at WARN, s."""
 
+INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
+"""The ends of an IntegerRange (int64) used where a parameter's range is open on one side."""
+
 _TYPES = {
     bool: ParameterType.PARAMETER_BOOL,
     int: ParameterType.PARAMETER_INTEGER,
@@ -78,14 +81,17 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
         result.additional_constraints = 'a file name, or a list of file names merged in order'
     if kind is tuple:
         result.additional_constraints = 'three values: MCP, PIP, DIP'
-    if spec.low is not None and kind is int:
-        result.integer_range = [
-            IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=0)
-        ]
-    elif spec.low is not None:
-        result.floating_point_range = [
-            FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high), step=0.0)
-        ]
+    if spec.low is None and spec.high is None:
+        return result
+    # A range has both ends: an open one is the type's limit (the check refuses non-finite).
+    if kind is int:
+        low = INT64_MIN if spec.low is None else int(spec.low)
+        high = INT64_MAX if spec.high is None else int(spec.high)
+        result.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+    else:
+        low = -sys.float_info.max if spec.low is None else float(spec.low)
+        high = sys.float_info.max if spec.high is None else float(spec.high)
+        result.floating_point_range = [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
     return result
 
 

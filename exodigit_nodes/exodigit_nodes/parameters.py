@@ -30,7 +30,8 @@ class ParamSpec:
     description : str
         What it means, with its SI unit.
     low, high : float, optional
-        Inclusive range of a number (of every element of a joint vector).
+        Inclusive range of a number (of every element of a joint vector); either may be given
+        alone (no limit on the other side).
     read_only : bool
         Structural: fixed once the node has started.
     choices : tuple of str
@@ -99,14 +100,27 @@ class ParamSpec:
         if (self.low is not None and value < self.low) or (
             self.high is not None and value > self.high
         ):
-            raise ValueError(
-                f'{self.name} must lie in [{self.low:g}, {self.high:g}], got {value!r}'
-            )
+            bounds = self._bounds('lie in [{}, {}]', 'be {}')
+            raise ValueError(f'{self.name} must {bounds}, got {value!r}')
         return kind(value)
+
+    def _bounds(self, both: str, one: str = '{}') -> str:
+        """The range in words (empty without one).
+
+        ``both`` filled with low and high when the range has both ends, else ``one`` filled
+        with ``>= low`` or ``<= high``.
+        """
+        if self.low is not None and self.high is not None:
+            return both.format(f'{self.low:g}', f'{self.high:g}')
+        if self.low is not None:
+            return one.format(f'>= {self.low:g}')
+        if self.high is not None:
+            return one.format(f'<= {self.high:g}')
+        return ''
 
     def rule(self) -> str:
         """The rule a value follows, as ``--help`` shows it: ``[1 .. 5000] (read-only)``."""
-        allowed = f'[{self.low:g} .. {self.high:g}]' if self.low is not None else ''
+        allowed = self._bounds('[{} .. {}]')
         if self.choices:
             allowed = f'{{{", ".join(self.choices)}}}'
         return ' '.join(filter(None, (allowed, '(read-only)' if self.read_only else '')))
