@@ -130,10 +130,6 @@ class StiffnessWindow:
         self._next = (self._next + 1) % self.size
         self.count = min(self.count + 1, self.size)
 
-    def clear(self) -> None:
-        """Empty the window."""
-        self.count = self._next = 0
-
     def fit(self) -> StiffnessFit:
         """The least-squares spring τ̂_H,k = k_k (q_k − q_r,k) over the window.
 

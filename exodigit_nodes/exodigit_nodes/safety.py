@@ -144,9 +144,3 @@ class SafetyLimiter:
         sent = np.clip(ramped, 0.0, limits.max_pressure)
         self.last = sent
         return Limited(sent.copy(), reasons)
-
-    def reset(self) -> None:
-        """Forget the last command and any cap (start again from zero)."""
-        self.last = np.zeros(3)
-        self.ceiling = np.full(3, np.inf)
-        self.backing_off = False
