@@ -17,6 +17,10 @@ from rclpy.task import Future
 from exodigit_nodes import horizon
 
 PERIOD = 0.01
+READY_POLLS = 100
+"""Most polls of Horizon.ready a test waits for: the stand-ins answer each request at once, so
+three do (ask the rate, set the first limit, see it answered); a count, not a clock, because
+some tests freeze time.monotonic."""
 
 
 class StandInClient:
@@ -60,6 +64,14 @@ class StandInNode:
         return client
 
 
+def wait_ready(hold):
+    """Poll ``hold.ready`` until it is; fail the test after READY_POLLS polls (never hang)."""
+    for _ in range(READY_POLLS):
+        if hold.ready(0.0):
+            return
+    pytest.fail(f'Horizon.ready still false after {READY_POLLS} polls of answering stand-ins')
+
+
 def limits(client):
     return [request.parameters[0].value.double_value for request in client.requests]
 
@@ -83,10 +95,7 @@ def test_the_first_limit_waits_for_the_rate_and_lies_lead_steps_ahead():
     node = StandInNode()
     hold = Horizon(node, '/glove/plant')
     hold.start(0.0)
-    for _ in range(10):
-        if hold.ready(0.0):
-            break
-    assert hold.ready(0.0)
+    wait_ready(hold)
     assert hold.period == pytest.approx(PERIOD)
     assert [r.names for r in node.clients['get_parameters'].requests] == [['rate_hz']]
     assert limits(node.clients['set_parameters']) == pytest.approx([LEAD_STEPS * PERIOD])
@@ -103,8 +112,7 @@ def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end):
     node = StandInNode()
     hold = Horizon(node, '/glove/plant', period=PERIOD)
     hold.start(end)
-    while not hold.ready(0.0):
-        pass
+    wait_ready(hold)
     setter = node.clients['set_parameters']
     steps = round(end / PERIOD) if end else 40  # the plant pauses at the end of the run
     for k in range(1, steps + 1):  # it takes a step only while the limit allows it
@@ -126,8 +134,7 @@ def test_release_sends_no_limit_after_every_raise_on_the_same_client(monkeypatch
     node = StandInNode()
     hold = Horizon(node, '/glove/plant', period=PERIOD)
     hold.start(0.0)
-    while not hold.ready(0.0):
-        pass
+    wait_ready(hold)
     setter = node.clients['set_parameters']
     setter.lose_next = 1  # the answer to the next raise is lost
     hold.follow(RAISE_STEPS * PERIOD)
