@@ -1,6 +1,7 @@
 """The node table (exodigit_nodes.catalog) is the one source of the nodes, modes and defaults: the
-node classes, setup.py's console scripts, the venv runner, the config YAML and the README's
-parameter blocks agree with it (the launch file: test_packaging_launch.py)."""
+parameters say their units, setup.py's console scripts, the venv runner, the config YAML and the
+README's parameter blocks agree with it (the launch file: test_packaging_launch.py; each node
+module's --help prints its entry's table: test_nodes_units.py)."""
 
 import ast
 import re
@@ -8,17 +9,12 @@ from pathlib import Path
 
 import pytest
 import yaml
-from exodigit_nodes.catalog import (
-    CONFIG_WIDTH,
-    NODES,
-    PLANT_NODE,
-    PRESSURE_COMMAND_NODE,
-    config_text,
-)
+from exodigit_nodes.catalog import CONFIG_WIDTH, NODES, config_text
 from exodigit_nodes.catalog import main as write_config_main
 from exodigit_nodes.controllers import MODES
-from exodigit_nodes.glove import build_parser
+from exodigit_nodes.glove import build_parser, check_arguments, glove_session
 from exodigit_nodes.parameters import ParamSpec
+from exodigit_nodes.run_record import RunRecord
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = ROOT / 'exodigit_nodes'
@@ -27,18 +23,36 @@ README = ROOT / 'README.md'
 README_SECTION = '## Nodes, topics and parameters'
 REGENERATE = 'python -m exodigit_nodes.catalog --write-config exodigit_nodes/config'
 by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
-
-
-def test_the_glove_is_its_three_nodes_plant_first_commands_last():
-    assert [node.executable for node in NODES] == ['plant', 'estimator', 'pressure_command']
+ROS_PARAMETERS = ('use_sim_time',)
+"""Parameters rclpy declares on every node (not in the table)."""
+SI_UNIT = re.compile(
+    r'.*?, (samples|(?:Hz|Pa|rad|N|m|s)(?:[·/(]+(?:Hz|Pa|rad|N|m|s)\)?)*)(?: \(.*\))?'
+)
+"""A number's description: '<meaning>, <SI unit>', then perhaps one remark in parentheses."""
+DIMENSIONLESS = {
+    'seed': 'the seed of a random generator',
+    'real_time_factor': 'simulated seconds per wall second',
+}
+"""Numbers without a unit, each with why."""
 
 
 @by_executable
-def test_each_entry_names_the_node_class_that_declares_its_table(node):
-    node_class = node.node_class()
-    assert node_class.__module__ == node.module
-    assert node_class.executable == node.executable
-    assert node_class.table is node.table
+def test_every_number_states_its_si_unit(node):
+    numbers = [
+        spec
+        for spec in node.table.specs.values()
+        if type(spec.default) in (int, float, tuple) and spec.name not in DIMENSIONLESS
+    ]
+    assert numbers
+    missing = [
+        f'{s.name}: {s.description!r}' for s in numbers if not SI_UNIT.fullmatch(s.description)
+    ]
+    assert missing == [], f'{node.executable}: no ", <SI unit>" in {missing}'
+
+
+def test_every_dimensionless_number_is_a_parameter():
+    names = {name for node in NODES for name in node.table.specs}
+    assert set(DIMENSIONLESS) <= names, 'DIMENSIONLESS names a parameter no node has'
 
 
 def console_scripts() -> dict[str, str]:
@@ -66,20 +80,6 @@ def test_setup_py_installs_each_node_as_a_console_script_of_its_module(node):
     assert console_scripts()[node.executable] == node.entry_point
 
 
-def test_the_modes_are_the_controllers_and_the_runner_offers_them_at_the_nodes_default():
-    mode = PRESSURE_COMMAND_NODE.table['mode']
-    assert mode.choices == tuple(MODES)
-    assert mode.default in MODES
-    for name in MODES:
-        assert name in mode.description
-    defaults = build_parser().parse_args([])
-    assert defaults.mode == mode.default
-    assert defaults.clock == PLANT_NODE.table['clock'].default
-    assert defaults.real_time_factor == PLANT_NODE.table['real_time_factor'].default
-    (option,) = (a for a in build_parser()._actions if a.dest == 'mode')
-    assert tuple(option.choices) == tuple(MODES)
-
-
 def test_a_rule_given_by_position_is_refused():
     # Only name, default and description are positional: ParamSpec('x', '', 'd', True) would
     # otherwise have made x's low bound True.
@@ -89,6 +89,58 @@ def test_a_rule_given_by_position_is_refused():
         ParamSpec('rate_hz', 100.0, 'rate, Hz', 1.0, 1000.0)
     spec = ParamSpec('rate_hz', 100.0, 'rate, Hz', low=1.0, high=1000.0, read_only=True)
     assert spec.rule() == '[1 .. 1000] (read-only)'
+
+
+# -- the runner (python -m exodigit_nodes.glove) -----------------------------------------------
+
+
+def session_of(arguments: list[str], run_dir):
+    """The glove runner's session for these command-line arguments (started: nothing)."""
+    args = build_parser().parse_args(arguments)
+    check_arguments(args)
+    record = RunRecord(run_dir)
+    try:
+        return glove_session(args, record)
+    finally:
+        record.close()
+
+
+def overrides(command: list[str]) -> dict:
+    """The ``-p name:=value`` of a node's command line, each value read as YAML (as ROS does)."""
+    given = [command[i + 1] for i, word in enumerate(command) if word == '-p']
+    return {name: yaml.safe_load(value) for name, value in (p.split(':=', 1) for p in given)}
+
+
+def test_the_runner_starts_the_plant_first_and_stops_the_command_node_first(tmp_path):
+    # The commands need the plant; stopped first they vent the chambers while the plant still
+    # runs. The recorder starts before any node and stops after them, missing nothing.
+    session = session_of(['--record'], tmp_path)
+    started = [name for name, _ in session.processes]
+    assert sorted(started) == sorted(['recorder', *(node.executable for node in NODES)])
+    assert started[0] == 'recorder' and started[1] == 'plant'
+    assert session.stop_order[0] == 'pressure_command' and session.stop_order[-1] == 'recorder'
+    assert sorted(session.stop_order) == sorted(started)
+
+
+@pytest.mark.parametrize('mode', list(MODES))
+@pytest.mark.parametrize(
+    'clock',
+    [[], ['--clock', 'sim', '--lockstep', '--real-time-factor', '0', '--duration', '5']],
+    ids=['wall', 'sim lockstep'],
+)
+def test_the_runner_sets_only_declared_parameters_to_values_they_accept(mode, clock, tmp_path):
+    glove = tmp_path / 'my glove.yaml'  # every node loads it (the plant with the patient)
+    glove.write_text('{}\n')
+    session = session_of(['--mode', mode, '--params-file', str(glove), *clock], tmp_path)
+    commands = dict(session.processes)
+    for node in NODES:
+        command = commands[node.executable]
+        assert command[1:3] == ['-m', node.module]
+        ours = {k: v for k, v in overrides(command).items() if k not in ROS_PARAMETERS}
+        assert ours, node.executable
+        checked = node.table.check(ours)  # ValueError: an unknown name or a refused value
+        assert str(glove) in checked['params_file'], node.executable
+    assert overrides(commands['pressure_command'])['mode'] == mode
 
 
 # -- config YAML -------------------------------------------------------------------------------
