@@ -187,7 +187,9 @@ class GloveEnv(gymnasium.Env):
     **Episode**: starts at rest (vented chambers, q at rest, t = 0). ``terminated`` when the
     step's coupled solve did not converge (the stepper kept the last good state, so the
     physics of the episode ends there); ``truncated`` after ``episode_steps`` steps. Leaving
-    the model's validated stretch range (1 ≤ λ ≤ 1.5, MODEL.md §8) does not end the episode;
+    the model's validated stretch range (0.95 ≤ λ ≤ 1.5, :data:`.model.VALID_STRETCH`: the
+    paper's range from λ = 1, extended down to 0.95 by MODEL.md §12 because a bottom face
+    slightly compressed by the finger is harmless) does not end the episode;
     ``info['in_valid_range']`` reports it.
 
     **Seeding**: ``reset(seed=s)`` runs the stepper with noise seed ``s``, so an episode equals

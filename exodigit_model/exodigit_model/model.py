@@ -70,7 +70,9 @@ class Solution:
     residual : float
         2-norm of F(q, p) at ``q``, N·m.
     in_valid_range : bool
-        Whether every fibre's stretch lies in 1 ≤ λ ≤ 1.5 (the model's validated range).
+        Whether every fibre's stretch lies in 0.95 ≤ λ ≤ 1.5, :data:`VALID_STRETCH` (the model's
+        validated range: the paper's, §2.1.3, starts at λ = 1; MODEL.md §12 extends it down to
+        0.95 because a bottom face slightly compressed by the finger is harmless).
     in_range_of_motion : bool
         Whether every joint lies within the finger's range of motion [rom_min, rom_max].
     lengths : ndarray, shape (3,)
