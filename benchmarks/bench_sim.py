@@ -5,23 +5,40 @@
    (a recorder in this process takes every joint_states and pressure_command).
    [>= 20x real time, stretch 50x]
 2. A controller in the benchmark process through ``GloveSim.step``. [>= 20x real time]
-3. ``GloveSimulation`` in process: one glove, and a batch of 1,000.
-   [>= 10,000 steps/s; >= 200,000 glove-steps/s]
+3. ``GloveSimulation`` in process, no ROS (issue "The model at compiled speed"; the model's own
+   solve figures are in ``benchmarks/bench_model.py``):
+   a. one glove through the public ``step``, a 6,000-step sine command 0-40 kPa;
+      [>= 100,000 steps/s]
+   b. ``run`` of the same 6,000 commands (every step inside compiled code);
+      [>= 300,000 steps/s]
+   c. a batch of 1,000 gloves, ``GloveSimulation(model, count=1000).step``, each glove its own
+      phase of the sine, 200 steps after 20 that settle the chambers.
+      [>= 1,000,000 glove-steps/s on one core]
+   Rates from CPU time (``process_time``; the machine is a shared VM) and from wall time, each
+   measured ``--repeats`` times (median, and the range). Ratios (``Nx``) compare CPU time per
+   step with the plain-Python path of the same source, measured in the same run: the script
+   runs itself with ``--plain`` under ``EXODIGIT_JIT=0`` in a subprocess, which times the same
+   workloads ``--plain-repeats`` times (the batch with 100 gloves, 20 steps) and prints JSON.
+   Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
 4. Determinism: two lockstep runs of the same seeded 6,000-step session (sensor noise on), the
    second while ``--burners`` processes keep the cores busy: samples of joint_states positions
    and commands that differ. [0]
 5. ``real_time_factor 1`` (lockstep with pressure_command): simulated against wall time over
    ``--realtime`` seconds. [within 1 %]
 
-Run: ``.venv/bin/python benchmarks/bench_sim.py [--seconds 60] [--repeats 3] [--realtime 30]``.
-Every ROS process runs in a domain of its own with discovery on loopback.
+Run: ``.venv/bin/python benchmarks/bench_sim.py [--seconds 60] [--repeats 3] [--realtime 30]``
+(``--only 3``: the in-process figures alone). Every ROS process runs in a domain of its own with
+discovery on loopback.
 """
 
 import argparse
+import gc
+import json
 import math
 import multiprocessing
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -29,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
+from exodigit_model.kernels import jit
 from exodigit_nodes.qos import RECORD_QOS
 from exodigit_nodes.testing import GloveSim, claim_domain
 from exodigit_nodes.testing.processes import NodeProcess
@@ -39,12 +57,19 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
-from exodigit_model import GloveSimulation
+from exodigit_model import GloveModel, GloveSimulation
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 RATE_HZ = 100.0
 NS = '/bench_sim'
 START_TIMEOUT = 60.0
+SINE_STEPS = 6000
+SINE_PERIOD = 400
+"""Figure 3's command: 20 kPa (1 - cos) over a period of 400 steps (0-40 kPa), 6,000 steps."""
+BATCH = {'compiled': (1000, 200), 'plain': (100, 20)}
+"""Figure 3c's gloves and timed steps, compiled and on the plain-Python path."""
+SETTLE_STEPS = 20
+"""Untimed steps of figure 3c's batch before the timed ones (four chamber time constants)."""
 
 
 class Recorder(Node):
@@ -173,26 +198,130 @@ def kit_speed(seconds: float, repeats: int) -> None:
     assert state.q[0] >= 0.0
 
 
-def stepper_speed(repeats: int) -> None:
-    commands = 20e3 * (1.0 - np.cos(2.0 * np.pi * np.arange(6000) / 400))
-    single, batch = [], []
+def sine(phase=0.0):
+    """Figure 3's command of every step, Pa: (steps,) or (steps, gloves) with ``phase`` rows."""
+    k = np.arange(SINE_STEPS)[:, None] if np.ndim(phase) else np.arange(SINE_STEPS)
+    return 20e3 * (1.0 - np.cos(2.0 * np.pi * k / SINE_PERIOD + phase))
+
+
+def _clocked(function, arguments: list) -> tuple[float, float]:
+    """(CPU s, wall s) of ``function(a)`` for every ``a`` of ``arguments``, the GC off."""
+    gc.disable()
+    try:
+        cpu, wall = time.process_time(), time.perf_counter()
+        for argument in arguments:
+            function(argument)
+        return time.process_time() - cpu, time.perf_counter() - wall
+    finally:
+        gc.enable()
+
+
+def stepper_timings(repeats: int, path: str) -> dict:
+    """Figure 3 on this process's path: per workload the CPU and wall s per (glove-)step.
+
+    ``path``: 'compiled' or 'plain' (which batch of :data:`BATCH` to time).
+    """
+    model = GloveModel()
+    rows = [np.full(3, p) for p in sine()]
+    commands = np.repeat(sine()[:, None], 3, axis=1)
+    GloveSimulation(model).step(rows[1])  # loads the compiled kernels (compiles them if stale)
+    GloveSimulation(model).run(commands[:5])
+    timings = {name: {'cpu': [], 'wall': []} for name in ('step', 'run', 'batch')}
+
+    def record(name: str, seconds: tuple[float, float], steps: int) -> None:
+        timings[name]['cpu'].append(seconds[0] / steps)
+        timings[name]['wall'].append(seconds[1] / steps)
+
+    failures, same = 0, True
     for _ in range(repeats):
-        simulation = GloveSimulation()
-        rows = [np.full(3, p) for p in commands]
-        start = time.perf_counter()
-        for row in rows:
-            simulation.step(row)
-        single.append(len(rows) / (time.perf_counter() - start))
-        gloves = GloveSimulation(count=1000)
-        scale = np.linspace(0.5, 1.0, 1000)[:, None] * np.ones(3)
-        start = time.perf_counter()
-        for p in commands[:200]:
-            gloves.step(scale * p)
-        batch.append(200 * 1000 / (time.perf_counter() - start))
+        stepped = GloveSimulation(model)
+        record('step', _clocked(stepped.step, rows), SINE_STEPS)
+        ran = GloveSimulation(model)
+        record('run', _clocked(ran.run, [commands]), SINE_STEPS)
+        failures += stepped.solver_failures + ran.solver_failures
+        same = same and bool(np.array_equal(stepped.state.q, ran.state.q))
+
+    count, steps = BATCH[path]
+    phases = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
+    batch = np.ascontiguousarray(np.repeat(sine(phases)[:SINE_PERIOD, :, None], 3, axis=2))
+    gloves = GloveSimulation(model, count=count)
+    for k in range(SETTLE_STEPS):
+        gloves.step(batch[k])
+    k = SETTLE_STEPS
+    for _ in range(repeats):
+        timed = [batch[(k + i) % SINE_PERIOD] for i in range(steps)]
+        k += steps
+        record('batch', _clocked(gloves.step, timed), steps * count)
+    failures += gloves.solver_failures
+    return {
+        'timings': timings,
+        'failures': failures,
+        'same': same,
+        'gloves': count,
+        'steps': steps,
+    }
+
+
+def run_plain(repeats: int) -> dict:
+    """:func:`stepper_timings` in a subprocess of this script with ``EXODIGIT_JIT=0``."""
+    command = [sys.executable, __file__, '--plain', '--repeats', str(repeats)]
+    environment = {**os.environ, 'EXODIGIT_JIT': '0'}
+    done = subprocess.run(command, env=environment, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        sys.stderr.write(done.stderr)
+        raise SystemExit(f'the plain-Python subprocess failed (exit {done.returncode})')
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _rates(seconds: list[float], unit: str) -> str:
+    """Rate from the median s per step: CPU (the range over repeats)."""
+    rates = [1.0 / value for value in seconds]
+    return (
+        f'{1.0 / statistics.median(seconds):,.0f} {unit}/s CPU ({min(rates):,.0f}-'
+        f'{max(rates):,.0f} over {len(rates)} repeats)'
+    )
+
+
+def stepper_speed(repeats: int, plain_repeats: int) -> None:
+    began = time.perf_counter()
+    plain = run_plain(plain_repeats) if plain_repeats > 0 else None
+    plain_seconds = time.perf_counter() - began
+    ours = stepper_timings(repeats, 'compiled' if jit.JIT else 'plain')
+
+    def figure(name: str, unit: str) -> str:
+        timing = ours['timings'][name]
+        text = (
+            f'{_rates(timing["cpu"], unit)}, {1.0 / statistics.median(timing["wall"]):,.0f}/s wall'
+        )
+        if plain is not None:
+            reference = statistics.median(plain['timings'][name]['cpu'])
+            ratio = reference / statistics.median(timing['cpu'])
+            text += f'; plain Python {1.0 / reference:,.0f}/s CPU: {ratio:,.1f}x'
+        return text
+
+    path = 'compiled' if jit.JIT else 'NOT compiled (numba missing or EXODIGIT_JIT=0)'
+    context = f'3. exodigit_model kernels {path}, source digest {jit.source_digest()}'
+    if plain is not None:
+        context += (
+            f'; the plain-Python path (EXODIGIT_JIT=0, a subprocess, {plain_repeats} repeats, '
+            f'its batch {plain["gloves"]} gloves x {plain["steps"]} steps): {plain_seconds:.0f} '
+            f's, solver failures {plain["failures"]}'
+        )
+    print(context)
+    gloves, steps = ours['gloves'], ours['steps']
     print(
-        '3. GloveSimulation in process: one glove '
-        f'{", ".join(f"{s:,.0f}" for s in single)} steps/s  [>= 10,000]; batch of 1,000 '
-        f'{", ".join(f"{b:,.0f}" for b in batch)} glove-steps/s  [>= 200,000]'
+        f'3a. GloveSimulation.step, one glove through the public API, {SINE_STEPS:,}-step sine '
+        f'0-40 kPa: {figure("step", "steps")}  [>= 100,000 steps/s]'
+    )
+    print(
+        f'3b. GloveSimulation.run({SINE_STEPS:,} commands), the same sine: '
+        f"{figure('run', 'steps')}; its last q equals the stepped one's: {ours['same']}"
+        '  [>= 300,000 steps/s]'
+    )
+    print(
+        f'3c. GloveSimulation(model, count={gloves}).step, each glove its own phase of the sine, '
+        f'{steps} steps after {SETTLE_STEPS}: {figure("batch", "glove-steps")}; solver failures '
+        f'in 3a-3c: {ours["failures"]}  [>= 1,000,000 glove-steps/s on one core]'
     )
 
 
@@ -238,13 +367,56 @@ def realtime(seconds: float, workdir: Path) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--seconds', type=float, default=60.0, help='simulated s of run 1')
-    parser.add_argument('--repeats', type=int, default=3)
-    parser.add_argument('--realtime', type=float, default=30.0, help='wall s of figure 5')
-    parser.add_argument('--burners', type=int, default=os.cpu_count() or 2)
-    parser.add_argument('--only', type=int, nargs='*', default=[1, 2, 3, 4, 5])
+    parser = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        epilog='The module docstring says what each figure measures and its target.',
+    )
+    parser.add_argument(
+        '--seconds', type=float, default=60.0, help='simulated s of figure 1 (default 60)'
+    )
+    parser.add_argument(
+        '--repeats',
+        type=int,
+        default=3,
+        help='times figures 1, 2 and 3 are measured (default 3)',
+    )
+    parser.add_argument(
+        '--plain-repeats',
+        type=int,
+        default=1,
+        help='times figure 3 is measured on the plain-Python path (EXODIGIT_JIT=0, in a '
+        'subprocess) for its "Nx" ratios; 0: skip that path and print no ratios (default 1)',
+    )
+    parser.add_argument(
+        '--realtime', type=float, default=30.0, help='wall s of figure 5 (default 30)'
+    )
+    parser.add_argument(
+        '--burners',
+        type=int,
+        default=os.cpu_count() or 2,
+        help='busy processes beside the second run of figure 4 (default: one per core)',
+    )
+    parser.add_argument(
+        '--only',
+        type=int,
+        nargs='*',
+        default=[1, 2, 3, 4, 5],
+        help='the figures to measure, e.g. --only 3 (default: all five)',
+    )
+    parser.add_argument(
+        '--plain',
+        action='store_true',
+        help="internal: time figure 3's workloads on this process's path (--repeats times) and "
+        'print the timings as one JSON line; what the script runs in its EXODIGIT_JIT=0 '
+        'subprocess',
+    )
     args = parser.parse_args()
+    if args.repeats < 1 or args.plain_repeats < 0:
+        parser.error('--repeats must be >= 1, --plain-repeats >= 0')
+    if args.plain:
+        print(json.dumps(stepper_timings(args.repeats, 'plain')))
+        return
+    began = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix='bench_sim_') as scratch:
         workdir = Path(scratch)
         if 1 in args.only:
@@ -252,11 +424,12 @@ def main() -> None:
         if 2 in args.only:
             kit_speed(args.seconds, args.repeats)
         if 3 in args.only:
-            stepper_speed(args.repeats)
+            stepper_speed(args.repeats, args.plain_repeats)
         if 4 in args.only:
             determinism(workdir, args.burners)
         if 5 in args.only:
             realtime(args.realtime, workdir)
+    print(f'bench_sim.py: {time.perf_counter() - began:.0f} s in all  [no target]')
     sys.stdout.flush()
 
 
