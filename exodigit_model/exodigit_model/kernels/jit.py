@@ -83,7 +83,7 @@ _warned = False
 Function = TypeVar('Function', bound=Callable)
 
 
-def kernel(function: Function | None = None, *, inline: bool = False):
+def kernel(function: Function | None = None, *, inline: bool = False, counted: bool = True):
     """Compile ``function`` with numba, cached (module docstring); return it as is without JIT.
 
     ``@kernel`` or ``@kernel(inline=True)``.
@@ -98,6 +98,13 @@ def kernel(function: Function | None = None, *, inline: bool = False):
         reference counts of its array arguments, more than the arithmetic of a 3×3 problem
         (measured: one evaluation of the statics 3.4 µs with calls, 1.3 µs inlined). Not for
         large kernels: every call site compiles its own copy.
+    counted : bool
+        Whether numba counts references to the arrays the kernel handles (its runtime, NRT).
+        ``counted=False`` for the hot loop that allocates nothing (the Newton iteration, with
+        everything it calls inlined): every view taken of a workspace array costs an atomic
+        increment and decrement of one shared count otherwise, most of an evaluation's time
+        (measured with perf: ~100 pairs per evaluation of the statics). Such a kernel may not
+        allocate arrays.
 
     Returns
     -------
@@ -105,10 +112,14 @@ def kernel(function: Function | None = None, *, inline: bool = False):
         numba's dispatcher, or ``function`` itself when :data:`JIT` is false.
     """
     if function is None:
-        return lambda decorated: kernel(decorated, inline=inline)
+        return lambda decorated: kernel(decorated, inline=inline, counted=counted)
     if not JIT:
         return function
-    options = {**_OPTIONS, 'inline': 'always'} if inline else _OPTIONS
+    options = dict(_OPTIONS)
+    if inline:
+        options['inline'] = 'always'
+    if not counted:
+        options['_nrt'] = False
     directory = cache_directory()
     if directory is not None:
         compiled = _cached(function, directory, options)

@@ -51,8 +51,10 @@ def solve(a, b, x, scratch):
         x[2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv_det
         return
     m = scratch[: n * n].reshape((n, n))
-    m[:, :] = a
-    x[:] = b
+    for row in range(n):
+        x[row] = b[row]
+        for col in range(n):
+            m[row, col] = a[row, col]
     for col in range(n):
         pivot = col
         for row in range(col + 1, n):

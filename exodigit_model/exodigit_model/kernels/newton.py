@@ -59,7 +59,7 @@ def norm(v):
     return math.sqrt(total)
 
 
-@kernel
+@kernel(counted=False)
 def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
 
@@ -129,11 +129,14 @@ def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
             alpha *= 0.5
         if not accepted:
             return NO_DECREASE, iterations, size_of_residual
-        x[:] = trial
-        residual[:] = trial_residual
-        jacobian[:, :] = trial_jacobian
-        forces[:] = trial_forces
-        torque[:] = trial_torque
+        for k in range(n):  # (loops: a slice copy would allocate, and this kernel may not)
+            x[k] = trial[k]
+            residual[k] = trial_residual[k]
+            for j in range(n):
+                jacobian[k, j] = trial_jacobian[k, j]
+        for k in range(3):
+            forces[k] = trial_forces[k]
+            torque[k] = trial_torque[k]
         scale, size_of_residual = trial_scale, trial_size
         iterations += 1
         if size_of_residual <= RTOL * scale:

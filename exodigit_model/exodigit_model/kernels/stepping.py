@@ -55,152 +55,199 @@ def advance_chambers(pressure, command, decay, supply):
     return below, above
 
 
-@kernel
-def step_glove(glove, work, state, command, effort, decay, supply, rate, valid_low, valid_high):
-    """One glove one step on: the new state in new arrays (the inputs are left as they are).
+@kernel(counted=False)
+def step_into(glove, work, state, new, command, effort, limits):
+    """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
 
     Parameters
     ----------
     glove : GloveConstants
     work : Workspace
-        Scratch (:mod:`.workspace`).
+        Scratch (:mod:`.workspace`); its ``motion`` holds the finger's history.
     state : tuple of ndarray
         (x, q_before, pressure, forces, torque): the unknowns of the last good state, the
         angles one step before it (rad), the chamber pressures (Pa), f (N) and τ_H (N·m).
+    new : tuple of ndarray
+        The same five after the step (the last good x, f, τ_H where the solve failed), then
+        the clipped command (Pa) and q̇ = (q − q_prev)/Δt (rad/s): filled.
     command, effort : ndarray, shape (3,)
         The pressure command (Pa) and the patient's voluntary effort (N·m).
-    decay, supply, rate : float
-        exp(−Δt/T), the supply pressure (Pa) and 1/Δt (1/s).
-    valid_low, valid_high : float
-        The validated stretch range (12.1).
+    limits : tuple of float
+        exp(−Δt/T), the supply pressure (Pa), 1/Δt (1/s) and the validated stretch range
+        (12.1), low and high.
 
     Returns
     -------
-    state : tuple of ndarray
-        (x, q_before, pressure, forces, torque) after the step (the last good x, f, τ_H where
-        the solve failed).
-    applied, qdot : ndarray
-        The clipped command (Pa) and (q − q_prev)/Δt (rad/s).
-    outcome : tuple
+    tuple
         status, iterations, residual of the solve, and the flags in_valid_range,
         in_range_of_motion (of the solve's result), below, above (the command clipped at zero,
         at the supply).
     """
-    x, q_before, old_pressure, old_forces, old_torque = state
-    pressure = old_pressure.copy()
-    applied = command.copy()
-    below, above = advance_chambers(pressure, applied, decay, supply)
-    motion = np.zeros((3, 3))
-    start = x.copy()
+    x, q_before, pressure, forces, torque = state
+    new_x, new_q_before, new_pressure, new_forces, new_torque, applied, qdot = new
+    decay, supply, rate, valid_low, valid_high = limits
+    for k in range(3):
+        applied[k] = command[k]
+        new_pressure[k] = pressure[k]
+    below, above = advance_chambers(new_pressure, applied, decay, supply)
+    motion = work.motion
+    speed_dependent = moves_with_speed(glove)
+    for k in range(x.size):
+        new_x[k] = x[k]
     for k in range(3):
         motion[0, k] = x[k]
+        motion[1, k] = 0.0
         motion[2, k] = effort[k]
-    if moves_with_speed(glove):
-        for k in range(3):
-            start[k] = 2.0 * x[k] - q_before[k]
-    forces = np.empty(3)
-    torque = np.empty(3)
+        if speed_dependent:  # start where the last step's motion goes on: half the steps
+            new_x[k] = 2.0 * x[k] - q_before[k]
     status, iterations, residual = newton(
-        glove, work, start, pressure, False, motion, rate, forces, torque
+        glove, work, new_x, new_pressure, False, motion, rate, new_forces, new_torque
     )
-    valid = stretch_in_range(glove, start, valid_low, valid_high)
-    moving_range = in_range_of_motion(glove, start)
+    valid = stretch_in_range(glove, new_x, valid_low, valid_high)
+    moving_range = in_range_of_motion(glove, new_x)
     if status > CONVERGED_STEP:
-        start[:] = x
-        forces[:] = old_forces
-        torque[:] = old_torque
-    qdot = np.empty(3)
+        for k in range(x.size):
+            new_x[k] = x[k]
+        for k in range(3):
+            new_forces[k] = forces[k]
+            new_torque[k] = torque[k]
     for k in range(3):
-        qdot[k] = (start[k] - x[k]) * rate
-    outcome = (status, iterations, residual, valid, moving_range, below, above)
-    return (start, x[:3].copy(), pressure, forces, torque), applied, qdot, outcome
+        new_q_before[k] = x[k]
+        qdot[k] = (new_x[k] - x[k]) * rate
+    return status, iterations, residual, valid, moving_range, below, above
+
+
+@kernel
+def fresh(n):
+    """New arrays for one glove's ``new`` of :func:`step_into` (``n`` unknowns)."""
+    return (
+        np.empty(n),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+    )
+
+
+@kernel
+def fresh_rows(rows, n):
+    """New arrays for a batch's ``new`` of :func:`step_into`: :func:`fresh` with a leading N."""
+    return (
+        np.empty((rows, n)),
+        np.empty((rows, 3)),
+        np.empty((rows, 3)),
+        np.empty((rows, 3)),
+        np.empty((rows, 3)),
+        np.empty((rows, 3)),
+        np.empty((rows, 3)),
+    )
 
 
 @kernel
 def step_one(packed, state, command, effort, decay, supply, rate, valid_low, valid_high):
-    """:func:`step_glove` from Python (``packed`` constants)."""
+    """One glove one step on, from Python (``packed`` constants): :func:`step_into`.
+
+    Returns the new state (x, q_before, pressure, forces, torque), the clipped command, q̇ and
+    the outcome of :func:`step_into`; the inputs are left as they are.
+    """
     glove, work = unpack(packed), workspace()
-    return step_glove(
-        glove, work, state, command, effort, decay, supply, rate, valid_low, valid_high
-    )
+    new = fresh(state[0].size)
+    limits = (decay, supply, rate, valid_low, valid_high)
+    outcome = step_into(glove, work, state, new, command, effort, limits)
+    return new[:5], new[5], new[6], outcome
+
+
+@kernel(counted=False)
+def run_rows(glove, work, state, new, commands, efforts, limits, record):
+    """:func:`step_into` for every row of ``commands``, from ``state`` (updated), recorded."""
+    applied, pressure, qdot, forces, torque, unknowns, status, iterations, residual, flags = record
+    for t in range(commands.shape[0]):
+        outcome = step_into(glove, work, state, new, commands[t], efforts[t], limits)
+        status[t], iterations[t], residual[t] = outcome[0], outcome[1], outcome[2]
+        flags[t, 0], flags[t, 1], flags[t, 2], flags[t, 3] = outcome[3:]
+        for j in range(5):
+            step_state, step_new = state[j], new[j]
+            for k in range(step_state.size):
+                step_state[k] = step_new[k]
+        for k in range(new[0].size):
+            unknowns[t, k] = new[0][k]
+        for k in range(3):
+            pressure[t, k] = new[2][k]
+            forces[t, k] = new[3][k]
+            torque[t, k] = new[4][k]
+            applied[t, k] = new[5][k]
+            qdot[t, k] = new[6][k]
 
 
 @kernel
 def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, valid_high):
-    """:func:`step_glove` for every row of ``commands`` and ``efforts`` (T, 3), recorded.
+    """:func:`step_into` for every row of ``commands`` and ``efforts`` (T, 3), recorded.
 
     Returns
     -------
     state : tuple of ndarray
-        The state after the last step.
+        The state after the last step (new arrays).
     record : tuple of ndarray
         Per step: the clipped command, the pressure, q̇, f, τ_H (T, 3) and the unknowns x
         (T, n); status, iterations, residual (T,); the flags of the outcome (T, 4).
     """
     glove, work = unpack(packed), workspace()
-    steps = commands.shape[0]
-    n = state[0].size
-    applied = np.empty((steps, 3))
-    pressure = np.empty((steps, 3))
-    qdot = np.empty((steps, 3))
-    forces = np.empty((steps, 3))
-    torque = np.empty((steps, 3))
-    unknowns = np.empty((steps, n))
-    status = np.empty(steps, np.int64)
-    iterations = np.empty(steps, np.int64)
-    residual = np.empty(steps)
-    flags = np.empty((steps, 4), np.bool_)
-    for t in range(steps):
-        state, applied[t], qdot[t], outcome = step_glove(
-            glove, work, state, commands[t], efforts[t], decay, supply, rate, valid_low, valid_high
-        )
-        unknowns[t], pressure[t], forces[t], torque[t] = state[0], state[2], state[3], state[4]
-        status[t], iterations[t], residual[t] = outcome[0], outcome[1], outcome[2]
-        flags[t, 0], flags[t, 1], flags[t, 2], flags[t, 3] = outcome[3:]
-    record = (
-        applied,
-        pressure,
-        qdot,
-        forces,
-        torque,
-        unknowns,
-        status,
-        iterations,
-        residual,
-        flags,
+    steps, n = commands.shape[0], state[0].size
+    current = (
+        state[0].copy(),
+        state[1].copy(),
+        state[2].copy(),
+        state[3].copy(),
+        state[4].copy(),
     )
-    return state, record
+    record = (
+        np.empty((steps, 3)),
+        np.empty((steps, 3)),
+        np.empty((steps, 3)),
+        np.empty((steps, 3)),
+        np.empty((steps, 3)),
+        np.empty((steps, n)),
+        np.empty(steps, np.int64),
+        np.empty(steps, np.int64),
+        np.empty(steps),
+        np.empty((steps, 4), np.bool_),
+    )
+    limits = (decay, supply, rate, valid_low, valid_high)
+    run_rows(glove, work, current, fresh(n), commands, efforts, limits, record)
+    return current, record
+
+
+@kernel(counted=False)
+def step_rows(glove, work, states, new, commands, efforts, limits, outcomes):
+    """:func:`step_into` for every glove of a batch (its row of each array)."""
+    status, iterations, residual, flags = outcomes
+    for r in range(commands.shape[0]):
+        state = (states[0][r], states[1][r], states[2][r], states[3][r], states[4][r])
+        row = (new[0][r], new[1][r], new[2][r], new[3][r], new[4][r], new[5][r], new[6][r])
+        outcome = step_into(glove, work, state, row, commands[r], efforts[r], limits)
+        status[r], iterations[r], residual[r] = outcome[0], outcome[1], outcome[2]
+        flags[r, 0], flags[r, 1], flags[r, 2], flags[r, 3] = outcome[3:]
 
 
 @kernel
 def step_gloves(packed, states, commands, efforts, decay, supply, rate, valid_low, valid_high):
-    """:func:`step_glove` for every glove of a batch: ``states`` of arrays with a leading N.
+    """:func:`step_into` for every glove of a batch: ``states`` of arrays with a leading N.
 
     Returns the new states, the clipped commands, q̇ (N, 3), status, iterations, residual (N,)
     and the flags (N, 4) of :func:`run_glove`.
     """
     glove, work = unpack(packed), workspace()
     rows = commands.shape[0]
-    new = (
-        states[0].copy(),
-        states[1].copy(),
-        states[2].copy(),
-        states[3].copy(),
-        states[4].copy(),
+    new = fresh_rows(rows, states[0].shape[1])
+    outcomes = (
+        np.empty(rows, np.int64),
+        np.empty(rows, np.int64),
+        np.empty(rows),
+        np.empty((rows, 4), np.bool_),
     )
-    applied = np.empty((rows, 3))
-    qdot = np.empty((rows, 3))
-    status = np.empty(rows, np.int64)
-    iterations = np.empty(rows, np.int64)
-    residual = np.empty(rows)
-    flags = np.empty((rows, 4), np.bool_)
-    for r in range(rows):
-        state = (states[0][r], states[1][r], states[2][r], states[3][r], states[4][r])
-        state, applied[r], qdot[r], outcome = step_glove(
-            glove, work, state, commands[r], efforts[r], decay, supply, rate, valid_low, valid_high
-        )
-        for j in range(5):
-            new[j][r] = state[j]
-        status[r], iterations[r], residual[r] = outcome[0], outcome[1], outcome[2]
-        flags[r, 0], flags[r, 1], flags[r, 2], flags[r, 3] = outcome[3:]
-    return new, applied, qdot, status, iterations, residual, flags
+    limits = (decay, supply, rate, valid_low, valid_high)
+    step_rows(glove, work, states, new, commands, efforts, limits, outcomes)
+    status, iterations, residual, flags = outcomes
+    return new[:5], new[5], new[6], status, iterations, residual, flags

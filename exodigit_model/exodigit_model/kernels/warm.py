@@ -26,8 +26,11 @@ from exodigit_model import (
     params_from_dict,
     patient_file,
 )
+from exodigit_model.material import yeoh_stress
 
 from . import jit
+from .patient import finger_torque
+from .section import resultants
 
 #: Chamber pressures (Pa) of the cases: a point, and rows of a batch.
 PRESSURE = np.array([40e3, 55e3, 30e3])
@@ -64,6 +67,28 @@ def exercise_model(model: GloveModel) -> None:
     model.fit_stiffness(rows, PRESSURES)
 
 
+def exercise_geometry(model: GloveModel) -> None:
+    """Torques, Jacobians, residuals, poses and the validity checks of the model."""
+    q = model.solve(PRESSURE).q
+    rows = model.solve_batch(PRESSURES).q
+    model.finger_torque(q, q, EFFORT)
+    model.finger_forces(q)
+    model.contact_jacobians(q)
+    model.length_jacobian(q)
+    model.residual(q, PRESSURE)
+    model.residual_jacobian(q, PRESSURE, q_previous=q, dt=DT)
+    model.structural_torque(q)
+    model.structural_torque(rows)
+    model.estimate_finger_torque(q, PRESSURE)
+    model.pose(q)
+    model.in_valid_range(rows)
+    model.in_range_of_motion(q)
+    # the numpy API of the material and the kernels a researcher (or a test) calls directly
+    yeoh_stress(model.params.material, np.linspace(0.9, 1.5, 7))
+    resultants(model.constants, 0, float(q[0]), 0.01)
+    finger_torque(model.constants.laws[0], float(q[0]), 0.1, 100.0)
+
+
 def exercise_simulation(model: GloveModel) -> None:
     """Steps and runs of one glove and of four (:class:`~exodigit_model.GloveSimulation`)."""
     one = GloveSimulation(model)
@@ -80,6 +105,7 @@ def exercise_simulation(model: GloveModel) -> None:
 
 CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
     ('model', exercise_model),
+    ('geometry', exercise_geometry),
     ('simulation', exercise_simulation),
 ]
 """What to run on every model of :func:`_models`: (name, function of the model)."""

@@ -32,7 +32,8 @@ class Workspace(NamedTuple):
     (J_ℓ*)ᵀ f, ``load_slopes`` dτ_H/dq, and the vectors ``rhs``, ``force_slope``, ``column``.
     Newton (MAX_UNKNOWNS, or its square): ``residual``, ``jacobian``, ``trial``,
     ``trial_residual``, ``trial_jacobian``, ``step``, ``matrix`` (the linear solve's copy);
-    ``trial_forces`` and ``trial_torque`` (3).
+    ``trial_forces`` and ``trial_torque`` (3). Stepping: ``motion`` (3, 3), the finger's
+    history of a step (:func:`.statics.finger_load`).
     """
 
     j_robot: np.ndarray
@@ -63,6 +64,7 @@ class Workspace(NamedTuple):
     matrix: np.ndarray
     trial_forces: np.ndarray
     trial_torque: np.ndarray
+    motion: np.ndarray
     half_turn: np.ndarray
     chord: np.ndarray
     chord_slope: np.ndarray
@@ -74,7 +76,7 @@ class Workspace(NamedTuple):
 
 
 _SQUARE = MAX_UNKNOWNS * MAX_UNKNOWNS
-_REAL = (9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3)
+_REAL = (9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9)
 """Sizes of the real fields, in order."""
 _REAL_ENDS = tuple(int(end) for end in np.cumsum(_REAL))
 _COMPLEX = (3, 3, 3, 3, 4, 4, 3, 9)
@@ -118,6 +120,7 @@ def workspace():
         r[e[24] : e[25]],
         r[e[25] : e[26]],
         r[e[26] : e[27]],
+        r[e[27] : e[28]].reshape((3, 3)),
         c[0 : z[0]],
         c[z[0] : z[1]],
         c[z[1] : z[2]],
