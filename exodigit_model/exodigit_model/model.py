@@ -241,6 +241,11 @@ def _require_shape(name: str, array: NDArray, reference: str, shape: tuple) -> N
         raise ValueError(f'{name} must have the shape of {reference} {shape}, got {array.shape}')
 
 
+_AT_REST = np.zeros((3, 3))
+"""The ``motion`` of a static solve with no effort (read-only: the kernels only read it)."""
+_AT_REST.flags.writeable = False
+
+
 def _chords(q: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
     """e^{iq/2} and the unit chords C(q) of the arcs (:func:`.kernels.kinematics.chord_terms`)."""
     terms = [np.empty(3, complex) for _ in range(4)]
@@ -390,6 +395,8 @@ class GloveModel:
             raise ValueError('q_previous and dt go together: give both for a stepped solve')
         if dt is not None and not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
             raise ValueError(f'dt = {dt!r}: must be a finite time step > 0 s')
+        if rows is None and q_previous is None and qdot is None and effort is None:
+            return _AT_REST, 0.0
         shape = (3, 3) if rows is None else (rows, 3, 3)
         motion = np.zeros(shape)
         for index, (name, value) in enumerate(
@@ -488,7 +495,7 @@ class GloveModel:
         """Bottom-face lengths ℓ_k (m) of the solver's unknowns (one state or rows)."""
         rest = self.constants.arc_lengths
         if not self.extensible:
-            return np.broadcast_to(rest, x.shape).copy()
+            return rest.copy() if x.ndim == 1 else np.tile(rest, (x.shape[0], 1))
         return rest * (1.0 + x[..., 3:])
 
     def solve_free(self, p: ArrayLike) -> NDArray[np.float64]:
