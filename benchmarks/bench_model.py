@@ -43,7 +43,6 @@ import gc
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -56,6 +55,7 @@ from scipy import integrate, optimize
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 from exodigit_model.kernels import jit
 from model_reference import EVERY_TERM
+from plain_path import run_plain
 
 from exodigit_model import GloveModel, load_params, params_from_dict
 
@@ -419,20 +419,6 @@ def plain_timings(repeats: int) -> dict:
     return {'jit': jit.JIT, 'seconds': time.perf_counter() - start, 'timings': timings}
 
 
-def run_plain(repeats: int) -> dict:
-    """:func:`plain_timings` in a subprocess of this script with ``EXODIGIT_JIT=0``."""
-    command = [sys.executable, __file__, '--plain', '--repeats', str(repeats)]
-    environment = {**os.environ, 'EXODIGIT_JIT': '0'}
-    done = subprocess.run(command, env=environment, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        sys.stderr.write(done.stderr)
-        raise SystemExit(f'the plain-Python subprocess failed (exit {done.returncode})')
-    result = json.loads(done.stdout.strip().splitlines()[-1])
-    if result['jit']:
-        raise SystemExit('the plain-Python subprocess ran compiled: EXODIGIT_JIT=0 was ignored')
-    return result
-
-
 def _clock_read(clock: Callable[[], float]) -> float:
     """Seconds one read of ``clock`` takes."""
     start = time.perf_counter()
@@ -461,7 +447,7 @@ def header() -> None:
 def bench(repeats: int, plain_repeats: int, naive_steps: int) -> None:
     began = time.perf_counter()
     header()
-    plain = run_plain(plain_repeats) if plain_repeats > 0 else None
+    plain = run_plain(__file__, plain_repeats) if plain_repeats > 0 else None
     if plain is not None:
         print(
             f'plain-Python path (EXODIGIT_JIT=0, a subprocess, {plain_repeats} repeats, '

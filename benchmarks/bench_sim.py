@@ -38,7 +38,6 @@ import math
 import multiprocessing
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -50,6 +49,7 @@ from exodigit_model.kernels import jit
 from exodigit_nodes.qos import RECORD_QOS
 from exodigit_nodes.testing import GloveSim, claim_domain
 from exodigit_nodes.testing.processes import NodeProcess
+from plain_path import run_plain
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -255,22 +255,12 @@ def stepper_timings(repeats: int, path: str) -> dict:
     failures += gloves.solver_failures
     return {
         'timings': timings,
+        'jit': jit.JIT,
         'failures': failures,
         'same': same,
         'gloves': count,
         'steps': steps,
     }
-
-
-def run_plain(repeats: int) -> dict:
-    """:func:`stepper_timings` in a subprocess of this script with ``EXODIGIT_JIT=0``."""
-    command = [sys.executable, __file__, '--plain', '--repeats', str(repeats)]
-    environment = {**os.environ, 'EXODIGIT_JIT': '0'}
-    done = subprocess.run(command, env=environment, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        sys.stderr.write(done.stderr)
-        raise SystemExit(f'the plain-Python subprocess failed (exit {done.returncode})')
-    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def _rates(seconds: list[float], unit: str) -> str:
@@ -284,7 +274,7 @@ def _rates(seconds: list[float], unit: str) -> str:
 
 def stepper_speed(repeats: int, plain_repeats: int) -> None:
     began = time.perf_counter()
-    plain = run_plain(plain_repeats) if plain_repeats > 0 else None
+    plain = run_plain(__file__, plain_repeats) if plain_repeats > 0 else None
     plain_seconds = time.perf_counter() - began
     ours = stepper_timings(repeats, 'compiled' if jit.JIT else 'plain')
 
