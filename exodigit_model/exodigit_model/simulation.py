@@ -263,18 +263,18 @@ class GloveSimulation:
         effort = self._zeros if effort is None else self._rows('effort', effort)
         glove = self.model.packed
         if self.count is None:
-            state, applied, qdot, outcome = step_one(
-                glove, self._kernel_state, command, effort, *self._stepping
-            )
+            block, outcome = step_one(glove, self._block, command, effort, *self._stepping)
+            self._block = block
+            state, applied, qdot = _state_of(block), block[5, :3], block[6, :3]
             status, iterations, residual, valid, moving_range, below, above = outcome
         else:
             state, applied, qdot, status, iterations, residual, flags = step_gloves(
                 glove, self._kernel_state, command, effort, *self._stepping
             )
+            self._kernel_state = state
             valid, moving_range = flags[:, 0], flags[:, 1]
             below, above = flags[:, 2].any(), flags[:, 3].any()
         converged = status <= CONVERGED_STEP
-        self._kernel_state = state
         self.chambers.pressure, self.chambers.command = state[2], applied
         self.chambers.record(below, above)
         self.solver_failures += int(np.count_nonzero(~converged)) if self.count else not converged
@@ -333,10 +333,10 @@ class GloveSimulation:
             states = [self.step(rows[t], efforts[t]) for t in range(rows.shape[0])]
             return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
         state, record = run_glove(
-            self.model.packed, self._kernel_state, rows, efforts, *self._stepping
+            self.model.packed, _state_of(self._block), rows, efforts, *self._stepping
         )
         applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record
-        self._kernel_state = state
+        self._block = _block_of(state)
         self.chambers.pressure, self.chambers.command = state[2], applied[-1]
         self.chambers.saturation = Saturation(
             self.chambers.saturation.below_zero + int(np.count_nonzero(flags[:, 2])),
@@ -428,7 +428,11 @@ class GloveSimulation:
         q = x[..., :3]
         forces = np.broadcast_to(rest.forces, self.shape).copy()
         torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
-        self._kernel_state = (x, q.copy(), zeros, forces, torque)
+        state = (x, q.copy(), zeros, forces, torque)
+        if self.count is None:
+            self._block = _block_of(state)
+        else:
+            self._kernel_state = state
         self.chambers.pressure = zeros
         batch = self.count is not None
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
@@ -467,6 +471,20 @@ class GloveSimulation:
             self.settings.rate_hz,
             *VALID_STRETCH,
         )
+
+
+def _state_of(block: NDArray[np.float64]) -> tuple:
+    """One glove's state (x, q_before, pressure, forces, torque) as views of its block."""
+    return block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3]
+
+
+def _block_of(state: tuple) -> NDArray[np.float64]:
+    """One glove's state as a block (5, n) (:func:`.kernels.stepping.step_one`)."""
+    block = np.zeros((5, state[0].size))
+    block[0] = state[0]
+    for row, values in enumerate(state[1:], start=1):
+        block[row, :3] = values
+    return block
 
 
 def _last(value):

@@ -146,17 +146,20 @@ def fresh_rows(rows, n):
 
 
 @kernel
-def step_one(packed, state, command, effort, decay, supply, rate, valid_low, valid_high):
+def step_one(packed, block, command, effort, decay, supply, rate, valid_low, valid_high):
     """One glove one step on, from Python (``packed`` constants): :func:`step_into`.
 
-    Returns the new state (x, q_before, pressure, forces, torque), the clipped command, q̇ and
-    the outcome of :func:`step_into`; the inputs are left as they are.
+    The state travels as one array (fewer arrays to pass between Python and compiled code):
+    ``block`` (5, n) holds x, then q_before, the pressure, f and τ_H in the first three columns
+    of the rows below. Returns a new (7, n) block (the state after the step, then the clipped
+    command and q̇) and the outcome of :func:`step_into`; ``block`` is left as it is.
     """
     glove, work = unpack(packed), workspace()
-    new = fresh(state[0].size)
+    new = np.zeros((7, block.shape[1]))
+    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3])
+    rows = (new[0], new[1, :3], new[2, :3], new[3, :3], new[4, :3], new[5, :3], new[6, :3])
     limits = (decay, supply, rate, valid_low, valid_high)
-    outcome = step_into(glove, work, state, new, command, effort, limits)
-    return new[:5], new[5], new[6], outcome
+    return new, step_into(glove, work, state, rows, command, effort, limits)
 
 
 @kernel(counted=False)
