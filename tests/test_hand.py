@@ -20,18 +20,16 @@ import rclpy
 from exodigit_nodes.pacing import TimeSettings
 from exodigit_nodes.pressure_command import PressureCommand
 from exodigit_nodes.sim_time import MEASURE_WINDOW, SimulatedTime
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from ros_harness import NodeProcess, RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty, Float64MultiArray
-from std_srvs.srv import SetBool, Trigger
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool
 
 from exodigit_model import GloveModel, GloveSimulation, load_params
 from exodigit_nodes import hand_nodes as hand_module
-from exodigit_nodes import sim_time
 
 FINGERS = ('index', 'little')
 NAMESPACE = '/hand'
@@ -234,105 +232,6 @@ def test_the_hands_last_words_are_said_while_its_context_is_up_and_skipped_after
             last_words(node)  # raised before the fix
         assert sent == [('/last_words/up', [0.0, 0.0, 0.0])]
     finally:
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown(context=context)
-
-
-class QuietFinger:
-    """A member of simulated time whose outputs wait for a subscriber until ``matched``."""
-
-    period = 0.01
-
-    def __init__(self, logger) -> None:
-        self.state = SimpleNamespace(t=0.0, step=0, time_ns=0)
-        self.matched = False
-        self.steps: list[bool] = []  # each step taken: were its readers matched?
-        self.logger = logger
-
-    def readers_matched(self) -> bool:
-        return self.matched
-
-    def controller_present(self) -> bool:
-        return False
-
-    def lockstep_controllers(self) -> list[str]:
-        return []
-
-    def take_step(self, *, vent):
-        self.steps.append(self.matched)
-        k = self.state.step + 1
-        self.state = SimpleNamespace(t=k * self.period, step=k, time_ns=k * 10**7)
-        return self.state
-
-    def publish_state(self, state, stamp) -> None:
-        pass
-
-    def get_logger(self):
-        return self.logger
-
-
-def test_a_step_waiting_for_subscribers_lets_the_hands_other_callbacks_run(
-    ros_domain, monkeypatch
-):
-    # The hand's step service, asked while an output has a subscriber not yet matched, waited
-    # for it inside the callback (up to READER_WAIT), stalling every finger on the executor
-    # (issue 16). Now it is queued: another callback of the same executor (here the one that
-    # gets the subscriber matched) runs first, then the step is taken, once. READER_WAIT is
-    # made long so that no deadline can take the step on a slow machine. (A SingleThreadedExecutor:
-    # rclpy 7.1.6's EventsExecutor, the hand's, left every later probe of this test process
-    # unable to match anything; what is checked here does not depend on the executor.)
-    monkeypatch.setattr(sim_time, 'READER_WAIT', 20.0)
-    context = rclpy.Context()
-    rclpy.init(
-        context=context, domain_id=ros_domain, signal_handler_options=SignalHandlerOptions.NO
-    )
-    executor = SingleThreadedExecutor(context=context)
-    nodes = []
-    try:
-        owner = hand_module.HandClock(
-            'hand',
-            namespace='/queued_step',
-            context=context,
-            # not on /clock: a hand this module runs follows it
-            cli_args=['--ros-args', '-r', '/clock:=/queued_step/clock'],
-        )
-        caller = Node('queued_step_caller', namespace='/queued_step', context=context)
-        nodes += [owner, caller]
-        settings = TimeSettings(real_time_factor=0.0, lockstep=True, start_paused=True)
-        clock = SimulatedTime(owner, settings)
-        fingers = [QuietFinger(owner.get_logger()) for _ in FINGERS]
-        for finger in fingers:
-            clock.add(finger)
-
-        def on_matched(message) -> None:
-            for finger in fingers:
-                finger.matched = True
-
-        owner.create_subscription(Empty, 'matched', on_matched, 10)
-        step = caller.create_client(Trigger, 'step')
-        matched = caller.create_publisher(Empty, 'matched', 10)
-        for node in nodes:
-            executor.add_node(node)
-
-        def spin_until(condition, timeout=60.0):
-            deadline = time.monotonic() + timeout
-            while not condition() and time.monotonic() < deadline:
-                executor.spin_once(timeout_sec=0.05)
-            return condition()
-
-        assert spin_until(lambda: step.service_is_ready() and matched.get_subscription_count())
-        answer = step.call_async(Trigger.Request())
-        assert spin_until(answer.done)
-        # answered, the step not taken: it did not wait inside the callback
-        assert [finger.steps for finger in fingers] == [[], []]
-        assert answer.result().success and 'queued' in answer.result().message
-        matched.publish(Empty())
-        assert spin_until(lambda: all(finger.steps for finger in fingers))
-        assert [finger.steps for finger in fingers] == [[True], [True]]
-        assert clock.t == QuietFinger.period and clock.paused
-    finally:
-        executor.shutdown()
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown(context=context)

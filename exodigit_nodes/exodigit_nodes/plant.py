@@ -269,8 +269,7 @@ class Plant(GloveNode):
     def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """Pressures, angles and the last command back to rest (until a new command comes).
 
-        With clock sim the rest state is published as the next step (time goes on): at once, or
-        once new subscribers are matched (:meth:`.sim_time.SimulatedTime.step_now`).
+        With clock sim the rest state is published at once as the next step (time goes on).
         """
         self.simulation.reset()
         self.command = np.zeros(3)
@@ -278,10 +277,9 @@ class Plant(GloveNode):
         self.watchdog.clear()
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
-        if self.time is not None and self.time.step_now():
+        if self.time is not None:
+            self.time.step_now()
             response.message += f' (rest state published at t = {self.state.t:.9f} s)'
-        elif self.time is not None:
-            response.message += f' (rest state queued as a step: {self.time.queued_note()})'
         self.get_logger().info(response.message)
         return response
 

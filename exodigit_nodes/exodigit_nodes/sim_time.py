@@ -9,9 +9,6 @@ member has its answer (a ``pressure_command``); a member whose controller stays 
 steps on at real time until the silent ones answer again. ``set_paused`` (std_srvs/SetBool) and
 ``step`` (std_srvs/Trigger, one step while paused) are served by the owner node, ``pause_at``
 pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
-A step asked for by a service (``step``, a plant's ``reset``) whose outputs have new subscribers
-not yet matched waits for them in a queue, served by the loop's timer: no callback blocks the
-executor, which every finger of a hand shares (:meth:`SimulatedTime.step_now`).
 
 A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
 (:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
@@ -42,8 +39,7 @@ POLL_LIMITS = (0.5e-3, 0.01)
 FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 READER_WAIT = 2.0
-"""Longest wait of a service-triggered step for new subscribers to be matched, wall s (the step
-is then taken anyway)."""
+"""Longest wait of a service-triggered step for new subscribers to be matched, wall s."""
 MEASURE_WINDOW = 0.5
 """Shortest wall time over which the real-time factor is measured, s (every member reports
 about once a second; the reports within one window share one measurement)."""
@@ -99,8 +95,6 @@ class SimulatedTime:
         self.clock_publisher = owner.create_publisher(ClockMessage, CLOCK, CLOCK_QOS)
         self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.timer = None
-        self.requested = 0  # service steps queued until new subscribers are matched
-        self.request_deadline = 0.0
         self._measure_marks = (time.monotonic(), 0.0)
         self._measured = 0.0
         owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
@@ -156,10 +150,8 @@ class SimulatedTime:
         self.try_step(time.monotonic())
 
     def on_timer(self) -> None:
-        """Take the queued service steps, then those due (and watch the lockstep timeout)."""
+        """Take the steps that are due (and watch the lockstep timeout)."""
         wall = time.monotonic()
-        if self.requested:
-            self.take_requested(wall)
         if self.paused or not self.members:
             return
         if self.settings.lockstep and self.awaiting and not self.unlocked:
@@ -200,29 +192,21 @@ class SimulatedTime:
         return response
 
     def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """While paused: one step with the latest commands.
-
-        Answered once it is published, or at once when it is queued for new subscribers
-        (:meth:`step_now`): the answer says which.
-        """
+        """While paused: one step with the latest commands; answered after it is published."""
         if not self.paused:
             response.success = False
             response.message = 'not paused: call set_paused (true) first'
             return response
+        self.step_now()
         response.success = True
-        if self.step_now():
-            response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
-        else:
-            response.message = (
-                f'step {self._step_number() + self.requested} queued: {self.queued_note()}'
-            )
+        response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
         return response
 
     # -- stepping --------------------------------------------------------------------------
 
     def try_step(self, wall: float) -> bool:
         """Take the next step if nothing holds it back; whether it was taken."""
-        if self.paused or not self.members or self.requested:
+        if self.paused or not self.members:
             return False
         if self.settings.lockstep and not self.unlocked:
             ready = self.started or all(m.controller_present() for m in self.members)
@@ -240,37 +224,12 @@ class SimulatedTime:
         run_until = self.settings.run_until
         return run_until > 0.0 and self.t + 0.5 * self.period > run_until
 
-    def step_now(self) -> bool:
-        """A step asked for by a service (``step``, ``reset``); whether it has been taken.
-
-        Its outputs must reach the subscribers the graph knows of (a caller that subscribed and
-        then asked): while one is not matched yet the step is queued, behind any queued before
-        it, and the loop's timer takes it once they are matched or ``READER_WAIT`` wall seconds
-        have passed. The steps of the schedule wait behind the queue. Nothing blocks here:
-        every other callback of the executor (a hand's other fingers) goes on meanwhile.
-        """
-        wall = time.monotonic()
-        if not self.requested:
-            self.request_deadline = wall + READER_WAIT
-        self.requested += 1
-        self.take_requested(wall)
-        return not self.requested
-
-    def take_requested(self, wall: float) -> None:
-        """Take the queued service steps whose subscribers are matched (or waited long enough)."""
-        while self.requested and (
-            wall >= self.request_deadline or all(m.readers_matched() for m in self.members)
-        ):
-            self.requested -= 1
-            self.request_deadline = wall + READER_WAIT  # the next one's own wait
-            self.step()
-
-    def queued_note(self) -> str:
-        """What an answer says of a queued service step."""
-        return (
-            f'published once every new subscriber is matched (at most {READER_WAIT:g} s; '
-            f't = {self.t + self.requested * self.period:.9f} s)'
-        )
+    def step_now(self) -> None:
+        """A step asked for by a service (``step``, ``reset``): new subscribers matched first."""
+        deadline = time.monotonic() + READER_WAIT
+        while not all(m.readers_matched() for m in self.members) and time.monotonic() < deadline:
+            time.sleep(1e-3)
+        self.step()
 
     def step(self) -> None:
         """One step of every member: /clock, then each member's outputs stamped with its time."""
