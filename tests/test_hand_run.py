@@ -124,10 +124,6 @@ def test_sigint_stops_the_hand_cleanly_with_its_records(ros_domain, tmp_path):
         (['--duration', '-1'], 'hand: --duration -1.0: must be a finite number of seconds'),
         (['--clock', 'sim', '--real-time-factor', '-2'], 'hand: --real-time-factor -2: '),
         (['--patient', 'nobody.yaml'], 'hand: --patient: '),
-        (
-            ['--namespace', '/1hand'],
-            "hand: --namespace '/1hand': must be absolute, each name starting with a letter",
-        ),
     ],
 )
 def test_a_refused_hand_starts_nothing_and_says_why(ros_domain, tmp_path, arguments, message):

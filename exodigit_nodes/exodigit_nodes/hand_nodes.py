@@ -39,7 +39,7 @@ from rclpy.utilities import remove_ros_args
 
 from .catalog import PLANT_NODE
 from .hand_config import PARTS, HandConfig, HandError, add_hand_arguments, hand_config
-from .node_base import say_last_words, serve
+from .node_base import GloveNode, serve
 from .plant import Plant
 from .sim_time import SimulatedTime
 
@@ -118,7 +118,11 @@ def main(args: list[str] | None = None) -> int:
         gc.freeze()
         return nodes
 
-    return serve('hand_nodes', argv, make_nodes, say_last_words)
+    def last_words(node: Node) -> None:
+        if isinstance(node, GloveNode):
+            node.on_shutdown()
+
+    return serve('hand_nodes', argv, make_nodes, last_words)
 
 
 if __name__ == '__main__':

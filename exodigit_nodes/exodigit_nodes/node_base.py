@@ -270,19 +270,11 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         gc.freeze()
         return node
 
-    return serve(program, args, make_node, say_last_words)
+    def last_words(node: GloveNode) -> None:
+        if rclpy.ok():
+            node.on_shutdown()
 
-
-def say_last_words(node: Node) -> None:
-    """``node``'s last words (:meth:`GloveNode.on_shutdown`) if its context is still up.
-
-    What :func:`serve` calls for every glove node, alone or in a hand. Once the context is shut
-    down (by rclpy's own signal handler, or from outside: the spin loop then stops with
-    ExternalShutdownException) a publish raises and nothing can be delivered, so there is
-    nothing to say. A node that is not a :class:`GloveNode` (the hand's clock) has no last words.
-    """
-    if isinstance(node, GloveNode) and node.context.ok():
-        node.on_shutdown()
+    return serve(program, args, make_node, last_words)
 
 
 def executor_class(node: Node) -> type:
