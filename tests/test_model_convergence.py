@@ -37,6 +37,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from model_reference import SEGMENT_LENGTH_KEYS
 
 from exodigit_model import (
     PATIENT_PRESETS,
@@ -68,15 +69,6 @@ EXAMPLES = 12
 """Examples of a property (some take more or fewer): each builds one or two gloves (50-100 ms
 each), so that the file runs in about 20 s on the shared 2-core machine."""
 
-SEGMENT_LENGTHS = (
-    'arc_length',
-    'inner_radius',
-    'wall_thickness',
-    'wall_height',
-    'base_thickness',
-    'block_half_length',
-)
-"""Segment keys in m (× s)."""
 FINGER_TORQUES = ('stiffness', 'rom_torque', 'damping', 'spasticity', 'extensor_spasticity')
 """Joint keys in N·m/rad, N·m or N·m·s/rad (× m·s³)."""
 JOINT_KEYS = (
@@ -110,7 +102,7 @@ def glove_data(layers, joints=None, s=1.0, m=1.0):
     exo = data['exo_digit']
     exo['base_block_half_length'] *= s
     for segment, layer in zip(exo['segments'], layers, strict=True):
-        for key in SEGMENT_LENGTHS:
+        for key in SEGMENT_LENGTH_KEYS:
             segment[key] *= s
         segment['layer_axial_stiffness'] = layer * m * s * s
     data['material'] = {key: value * m for key, value in data['material'].items()}
