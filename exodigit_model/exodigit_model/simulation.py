@@ -390,13 +390,14 @@ class GloveSimulation:
         return array
 
     def _lengths(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Bottom-face lengths ℓ (m) of unknowns ``x`` (the rest lengths if inextensible)."""
-        rest = self.model.constants.arc_lengths
-        if self.model.extensible:
-            return rest * (1.0 + x[..., 3:])
-        if x.shape == self.shape:
-            return self._rest_lengths  # the same read-only array at every step
-        return np.broadcast_to(rest, x.shape)
+        """Bottom-face lengths ℓ (m) of unknowns ``x`` (the rest lengths if inextensible).
+
+        The model's :meth:`~.GloveModel._lengths_of`, except that a step of an inextensible
+        glove gets the same read-only array every time instead of a copy.
+        """
+        if not self.model.extensible and x.shape == self.shape:
+            return self._rest_lengths
+        return self.model._lengths_of(x)
 
     def _rows(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
         """``value`` checked to the shape of this simulation's commands."""
