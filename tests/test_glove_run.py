@@ -100,9 +100,12 @@ def pressurised_rows(path):
     """Rows of a run record so far with a positive pressure command and chamber pressure."""
     try:
         with open(path, newline='') as file:
+            reader = csv.DictReader(file)
+            if reader.fieldnames is None:
+                return 0  # created, its header not written yet
             return sum(
                 float(row['p_cmd_mcp_kpa'] or 0) > 0 and float(row['p_mcp_kpa']) > 0
-                for row in csv.DictReader(file)
+                for row in reader
             )
     except (FileNotFoundError, ValueError):
         return 0  # not created yet, or a row being written
