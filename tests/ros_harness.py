@@ -11,7 +11,8 @@ Used by every test that needs ROS (tests/conftest.py gives fixtures around it). 
   with SIGINT then, if needed, SIGKILL, and reads CPU time and resident memory from /proc.
 * :class:`RosProbe` is an rclpy node in its own context, spun by a background thread: record
   topics (:class:`Inbox`), publish, call services, set and get other nodes' parameters
-  (rcl_interfaces SetParameters/GetParameters), list topics.
+  (rcl_interfaces SetParameters/GetParameters), list topics. Its context is the only one the
+  test process opens (:meth:`RosProbe.local_node` gives in-process tests their nodes).
 * :meth:`RosProbe.hold` keeps a plant in simulated time within a few steps of what the probe
   has received (as the runners do, :mod:`exodigit_nodes.horizon`), so a test that counts every
   step of a plant at real-time factor 0 loses none to a reader held back for a heartbeat.
@@ -223,6 +224,24 @@ class RosProbe:
         self._thread.join(timeout=2.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
+
+    @contextlib.contextmanager
+    def local_node(self, name: str):
+        """A node in the probe's context that nothing spins (no parameter services, no rosout).
+
+        In-process tests build their rclpy nodes here rather than in a context of their own: a
+        second Fast DDS participant in one process can deadlock while its readers and writers
+        are destroyed (eProsima/Fast-DDS#6193), and that hung a CI run.
+        """
+        with self._lock:
+            node = rclpy.create_node(
+                name, context=self.context, start_parameter_services=False, enable_rosout=False
+            )
+        try:
+            yield node
+        finally:
+            with self._lock:
+                node.destroy_node()
 
     # topics
 

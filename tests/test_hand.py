@@ -16,10 +16,8 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import rclpy
 from exodigit_nodes.pacing import TimeSettings
 from exodigit_nodes.sim_time import MEASURE_WINDOW, SimulatedTime
-from rclpy.node import Node
 from ros_harness import NodeProcess, RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -167,12 +165,10 @@ def test_a_refused_hand_says_why_in_one_line(ros_domain, tmp_path, arguments, me
     assert len(lines) == 1 and lines[0].startswith(f'hand_nodes: error: {message}'), lines
 
 
-def test_fingers_reporting_together_get_one_measured_real_time_factor(ros_domain):
+def test_fingers_reporting_together_get_one_measured_real_time_factor(probe):
     # Each finger's plant reports its hand's simulated time about once a second, the fingers
     # at nearly the same moment: the second report must not measure over the moment between.
-    rclpy.init(domain_id=ros_domain)
-    owner = Node('hand_time_test')
-    try:
+    with probe.local_node('hand_time_test') as owner:
         clock = SimulatedTime(owner, TimeSettings(real_time_factor=0.0))
         fingers = [SimpleNamespace(period=0.01, state=SimpleNamespace(t=0.0)) for _ in FINGERS]
         for finger in fingers:
@@ -181,7 +177,4 @@ def test_fingers_reporting_together_get_one_measured_real_time_factor(ros_domain
         for finger in fingers:
             finger.state.t = 1.0
         measured = [clock.status()[1]['real time factor (measured)'] for _ in fingers]
-        assert measured[0] == measured[1] and float(measured[0]) > 0.0, measured
-    finally:
-        owner.destroy_node()
-        rclpy.try_shutdown()
+    assert measured[0] == measured[1] and float(measured[0]) > 0.0, measured

@@ -6,7 +6,6 @@ import sys
 
 import numpy as np
 import pytest
-import rclpy
 from builtin_interfaces.msg import Time
 from exodigit_nodes.catalog import NODES
 from exodigit_nodes.controllers import (
@@ -33,7 +32,6 @@ from exodigit_nodes.watchdog import Watchdog
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.parameter import Parameter
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from exodigit_model import GloveModel, load_params, params_from_dict
@@ -191,7 +189,7 @@ def test_good_values_are_converted_to_the_parameter_type():
     ids=['low only', 'high only'],
 )
 def test_a_parameter_with_one_bound_is_described_listed_and_checked(
-    ros_domain, default, bounds, beyond, open_side, rule
+    probe, default, bounds, beyond, open_side, rule
 ):
     spec = ParamSpec('gain', default, 'gain, Pa/rad', **bounds)
     kind = type(default)
@@ -200,21 +198,11 @@ def test_a_parameter_with_one_bound_is_described_listed_and_checked(
         spec.check(kind(beyond))
     assert spec.check(kind(open_side)) == open_side
     # The node's declaration: rclpy takes the descriptor and refuses what lies past the bound
-    # (a local node in its own context, without parameter services or rosout: no traffic).
-    context = rclpy.Context()
-    rclpy.init(
-        context=context, domain_id=ros_domain, signal_handler_options=SignalHandlerOptions.NO
-    )
-    try:
-        node = rclpy.create_node(
-            'one_bound', context=context, start_parameter_services=False, enable_rosout=False
-        )
+    # (a node nothing spins, in the probe's context: no parameter services, no rosout).
+    with probe.local_node('one_bound') as node:
         node.declare_parameter('gain', default, descriptor(spec))
         refused = node.set_parameters([Parameter('gain', value=kind(beyond))])[0]
         accepted = node.set_parameters([Parameter('gain', value=kind(open_side))])[0]
-        node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)
     assert not refused.successful and 'out of range' in refused.reason, refused.reason
     assert accepted.successful, accepted.reason
 
