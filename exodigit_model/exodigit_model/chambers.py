@@ -1,4 +1,4 @@
-"""The three pneumatic chambers: first-order lag toward the saturated command (MODEL.md §13).
+"""The pneumatic chambers: first-order lag toward the saturated command (docs/spec/model.md §13).
 
 T·dp/dt = u − p with u the command clipped to [0, max_supply_pressure] and held constant over a
 step (zero-order hold), discretised exactly: p ← u + (p − u)·exp(−Δt/T); T = 0 gives p = u.

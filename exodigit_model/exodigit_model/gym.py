@@ -1,4 +1,4 @@
-"""A Gymnasium environment of the simulated glove: :class:`GloveEnv` (MODEL.md §13).
+"""A Gymnasium environment of the simulated glove: :class:`GloveEnv` (docs/spec/model.md §13).
 
 The optional ``gym`` extra (``pip install "./exodigit_model[gym]"``) provides Gymnasium; only this
 module imports it, never the core package. :class:`GloveEnv` steps one glove in-process (no
@@ -101,8 +101,8 @@ class FlexExtendTarget:
         Raises
         ------
         ValueError
-            If the coupled solve (MODEL.md §7) at that pressure does not converge, or its state
-            leaves the model (the validated stretch or the finger's range of motion).
+            If the coupled solve (docs/spec/model.md §7) at that pressure does not converge, or
+            its state leaves the model (the validated stretch or the finger's range of motion).
         """
         solution = model.solve([pressure, pressure, pressure])
         problems = solution.warnings()
@@ -132,7 +132,7 @@ def tracking_reward(
 
 
 class GloveEnv(gymnasium.Env):
-    r"""One simulated glove as a Gymnasium environment (MODEL.md §13), tracking a target.
+    r"""One simulated glove as a Gymnasium environment (docs/spec/model.md §13), tracking a target.
 
     Each step applies the action as the chamber pressure command for Δt = 1/``rate_hz``:
     the chambers lag toward it (clipped to the supply range), the coupled quasi-static
@@ -142,9 +142,9 @@ class GloveEnv(gymnasium.Env):
     ----------
     model : GloveModel, optional
         The glove and finger. Give this or ``params``, not both; neither = the defaults of
-        MODEL.md §10.
+        docs/spec/model.md §10.
     params : str, PathLike or GloveParams, optional
-        A parameter file (YAML, SI, merged over the defaults, MODEL.md §10) or loaded
+        A parameter file (YAML, SI, merged over the defaults, docs/spec/model.md §10) or loaded
         parameters, instead of ``model``.
     settings : SimulationSettings, optional
         Rate, chamber lag, supply, sensor noise; the ROS plant's defaults when omitted
@@ -188,7 +188,7 @@ class GloveEnv(gymnasium.Env):
     step's coupled solve did not converge (the stepper kept the last good state, so the
     physics of the episode ends there); ``truncated`` after ``episode_steps`` steps. Leaving
     the model's validated stretch range (0.95 ≤ λ ≤ 1.5, :data:`.model.VALID_STRETCH`: the
-    paper's range from λ = 1, extended down to 0.95 by MODEL.md §12 because a bottom face
+    paper's range from λ = 1, extended down to 0.95 by docs/spec/model.md §12 because a bottom face
     slightly compressed by the finger is harmless) does not end the episode;
     ``info['in_valid_range']`` reports it.
 

@@ -1,4 +1,4 @@
-"""Identification of the patient as an effective linear spring (MODEL.md §7, §11 "Estimation").
+"""The patient identified as an effective linear spring (docs/spec/model.md §7, §11 "Estimation").
 
 Whatever the true finger is, the estimate τ̂_H = (J_H*)ᵀ f̂ of the torque it resists with is
 fitted per joint by ordinary least squares with an intercept,

@@ -17,7 +17,7 @@ Two samples are compared on one clock: the time each was *sent*, whatever the st
   session pairs only as well as its recorder kept up with ``/clock``).
 
 A JointState's header stamp is *not* what pairs it. In simulated time the plant stamps a step
-with its simulated time t_k (INTERFACES.md Part II) while every source timestamp is wall time,
+with its simulated time t_k (docs/spec/ros.md Part II) while every source timestamp is wall time,
 and a replayed bag carries the recording's stamps while the player sends them now: pairing a
 header stamp with a header-less message's time would compare two clocks, not two samples. The
 header stamp stays the sample's *stamp*: the time on the glove's clock that the estimator checks

@@ -1,4 +1,4 @@
-r"""Yeoh third-order hyperelastic material in the segment wall (eqs 15-23, MODEL.md §5).
+r"""Yeoh third-order hyperelastic material in the segment wall (eqs 15-23, docs/spec/model.md §5).
 
 The wall deforms in pure shear: principal stretches :math:`\lambda_1 = \lambda` (axial),
 :math:`\lambda_2 = 1` (circumferential, eq 18's assumption) and :math:`\lambda_3 = 1/\lambda`
@@ -14,7 +14,8 @@ The wall deforms in pure shear: principal stretches :math:`\lambda_1 = \lambda` 
     \sigma(\lambda) = 2\,(\lambda^2 - \lambda^{-2})\,
     \bigl(C_1 + 2C_2\tilde\lambda + 3C_3\tilde\lambda^2\bigr) \quad (21, 23)
 
-Eq 23 as printed drops the factors 2 and 3 of :math:`\partial W/\partial I_1` (MODEL.md §9).
+Eq 23 as printed drops the factors 2 and 3 of :math:`\partial W/\partial I_1`
+(docs/spec/model.md §9).
 All functions take stretches as floats or arrays of any shape and return the same shape.
 """
 

@@ -4,7 +4,7 @@
 pressure moments of eq 12, the τ_s tables). Its methods take and return numpy arrays in SI
 units, joints in the order MCP, PIP, DIP:
 
-- the patient: :meth:`GloveModel.finger_torque` (τ_H of MODEL.md eq 11.1);
+- the patient: :meth:`GloveModel.finger_torque` (τ_H of docs/spec/model.md eq 11.1);
 - forward: :meth:`GloveModel.solve` (eq 36 / 11.4 for q given p, static or stepped in time),
   :meth:`GloveModel.solve_batch`, :meth:`GloveModel.solve_free` (no finger, paper §3.3);
 - inverse: :meth:`GloveModel.pressure_for` (p for desired q, exact);
@@ -43,7 +43,7 @@ from .solver import CONVERGED_STEP, STATUS
 from .structural import torque_tables
 
 VALID_STRETCH = (0.95, 1.5)
-"""Fibre stretches the model is validated for (paper §2.1.3; MODEL.md §12: a bottom face
+"""Fibre stretches the model is validated for (paper §2.1.3; docs/spec/model.md §12: a bottom face
 slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
 
 
@@ -71,13 +71,13 @@ class Solution:
         2-norm of F(q, p) at ``q``, N·m.
     in_valid_range : bool
         Whether every fibre's stretch lies in 0.95 ≤ λ ≤ 1.5, :data:`VALID_STRETCH` (the model's
-        validated range: the paper's, §2.1.3, starts at λ = 1; MODEL.md §12 extends it down to
-        0.95 because a bottom face slightly compressed by the finger is harmless).
+        validated range: the paper's, §2.1.3, starts at λ = 1; docs/spec/model.md §12 extends it
+        down to 0.95 because a bottom face slightly compressed by the finger is harmless).
     in_range_of_motion : bool
         Whether every joint lies within the finger's range of motion [rom_min, rom_max].
     lengths : ndarray, shape (3,)
         ℓ_i, the bottom-face arc lengths of the segments, m (the rest lengths unless a segment
-        is extensible, MODEL.md §12).
+        is extensible, docs/spec/model.md §12).
     """
 
     q: NDArray[np.float64]
@@ -285,7 +285,7 @@ class GloveModel:
     Parameters
     ----------
     params : GloveParams, optional
-        Validated parameters; the defaults of docs/model.md §10 when omitted.
+        Validated parameters; the defaults of docs/spec/model.md §10 when omitted.
 
     Examples
     --------
@@ -302,7 +302,7 @@ class GloveModel:
         self.packed = pack(self.constants)
         """The same constants as one array: what the kernels are called with from Python."""
         self.extensible = self.constants.extensible
-        """Whether a segment's bottom face stretches (docs/model.md §12): six unknowns."""
+        """Whether a segment's bottom face stretches (docs/spec/model.md §12): six unknowns."""
         joints = self.params.finger.joints
         self.range_of_motion = (
             np.array([j.rom_min for j in joints]),
@@ -354,7 +354,7 @@ class GloveModel:
         return j_robot, j_finger
 
     def length_jacobian(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray:
-        """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (docs/model.md §12), (3, 3) lower triangular.
+        """J_ℓ*[i, k] = n_i·∂r^C_i/∂ℓ_k (docs/spec/model.md §12), (3, 3) lower triangular.
 
         At angles ``q`` and bottom-face ``lengths`` (m; the rest lengths when omitted).
         """
@@ -441,7 +441,7 @@ class GloveModel:
         q_previous: ArrayLike | None = None,
         dt: float | None = None,
     ) -> Solution:
-        """Joint angles and contact forces for chamber pressures ``p`` (eq 36, docs/model.md 11.4).
+        """Joint angles and contact forces at chamber pressures ``p`` (docs/spec/model.md (11.4)).
 
         Parameters
         ----------
@@ -594,7 +594,7 @@ class GloveModel:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The inverse: pressures (Pa) and bottom-face lengths ℓ (m) that hold angles ``q``.
 
-        Constant-length segments: exact. Extensible ones (docs/model.md §12): (12.4) gives p
+        Constant-length segments: exact. Extensible ones (docs/spec/model.md §12): (12.4) gives p
         for given strains exactly, and (12.5) with that p is solved for the strains (Newton
         with their analytic Jacobian, :mod:`.kernels.inverse`).
 
@@ -635,7 +635,7 @@ class GloveModel:
         return forces
 
     def estimate_forces(self, q: ArrayLike, p: ArrayLike) -> NDArray[np.float64]:
-        """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (docs/model.md §7).
+        """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (docs/spec/model.md §7).
 
         Needs no finger model: from measured angles and pressures only (with extensible
         segments the bottom strains are solved for too: :meth:`estimate`).
@@ -648,7 +648,7 @@ class GloveModel:
         """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).
 
         From measured angles and pressures, no finger model: (12.4) gives f for given strains,
-        (12.5) with that f is solved for the strains (docs/model.md §12).
+        (12.5) with that f is solved for the strains (docs/spec/model.md §12).
 
         Raises
         ------
@@ -683,7 +683,7 @@ class GloveModel:
         return torque.reshape(angles.shape)
 
     def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
-        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m (docs/model.md §11, "Estimation").
+        """τ̂_H = (J_H*)ᵀ f̂ from the robot-side estimate, N·m (docs/spec/model.md §11).
 
         The torque the finger actually resists with, from measured angles and pressures of
         shape (3,) or (N, 3).
@@ -698,7 +698,7 @@ class GloveModel:
 
         Linear least squares with an intercept per joint on the robot-side estimate
         (:meth:`estimate_finger_torque`), whatever the true patient is; the fit's RMSE says
-        how well a linear spring explains the data (docs/model.md §11, "Estimation").
+        how well a linear spring explains the data (docs/spec/model.md §11, "Estimation").
         """
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         return fit_stiffness(angles, self.estimate_finger_torque(angles, pressure))
@@ -714,7 +714,7 @@ class GloveModel:
     ) -> GlovePose:
         """Positions of blocks, arcs, contacts and finger at angles ``q`` (eqs 1-4, 33).
 
-        ``lengths`` are the arcs' bottom-face lengths ℓ (m, docs/model.md §12; a
+        ``lengths`` are the arcs' bottom-face lengths ℓ (m, docs/spec/model.md §12; a
         ``Solution``'s ``lengths``); the rest lengths when omitted. A point at fraction s of
         arc k is z_k + e^{iφ_k}(2 d_k + s ℓ_k C(s q_k)): the arc traced by the chord formula
         with a shorter length and angle.

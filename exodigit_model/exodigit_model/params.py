@@ -19,7 +19,7 @@ from typing import Any
 import yaml
 
 JOINT_NAMES = ('mcp', 'pip', 'dip')
-"""The three joints, always in this order (MODEL.md §1)."""
+"""The three joints, always in this order (docs/spec/model.md §1)."""
 
 
 class ParameterError(ValueError):
@@ -107,7 +107,8 @@ class Segment:
         d_i, half the length of the block distal to the segment (its centre of mass), m.
     layer_axial_stiffness : float
         E_L,i, axial stiffness of the strain-limiting bottom layer, N (force per unit strain,
-        MODEL.md §12); ``inf`` = inextensible (the paper's constant arc length), 0 = no layer.
+        docs/spec/model.md §12); ``inf`` = inextensible (the paper's constant arc length), 0 = no
+        layer.
     """
 
     name: str
@@ -170,7 +171,7 @@ class ExoDigit:
 
 @dataclass(frozen=True)
 class FingerJoint:
-    """One finger joint and the link distal to it: the patient of MODEL.md §11 (eqs 11.1-11.3).
+    """One finger joint and the link distal to it: the patient of docs/spec/model.md §11.
 
     With the defaults of ``default_params.yaml`` (the one place they live) the joint is the
     paper's linear torsional spring (eq 32).
@@ -259,7 +260,7 @@ class GloveParams:
     finger: Finger
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain nested dict in the YAML layout of MODEL.md §10 (lists, not tuples)."""
+        """Plain nested dict in the YAML layout of docs/spec/model.md §10 (lists, not tuples)."""
         data = asdict(self)
         data['exo_digit']['segments'] = list(data['exo_digit']['segments'])
         data['finger']['joints'] = list(data['finger']['joints'])
@@ -267,7 +268,7 @@ class GloveParams:
 
 
 class _Yaml12Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``1.1e5`` as a float, as YAML 1.2 and MODEL.md §10 do."""
+    """SafeLoader that also reads ``1.1e5`` as a float, like YAML 1.2 (docs/spec/model.md §10)."""
 
 
 _Yaml12Loader.add_implicit_resolver(
@@ -327,7 +328,7 @@ def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
     Parameters
     ----------
     data : mapping, optional
-        Keys as in MODEL.md §10-11; missing keys take the defaults.
+        Keys as in docs/spec/model.md §10-11; missing keys take the defaults.
 
     Returns
     -------
@@ -369,7 +370,7 @@ def _default_dict() -> dict[str, Any]:
 
 
 PATIENT_PRESETS = ('healthy', 'stroke_mild', 'stroke_moderate', 'stroke_severe')
-"""The patient files shipped with the package (MODEL.md §11, "Presets"; sources inside)."""
+"""The patient files shipped with the package (docs/spec/model.md §11; sources inside)."""
 
 
 def patient_file(name: str) -> Path:
@@ -401,7 +402,7 @@ def params_files(paths: ParamsFiles) -> list[Path]:
 
 
 def load_params(path: ParamsFiles = None) -> GloveParams:
-    """Load parameters: the defaults, with YAML files merged over them in order (MODEL.md §10).
+    """The defaults with YAML files merged over them in order (docs/spec/model.md §10).
 
     Parameters
     ----------
@@ -441,6 +442,6 @@ def load_params(path: ParamsFiles = None) -> GloveParams:
 
 def dump_params(params: GloveParams, path: str | Path) -> None:
     """Write ``params`` as a YAML file that :func:`load_params` reads back unchanged."""
-    header = '# exodigit glove parameters, SI units (m, Pa, N·m/rad); see MODEL.md section 10\n'
+    header = '# exodigit glove parameters, SI units (m, Pa, N·m/rad); see docs/spec/model.md §10\n'
     body = yaml.safe_dump(params.to_dict(), sort_keys=False, allow_unicode=True)
     Path(path).write_text(header + body, 'utf-8')

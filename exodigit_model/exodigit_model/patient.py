@@ -1,4 +1,4 @@
-"""The patient's finger as the kernels see it: one row of constants per joint (docs/model.md §11).
+"""The patient's finger as the kernels see it: constants per joint (docs/spec/model.md §11).
 
 The torque law itself, eqs (11.1)-(11.3), is :func:`.kernels.patient.finger_torque`; this module
 turns a validated :class:`.params.FingerJoint` into its row of ``GloveConstants.laws`` (columns

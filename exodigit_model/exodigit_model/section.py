@@ -7,10 +7,10 @@ by λ(y) = 1 + y q / ℓ̂ when the segment bends by q (eqs 24-26).
 
 - Pressure side, eq 12: :math:`r_pA_p = \frac{\pi}{2}R^2(\frac{4R}{3\pi} + h + b)
   + 2R(\frac h2 + b)h`, the first moment about y = 0 of the region above the base inside the
-  outer contour (MODEL.md §4). τ_p = r_pA_p · p (eq 11).
+  outer contour (docs/spec/model.md §4). τ_p = r_pA_p · p (eq 11).
 - Structural side, eqs 13 and 27 without the Taylor truncation:
-  :math:`M(q) = \int_A \sigma(\lambda(y))\,y\,dA`, τ_s = -M (MODEL.md §5).
-- Extensible segments (MODEL.md §12): the bottom face stretches by λ_b, every fibre by
+  :math:`M(q) = \int_A \sigma(\lambda(y))\,y\,dA`, τ_s = -M (docs/spec/model.md §5).
+- Extensible segments (docs/spec/model.md §12): the bottom face stretches by λ_b, every fibre by
   λ(y) = λ_b + y q / ℓ̂ (12.1), and the section carries the resultants M(q, λ_b) and
   N(q, λ_b) = ∫ σ dA (12.2); the pressure pushes the end faces apart on A_p (12.3).
 
@@ -41,7 +41,7 @@ def pressure_moment(segment: Segment) -> float:
 
 
 def pressure_area(segment: Segment) -> float:
-    """A_p of MODEL.md (12.3), the area of the region of eq 12 the pressure acts on, m²."""
+    """A_p of docs/spec/model.md (12.3): the area of eq 12's region the pressure acts on, m²."""
     r, h = segment.outer_radius, segment.wall_height
     return 0.5 * math.pi * r * r + 2.0 * r * h
 

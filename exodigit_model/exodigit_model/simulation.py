@@ -1,4 +1,4 @@
-"""Stepping the glove in time (MODEL.md §13): the one stepper behind every simulation.
+"""Stepping the glove in time (docs/spec/model.md §13): the one stepper behind every simulation.
 
 The model is quasi-static; time enters through the chambers' lag and the sensors. One step of
 length Δt = 1/``rate_hz`` from the state at t_{k−1}:
@@ -128,11 +128,11 @@ class GloveState(NamedTuple):
     qdot : ndarray
         (q − q_prev)/Δt, rad/s.
     forces : ndarray
-        Contact forces f (MODEL.md §6), N.
+        Contact forces f (docs/spec/model.md §6), N.
     finger_torque : ndarray
         Torque the exo-digit applies to each finger joint, (J_H*)ᵀ f = τ_H (eq 11.1), N·m.
     lengths : ndarray
-        ℓ_k, the segments' bottom-face arc lengths, m (MODEL.md §12).
+        ℓ_k, the segments' bottom-face arc lengths, m (docs/spec/model.md §12).
     effort : ndarray
         The patient's voluntary effort applied in the step, N·m.
     converged : bool or ndarray of bool
@@ -171,12 +171,12 @@ class GloveState(NamedTuple):
 
 
 class GloveSimulation:
-    """The glove stepped in time (MODEL.md §13): one glove, or ``count`` gloves in one batch.
+    """The glove stepped in time (docs/spec/model.md §13): one glove, or ``count`` in one batch.
 
     Parameters
     ----------
     model : GloveModel, optional
-        The glove and finger; the defaults of MODEL.md §10 when omitted.
+        The glove and finger; the defaults of docs/spec/model.md §10 when omitted.
     settings : SimulationSettings, optional
         Rate, chamber lag, supply, sensor noise and seed; the ROS plant's defaults when omitted.
     count : int, optional

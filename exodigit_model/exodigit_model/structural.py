@@ -1,4 +1,4 @@
-r"""The τ_s tables of the three segments, built once per glove (eqs 13, 27; docs/model.md §5).
+r"""The τ_s tables of the three segments, built once per glove (eqs 13, 27; docs/spec/model.md §5).
 
 τ_s,i(q) = −M_i(q) with M_i the section integral of :mod:`.kernels.section`. The solver needs
 τ_s and dτ_s/dq thousands of times a second, so each joint's moment is tabulated as a piecewise

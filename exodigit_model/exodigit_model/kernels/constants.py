@@ -3,7 +3,7 @@
 :class:`GloveConstants` is a named tuple of small arrays, the one argument every kernel takes for
 the glove and the finger; :func:`exodigit_model.model.glove_constants` builds it from validated
 parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`, whose columns
-are named by the ``LAW_*`` indices below (docs/model.md §11).
+are named by the ``LAW_*`` indices below (docs/spec/model.md §11).
 
 From Python the kernels are called with the same constants packed into one array
 (:func:`pack`), which the entry kernels :func:`unpack` into views: numba takes a named tuple of

@@ -3,8 +3,8 @@ r"""Planar kinematics of the exo-digit and the finger and their contact Jacobian
 Points of the plane are complex numbers z = x + iy; a rotation by a is a product with e^{ia}.
 Joint order MCP, PIP, DIP (index 0, 1, 2); φ_j = q_0 + … + q_{j−1} orients body j (φ_0 = 0).
 
-**Exo-digit** (eqs 1-4, y-row of eq 4 corrected, docs/model.md §9). An arc of length ℓ bent by q
-has the chord ℓ·C(q) with
+**Exo-digit** (eqs 1-4, y-row of eq 4 corrected, docs/spec/model.md §9). An arc of length ℓ bent
+by q has the chord ℓ·C(q) with
 
 .. math:: C(q) = \frac{e^{iq} - 1}{iq} = \frac{\sin(q/2)}{q/2}\,e^{iq/2}
 

@@ -1,7 +1,7 @@
 r"""The Yeoh material's axial stress and tangent modulus along the pure-shear path (eqs 21-23).
 
 With the strain e = λ − 1, D = λ − 1/λ, S = λ + 1/λ (both without cancellation as e → 0) and
-λ̃ = I1 − 3 = D², eq 23 (corrected, docs/model.md §9) reads
+λ̃ = I1 − 3 = D², eq 23 (corrected, docs/spec/model.md §9) reads
 
 .. math:: \sigma = 2\,D\,S\,(C_1 + 2C_2\tilde\lambda + 3C_3\tilde\lambda^2), \qquad
           \frac{d\sigma}{d\lambda} = 2\Bigl[(D'S + D^2/\lambda)\,W_1

@@ -1,4 +1,4 @@
-"""Damped Newton iteration for the coupled quasi-statics (docs/model.md §7, §11, §12).
+"""Damped Newton iteration for the coupled quasi-statics (docs/spec/model.md §7, §11, §12).
 
 The iteration uses the analytic Jacobian of :func:`.statics.evaluate`, starts from the caller's
 guess (warm start) and backtracks along the Newton direction until the squared residual norm

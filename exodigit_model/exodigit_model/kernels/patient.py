@@ -1,4 +1,4 @@
-r"""The patient's joint torque τ_H of eqs (11.1)-(11.3) (docs/model.md §11), per joint.
+r"""The patient's joint torque τ_H of eqs (11.1)-(11.3) (docs/spec/model.md §11), per joint.
 
 .. math::
 

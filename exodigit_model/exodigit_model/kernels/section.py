@@ -1,4 +1,4 @@
-r"""The cross-section's stress resultants by quadrature (eqs 13, 27; docs/model.md §5, §12).
+r"""The cross-section's stress resultants by quadrature (eqs 13, 27; docs/spec/model.md §5, §12).
 
 A fibre at height y above the bottom face has the strain e(y) = ε + y q/ℓ̂ (12.1; ε = λ_b − 1,
 zero for an inextensible layer), and the section carries

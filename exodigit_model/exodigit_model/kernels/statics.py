@@ -1,6 +1,7 @@
 r"""The coupled quasi-statics at one state: residual, contact forces and analytic Jacobian.
 
-Inextensible segments (eqs 31, 34-36, docs/model.md §7, §11): the unknowns are the angles q and
+Inextensible segments (eqs 31, 34-36, docs/spec/model.md §7, §11): the unknowns are the
+angles q and
 
 .. math::
 

@@ -1,4 +1,4 @@
-"""One glove (or many) stepped in time (docs/model.md §13): chambers, then the solve.
+"""One glove (or many) stepped in time (docs/spec/model.md §13): chambers, then the solve.
 
 A step of length Δt from the state (x, p) under the command u:
 

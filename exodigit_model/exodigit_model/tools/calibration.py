@@ -11,8 +11,9 @@ by ``--fit`` (:data:`FIT_MODES`), a combination of these groups:
 - ``scale``: one factor s on the Yeoh coefficients of ``--params`` (C_i = s·C_i): the material's
   stiffness with the shape of its stress-stretch curve kept, for data too sparse to fit three
   coefficients.
-- ``layer``: E_L = ``layer_axial_stiffness`` (N per unit strain, MODEL.md §12) of every segment
-  that has measured lengths, in the bounds 0 ≤ E_L ≤ :data:`LAYER_BOUNDS_N` (0 = no layer).
+- ``layer``: E_L = ``layer_axial_stiffness`` (N per unit strain, docs/spec/model.md §12) of every
+  segment that has measured lengths, in the bounds 0 ≤ E_L ≤ :data:`LAYER_BOUNDS_N` (0 = no
+  layer).
 
 Nonlinear fits are bounded least squares (:func:`scipy.optimize.least_squares`, its own
 finite-difference Jacobian) of the model's angles, contact forces and lengths against the
@@ -103,7 +104,7 @@ class Samples:
     forces : ndarray, shape (N, 3)
         Contact forces, N (always NaN on free rows).
     lengths : ndarray, shape (N, 3)
-        Bottom-face arc lengths ℓ of the soft segments, m (MODEL.md §12).
+        Bottom-face arc lengths ℓ of the soft segments, m (docs/spec/model.md §12).
     free : ndarray of bool, shape (N,)
         True for ``free`` samples (no finger), False for ``finger`` samples.
     columns : tuple of str

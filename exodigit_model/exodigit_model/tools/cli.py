@@ -42,8 +42,8 @@ DESCRIPTIONS = {
     'draw': 'Draw the finger and the exo-digit at one pressure, to scale, with contact forces '
     'and joint angles.',
     'calibrate': 'Fit the Yeoh coefficients, the finger stiffness and/or the axial stiffness of '
-    "the segments' bottom layers (E_L, MODEL.md §12) to measured samples and write a parameter "
-    'file, with standard errors and a measured-against-model plot.',
+    "the segments' bottom layers (E_L, docs/spec/model.md §12) to measured samples and write a "
+    'parameter file, with standard errors and a measured-against-model plot.',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
     'exodigit_nodes.recorder (or ros2 bag record).',
 }
@@ -53,14 +53,14 @@ def _params_argument(parser: argparse.ArgumentParser, *, patient: bool = True) -
     parser.add_argument(
         '--params',
         metavar='FILE',
-        help='model parameter YAML (MODEL.md §10); built-in defaults when omitted',
+        help='model parameter YAML (docs/spec/model.md §10); built-in defaults when omitted',
     )
     if patient:
         parser.add_argument(
             '--patient',
             metavar='NAME|FILE',
-            help=f'the finger (MODEL.md §11): a preset ({", ".join(PATIENT_PRESETS)}) or a '
-            'patient YAML merged over --params; the nominal finger when omitted',
+            help=f'the finger (docs/spec/model.md §11): a preset ({", ".join(PATIENT_PRESETS)}) '
+            'or a patient YAML merged over --params; the nominal finger when omitted',
         )
 
 

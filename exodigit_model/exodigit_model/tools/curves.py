@@ -10,8 +10,8 @@ before a module's soft segment (the fixed link), markers 3 and 4 at the proximal
 ends of the block after it (the moving link). Positions are given in the fixed block's frame:
 origin at the start of the soft segment, x along the fixed block, y towards the bending side.
 
-Lengths (MODEL.md §12, the paper's Fig. 12): the bottom-face arc length ℓ of each soft segment
-as solved; constant (the rest length) for an inextensible segment, the paper's model.
+Lengths (docs/spec/model.md §12, the paper's Fig. 12): the bottom-face arc length ℓ of each soft
+segment as solved; constant (the rest length) for an inextensible segment, the paper's model.
 """
 
 from __future__ import annotations
@@ -180,7 +180,7 @@ def write_angles_csv(sweeps: list[Sweep], path: Path) -> None:
 
 
 def write_lengths_csv(sweeps: list[Sweep], path: Path) -> None:
-    """Bottom-face arc lengths ℓ (mm) of every sweep, one row per pressure (MODEL.md §12)."""
+    """Bottom-face arc lengths ℓ (mm) of each sweep, a row a pressure (docs/spec/model.md §12)."""
     _write_sweeps(
         sweeps,
         path,

@@ -1,7 +1,7 @@
 """``exodigit draw``: the finger and the exo-digit at one pressure, to scale (mm).
 
 The exo-digit is drawn from :meth:`GloveModel.pose` at the solved bottom-face lengths ℓ (the
-rest lengths unless a segment is extensible, MODEL.md §12): its base block starts at the
+rest lengths unless a segment is extensible, docs/spec/model.md §12): its base block starts at the
 origin, the bottom face (strain-limiting layer) is the line the pose gives and the segment
 body (height b + h + R) lies on the far side from the finger. The finger hangs under it (the
 +y side), its MCP joint under the middle of the MCP soft segment at rest, one link radius below

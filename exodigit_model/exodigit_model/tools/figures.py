@@ -79,7 +79,7 @@ def force_figure(sweeps: list[Sweep], path: Path) -> None:
 
 
 def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
-    """Bottom-face arc length against pressure, one panel per segment (MODEL.md §12).
+    """Bottom-face arc length against pressure, one panel per segment (docs/spec/model.md §12).
 
     Free and on the finger (that module alone) and all chambers on the finger, the rest length
     ``rest_lengths`` (m) dotted, and on the MCP panel the paper's Fig. 12 observation.
