@@ -1,1 +1,1 @@
-"""exodigit_nodes: thin rclpy nodes around exodigit_model (INTERFACES.md)."""
+"""exodigit_nodes: thin rclpy nodes around exodigit_model (docs/spec/ros.md)."""

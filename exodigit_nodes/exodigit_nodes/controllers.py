@@ -176,8 +176,9 @@ class PositionController(PIController):
 class ForceController(PIController):
     """Contact-force control: robot-side feed-forward plus PI on ``estimated_contact_forces``.
 
-    The feed-forward is the pressure that makes the robot-side estimate (MODEL.md §7) equal the
-    target at the measured angles: p = B_R⁻¹((J_R*)ᵀ·f* − τ_s(q)), so it needs no finger model.
+    The feed-forward is the pressure that makes the robot-side estimate (docs/spec/model.md §7)
+    equal the target at the measured angles: p = B_R⁻¹((J_R*)ᵀ·f* − τ_s(q)), so it needs no
+    finger model.
 
     Parameters
     ----------
@@ -200,7 +201,7 @@ class ForceController(PIController):
         self._moments = np.asarray(model.constants.pressure_moments)
 
     def feedforward(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Pressures giving the target forces at ``angles``, Pa (MODEL.md §7 solved for p)."""
+        """Pressures giving the target forces at ``angles``, Pa (docs/spec/model.md §7, for p)."""
         j_robot, _ = self.model.contact_jacobians(angles)
         torque = j_robot.T @ self.targets - self.model.structural_torque(angles)
         return torque / self._moments

@@ -108,7 +108,8 @@ class StiffnessWindow:
 
     Each pair is estimated once, when it arrives (the node publishes that estimate); the window
     keeps its angles and estimated finger torque, so a fit costs a least-squares solve, not
-    ``size`` force estimates (with extensible segments each is a root-find, MODEL.md §12).
+    ``size`` force estimates (with extensible segments each is a root-find,
+    docs/spec/model.md §12).
 
     Parameters
     ----------

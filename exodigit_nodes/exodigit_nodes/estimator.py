@@ -1,10 +1,10 @@
-"""``estimator``: robot-side contact forces and the patient's effective spring (INTERFACES.md).
+"""``estimator``: robot-side contact forces and the patient's effective spring (docs/spec/ros.md).
 
 Pairs each ``chamber_pressure`` with the ``joint_states`` of the same plant step by the times
 they were sent (DDS source timestamps, :mod:`exodigit_model.joining`; refusing stale or unmatched
 samples) and publishes
-``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (MODEL.md §7, needs no finger
-model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
+``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (docs/spec/model.md §7, needs no
+finger model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
 with); every ``identification_period``, over the last ``identification_window`` pairs, it fits
 the effective linear patient τ̂_H = k (q − q_r) and publishes its stiffness as
 ``estimated_finger_stiffness`` and its rest angle as ``estimated_rest_angle``, with the fit's

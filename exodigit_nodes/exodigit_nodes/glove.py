@@ -105,14 +105,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         '--params-file',
         metavar='FILE',
-        help='model parameter YAML (MODEL.md section 10) of the glove, for every node; default '
+        help='model parameter YAML (docs/spec/model.md §10) of the glove, for every node; default '
         'built-in values',
     )
     parser.add_argument(
         '--patient',
         default=DEFAULT_PATIENT,
         metavar='NAME|FILE',
-        help=f'the finger the plant simulates (MODEL.md section 11): a preset '
+        help=f'the finger the plant simulates (docs/spec/model.md §11): a preset '
         f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal (the glove file alone); '
         f'the estimator and pressure_command assume the nominal one. Default {DEFAULT_PATIENT}',
     )

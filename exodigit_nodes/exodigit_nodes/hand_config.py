@@ -6,7 +6,7 @@ the time options are the plant's parameters of the same names (:mod:`.catalog`),
 defaults, descriptions and checks, and ``mode`` is ``pressure_command``'s.
 
 Finger f lives in ``<namespace>/<f>`` with joint names ``f_mcp, f_pip, f_dip`` and the model
-file ``config/hand/<f>.yaml`` (its link lengths and stiffness; MODEL.md section 10).
+file ``config/hand/<f>.yaml`` (its link lengths and stiffness; docs/spec/model.md §10).
 """
 
 from __future__ import annotations

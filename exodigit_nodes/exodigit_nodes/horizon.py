@@ -1,6 +1,6 @@
 """Keeps a plant in simulated time at most a few steps ahead of what a runner has received.
 
-Every glove topic keeps the last 10 messages of each publisher (INTERFACES.md, "QoS"). A reader
+Every glove topic keeps the last 10 messages of each publisher (docs/spec/ros.md, "QoS"). A reader
 that misses a message (Fast DDS dropped it on the way, which a loaded machine makes more likely)
 holds back the ones after it until the publisher's next heartbeat, up to 3 s later, and gets it
 again only if it is still among those 10. A plant in simulated time at a real-time factor of 0

@@ -37,7 +37,8 @@ class GloveMarkers:
     Parameters
     ----------
     model : GloveModel
-        Gives the pose (eqs 1-4, 33) at the joint angles and the arcs' lengths (MODEL.md §12).
+        Gives the pose (eqs 1-4, 33) at the joint angles and the arcs' lengths
+        (docs/spec/model.md §12).
     """
 
     def __init__(self, model: GloveModel) -> None:
@@ -67,8 +68,8 @@ class GloveMarkers:
     def update(self, angles, forces, stamp, frame_id: str, lengths=None) -> MarkerArray:
         """The markers at joint angles ``angles`` (rad) with contact forces ``forces`` (N).
 
-        ``lengths`` are the soft arcs' bottom-face lengths ℓ_i (m, MODEL.md §12: the plant's
-        ``segment_lengths``); the rest lengths when None.
+        ``lengths`` are the soft arcs' bottom-face lengths ℓ_i (m, docs/spec/model.md §12: the
+        plant's ``segment_lengths``); the rest lengths when None.
         """
         pose = self.model.pose(angles, lengths=lengths, arc_samples=ARC_SAMPLES)
         backbone, finger, *arrows = self.array.markers

@@ -1,4 +1,4 @@
-"""Topic names and message conversions shared by the nodes (INTERFACES.md)."""
+"""Topic names and message conversions shared by the nodes (docs/spec/ros.md)."""
 
 from __future__ import annotations
 

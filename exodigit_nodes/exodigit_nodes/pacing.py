@@ -1,4 +1,4 @@
-"""When the next simulated step is due in wall time, at a real-time factor (INTERFACES.md II).
+"""When the next simulated step is due in wall time, at a real-time factor (docs/spec/ros.md).
 
 Plain Python (no ROS), so the schedule is unit-testable. The schedule is anchored: step times
 are measured from the wall and simulated times of the latest :meth:`Pacer.restart`, so rounding

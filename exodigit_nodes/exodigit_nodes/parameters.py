@@ -178,8 +178,9 @@ def params_file_spec(whose: str) -> ParamSpec:
     return ParamSpec(
         'params_file',
         '',
-        f'Model parameter YAML for {whose} (MODEL.md §10-11): one file, or a list of files '
-        "merged in order (e.g. ['my_glove.yaml', 'patient.yaml']); empty = built-in defaults",
+        f'Model parameter YAML for {whose} (docs/spec/model.md §10-11): one file, or a list of '
+        "files merged in order (e.g. ['my_glove.yaml', 'patient.yaml']); empty = built-in "
+        'defaults',
         read_only=True,
         files=True,
     )

@@ -1,14 +1,15 @@
-"""``plant``: the simulated glove (INTERFACES.md).
+"""``plant``: the simulated glove (docs/spec/ros.md).
 
-A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (MODEL.md §13: chambers, coupled
-solve, sensors): each step applies the latest valid ``pressure_command`` and publishes
+A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (docs/spec/model.md §13: chambers,
+coupled solve, sensors): each step applies the latest valid ``pressure_command`` and publishes
 ``joint_states``, ``chamber_pressure``, ``contact_forces`` and ``segment_lengths`` (ℓ_i, the
-segments' bottom-face arc lengths, m: the rest lengths unless a segment is extensible, MODEL.md
-§12); ``markers`` (the arcs drawn at those lengths) and ``/diagnostics`` at lower rates.
+segments' bottom-face arc lengths, m: the rest lengths unless a segment is extensible,
+docs/spec/model.md §12); ``markers`` (the arcs drawn at those lengths) and ``/diagnostics`` at
+lower rates.
 ``reset`` (std_srvs/Trigger) puts pressures, angles and lengths back to rest. With no command for
 ``command_timeout`` it vents.
 
-Time (INTERFACES.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
+Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
 ``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
 ns, published on ``/clock`` before that step's outputs, paced at ``real_time_factor`` simulated
 seconds per wall second (0 = as fast as possible). ``lockstep:=true`` keeps one step in flight:

@@ -1,4 +1,4 @@
-"""``pressure_command``: the reference controller and command source of the glove (INTERFACES.md).
+"""``pressure_command``: the glove's reference controller and command source (docs/spec/ros.md).
 
 Modes: ``staircase`` (0 → 50 kPa in 10 kPa steps and back, as in the paper's experiments), ``sine``
 (continuous passive motion between two pressures), ``hold``, ``position`` (feed-forward
@@ -9,7 +9,7 @@ no faster than max_pressure_rate, ramping down when a joint leaves its range of 
 contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes zero pressure.
 
 It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
-simulated time, INTERFACES.md Part II), answers each ``joint_states`` with one command computed
+simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with one command computed
 from that state and its stamp (in ``force`` mode: from that state and the estimate of the same
 step).
 

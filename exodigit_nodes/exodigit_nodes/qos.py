@@ -1,4 +1,4 @@
-"""The one QoS profile of every exodigit topic (INTERFACES.md, "QoS").
+"""The one QoS profile of every exodigit topic (docs/spec/ros.md, "QoS").
 
 Reliable, keep-last 10, volatile: a subscriber with the default rclpy profile (``depth=10``)
 matches it. ``markers`` and ``/diagnostics`` use the same profile at lower rates; ``/clock`` has
@@ -21,7 +21,7 @@ CLOCK_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""Profile of ``/clock`` (INTERFACES.md Part II): reliable, keep-last 1, which both rclpy's
+"""Profile of ``/clock`` (docs/spec/ros.md Part II): reliable, keep-last 1, which both rclpy's
 best-effort time-source subscription and reliable subscribers match."""
 
 RECORD_QOS = QoSProfile(

@@ -4,7 +4,7 @@ Usage::
 
     python -m exodigit_nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
 
-Subscribes, in its namespace, to every glove topic of INTERFACES.md (``chamber_pressure``,
+Subscribes, in its namespace, to every glove topic of docs/spec/ros.md (``chamber_pressure``,
 ``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
 ``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
 ``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to

@@ -1,4 +1,4 @@
-"""Safety limiter of the ``pressure_command`` node (INTERFACES.md, "Safety behaviour").
+"""Safety limiter of the ``pressure_command`` node (docs/spec/ros.md, "Safety behaviour").
 
 Whatever a controller asks, what is sent stays in [0, max_pressure], changes by at most
 max_pressure_rate·dt per step, and ramps down toward zero while a joint is outside its range of

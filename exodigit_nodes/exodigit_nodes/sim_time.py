@@ -1,4 +1,4 @@
-"""Simulated time of one plant or a whole hand: /clock, pacing, lockstep, pause (INTERFACES II).
+"""Simulated time of a plant or a hand: /clock, pacing, lockstep, pause (docs/spec/ros.md Part II).
 
 :class:`SimulatedTime` owns the simulated clock of one or more plants (its *members*): every
 member takes step k at t_k together, ``/clock`` is published once per step before the members'

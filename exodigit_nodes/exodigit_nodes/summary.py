@@ -12,7 +12,7 @@ from typing import TextIO
 import numpy as np
 from exodigit_model.joining import Joined, Joiner
 
-#: Joint labels in topic order (INTERFACES.md: always MCP, PIP, DIP).
+#: Joint labels in topic order (docs/spec/ros.md: always MCP, PIP, DIP).
 JOINT_LABELS = ('MCP', 'PIP', 'DIP')
 
 

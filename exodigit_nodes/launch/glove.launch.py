@@ -8,7 +8,7 @@
 Each node reads its defaults from its ``config/<executable>.yaml`` in the package share
 directory; the launch arguments below override them. The nodes, the modes and the arguments'
 defaults come from the node table, ``exodigit_nodes.catalog`` (the installed package), from which
-those config files are generated. Simulated time (INTERFACES.md Part II) is what
+those config files are generated. Simulated time (docs/spec/ros.md Part II) is what
 ``python -m exodigit_nodes.glove --clock sim --real-time-factor X --lockstep`` sets: the plant
 owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
 ``use_sim_time`` and pressure_command answers each joint_states in lockstep.
@@ -124,7 +124,7 @@ def generate_launch_description():
         DeclareLaunchArgument(
             'params_file',
             default_value=PLANT['params_file'].default,
-            description='model parameter YAML (MODEL.md section 10) for plant, estimator and '
+            description='model parameter YAML (docs/spec/model.md §10) for plant, estimator and '
             'pressure_command; empty = built-in defaults',
         ),
         DeclareLaunchArgument(

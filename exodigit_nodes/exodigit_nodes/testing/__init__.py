@@ -3,7 +3,7 @@
 ``GloveSim`` starts a plant (and optionally the estimator) in a private ROS domain and namespace
 and drives it: ``step(command)`` for a controller in the test itself, ``run(seconds)`` for a
 controller that is its own ROS node. Installed with ``exodigit_nodes``, the pytest plugin
-:mod:`exodigit_nodes.testing.plugin` gives every test a ``glove_sim`` fixture (INTERFACES.md
+:mod:`exodigit_nodes.testing.plugin` gives every test a ``glove_sim`` fixture (docs/spec/ros.md
 Part II, "A testing kit for users' own controllers").
 """
 

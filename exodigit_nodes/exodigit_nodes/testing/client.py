@@ -7,7 +7,7 @@ node of its own (its own context, so it never touches the caller's ``rclpy.init`
 drive the glove:
 
 * the test is the controller: :meth:`GloveSim.step` sends one ``pressure_command`` and returns the
-  state of the step it caused (INTERFACES.md Part II: one command in, the next state out);
+  state of the step it caused (docs/spec/ros.md Part II: one command in, the next state out);
 * the controller is a ROS node of the user's, started with :attr:`GloveSim.env` in
   :attr:`GloveSim.namespace`: :meth:`GloveSim.run` lets the plant step in lockstep with it for
   exactly that many simulated seconds and returns the record. Between runs the plant is paused, so
@@ -79,7 +79,7 @@ class SimState:
         Simulated contact forces (``contact_forces``), N.
     lengths : ndarray, shape (3,)
         ℓ_i, the segments' bottom-face arc lengths (``segment_lengths``), m: the rest lengths
-        unless a segment is extensible (MODEL.md §12).
+        unless a segment is extensible (docs/spec/model.md §12).
     estimated_forces : ndarray, shape (3,), or None
         The estimator's robot-side estimate of this step, N (None without the estimator).
     """
@@ -118,8 +118,8 @@ class GloveSim:
     Parameters
     ----------
     params_file : str or Path, optional
-        The plant's model / patient parameter file (MODEL.md §10); the built-in defaults when
-        omitted.
+        The plant's model / patient parameter file (docs/spec/model.md §10); the built-in
+        defaults when omitted.
     estimator : bool
         Also start the ``estimator`` node (its estimate of each step is in
         :attr:`SimState.estimated_forces`).

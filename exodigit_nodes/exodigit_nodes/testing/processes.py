@@ -30,7 +30,7 @@ DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
 """Lock file of a domain id in use."""
 STOP_TIMEOUT = 2.0
-"""How long a node may take to exit after SIGINT, s (INTERFACES.md)."""
+"""How long a node may take to exit after SIGINT, s (docs/spec/ros.md)."""
 
 
 class DomainLease:
