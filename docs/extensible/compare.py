@@ -5,7 +5,7 @@ Run from the repository root (about a minute: the sensitivity table refits six t
     .venv/bin/python docs/extensible/compare.py
 
 It prints the Markdown tables of docs/extensible.md and writes docs/extensible/comparison.png.
-Models compared (MODEL.md §12):
+Models compared (docs/spec/model.md §12):
 
 - constant length: the built-in defaults (E_L = .inf, the paper's model);
 - E_L = 0 alone: the default material with no layer in the MCP segment (the most elongation
