@@ -29,7 +29,7 @@ from exodigit_model import (
     patient_file,
 )
 
-#: A patient joint with every term of MODEL.md (11.1)-(11.3) on, within the default ranges.
+#: A patient joint with every term of docs/spec/model.md (11.1)-(11.3) on, within default ranges.
 EVERY_TERM = {
     'stiffness': 0.12,
     'rest_angle': 0.3,

@@ -1,9 +1,9 @@
-"""Independent reference computations for the model tests, written from MODEL.md only.
+"""Independent reference computations for the model tests, written from docs/spec/model.md only.
 
 Nothing here calls the quadrature, kinematics or solver of ``exodigit_model``: the integrals use
 adaptive ``scipy.integrate.quad``/``dblquad``, the kinematics use eqs 1-4 with plain sin/cos
-(y-row of eq 4 corrected, MODEL.md §9), and the numbers are copied from MODEL.md §10. Parameter
-objects are only read for their values.
+(y-row of eq 4 corrected, docs/spec/model.md §9), and the numbers are copied from
+docs/spec/model.md §10. Parameter objects are only read for their values.
 """
 
 import math
@@ -30,7 +30,7 @@ MODEL_MD_DEFAULTS = {
                 'wall_height': 0.004,
                 'base_thickness': 0.0015,
                 'block_half_length': 0.005,
-                'layer_axial_stiffness': math.inf,  # MODEL.md §12: inextensible by default
+                'layer_axial_stiffness': math.inf,  # inextensible, docs/spec/model.md §12
             }
             for name, arc in (('mcp', 0.046), ('pip', 0.031), ('dip', 0.015))
         ],
@@ -41,7 +41,7 @@ MODEL_MD_DEFAULTS = {
                 'name': name,
                 'link_half_length': half,
                 'stiffness': k,
-                # MODEL.md §11 defaults: a linear spring about q = 0.
+                # docs/spec/model.md §11 defaults: a linear spring about q = 0.
                 'rest_angle': 0.0,
                 'rom_min': low,
                 'rom_max': high,
@@ -60,7 +60,7 @@ MODEL_MD_DEFAULTS = {
         ]
     },
 }
-"""The parameter file of MODEL.md §10 with the defaults of §11-12, typed in from it."""
+"""The parameter file of docs/spec/model.md §10 with the defaults of §11-12, typed in from it."""
 SEGMENT_LENGTH_KEYS = (
     'arc_length',
     'inner_radius',
@@ -69,7 +69,7 @@ SEGMENT_LENGTH_KEYS = (
     'base_thickness',
     'block_half_length',
 )
-"""The lengths of one segment in MODEL.md §10 (all must be > 0)."""
+"""The lengths of one segment in docs/spec/model.md §10 (all must be > 0)."""
 
 
 # -- material (eqs 21-22) ----------------------------------------------------------------------
@@ -226,7 +226,7 @@ def robot_contact_jacobian(params, q):
 
 
 SPASTICITY_WIDTH = 0.01
-"""w of MODEL.md eq 11.3, rad/s (typed in from the document)."""
+"""w of docs/spec/model.md eq 11.3, rad/s (typed in from the document)."""
 EVERY_TERM = {
     'rest_angle': 0.25,
     'rom_torque': 0.004,
@@ -236,11 +236,11 @@ EVERY_TERM = {
     'extensor_spasticity': 0.005,
     'spasticity_threshold': 0.3,
 }
-"""A patient joint with every term of MODEL.md (11.1)-(11.3) on (within each joint's range)."""
+"""A patient joint with every term of docs/spec/model.md (11.1)-(11.3) on (within its range)."""
 
 
 def finger_torque(params, q, qdot=None, effort=None):
-    """τ_H of MODEL.md eqs 11.1-11.3, written from the document with numpy (logaddexp)."""
+    """τ_H of docs/spec/model.md (11.1)-(11.3), written from the document in numpy (logaddexp)."""
     q = np.asarray(q, dtype=float)
     v = np.zeros(3) if qdot is None else np.asarray(qdot, dtype=float)
     u = np.zeros(3) if effort is None else np.asarray(effort, dtype=float)

@@ -5,9 +5,9 @@
 reordered joint names; position/velocity/effort of different lengths; stamps of zero, in the
 future, far in the past and before 1970), mixed with a few well-formed messages so that the valid
 path is exercised between the bad ones. Each message comes with ``malformed``: True when
-INTERFACES.md says the receiving node must drop it (wrong length or non-finite; for joint states
-also wrong names or mismatched arrays). Stamp checks depend on the node, so stamps do not enter
-that flag.
+docs/spec/ros.md, "Safety behaviour", says the receiving node must drop it (wrong length or
+non-finite; for joint states also wrong names or mismatched arrays). Stamp checks depend on the
+node, so stamps do not enter that flag.
 
 `OutputCheck` collects every value a node publishes and every bound it breaks.
 """

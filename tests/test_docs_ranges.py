@@ -69,7 +69,7 @@ def project_texts() -> dict[str, str]:
     ('text', 'numbers'),
     [
         ("Whether every fibre's stretch lies in 1 ≤ λ ≤ 1.5 (the", [(1.0, 1.5)]),
-        ('# MODEL.md §12: 0.95 <= lambda <= 1.5 over the section', [(0.95, 1.5)]),
+        ('# docs/spec/model.md §12: 0.95 <= lambda <= 1.5 over the section', [(0.95, 1.5)]),
         ('0.95 <= stretch <= 1.5', [(0.95, 1.5)]),
         ('0.4–2.6 (far beyond the\n  validated 1–1.5), and', [(1.0, 1.5)]),
         ('the validated range 1..1.5)', [(1.0, 1.5)]),

@@ -145,7 +145,8 @@ def test_a_timed_session_exits_0_and_records_what_the_model_predicts(ros_env, tm
     assert np.all(np.diff(table['time_s']) > 0)
 
     # The default session simulates stroke_moderate (damped, spastic): each recorded step is
-    # the stepped solve (MODEL.md 11.4) from the step before it, at its recorded pressure.
+    # the stepped solve (docs/spec/model.md (11.4)) from the step before it, at its recorded
+    # pressure.
     patient = GloveModel(load_params(patient_file(DEFAULT_PATIENT)))
     # (wall clock: stamps are the node clock, steps 10 ms of model time; a gap is a lost row)
     consecutive = np.flatnonzero(np.diff(table['time_s']) < 0.015)

@@ -5,9 +5,9 @@ solve, the free solve, the batch, the inverse (``hold``/``pressure_for``), the r
 estimator (``estimate``/``estimate_forces``), the identification fit and the simulation step,
 over
 
-- the layer stiffness E_L of each segment on its own (MODEL.md §12): 0, ``.inf`` or log-uniform
-  in [1e-6, 1e9] N. The elastomer's own axial stiffness ∂N/∂ε is about 43 N at rest, so 1e-6 N
-  stands for "no layer" and 1e9 N behaves as the inextensible layer;
+- the layer stiffness E_L of each segment on its own (docs/spec/model.md §12): 0, ``.inf`` or
+  log-uniform in [1e-6, 1e9] N. The elastomer's own axial stiffness ∂N/∂ε is about 43 N at rest,
+  so 1e-6 N stands for "no layer" and 1e9 N behaves as the inextensible layer;
 - the glove scaled by s (lengths) and m (stresses), each log-uniform in [1e-3, 1e3]. Stresses
   scale with m and areas with s², so every moment (τ_s, r_pA_p·p, the finger's torques) scales with
   m·s³, every force (f, N, p·A_p, E_L·ε) with m·s², and angles and strains stay the same: the
@@ -52,7 +52,7 @@ from exodigit_model import (
 SUPPLY = 100e3
 """The supply range of the chambers, Pa (SimulationSettings.max_supply_pressure)."""
 VALID_STRETCH = (0.95, 1.5)
-"""The validated fibre stretches of MODEL.md §12 (written here, not imported)."""
+"""The validated fibre stretches of docs/spec/model.md §12 (written here, not imported)."""
 ANGLE_RTOL = 1e-9
 """Angles of equivalent problems agree to this, relative to the state's largest angle."""
 ANGLE_FLOOR = 1e-14
@@ -79,7 +79,7 @@ JOINT_KEYS = (
     'rom_sharpness',
     'spasticity_threshold',
 )
-"""The patient's keys (MODEL.md §11)."""
+"""The patient's keys (docs/spec/model.md §11)."""
 PRESET_JOINTS = {
     name: load_params(patient_file(name)).to_dict()['finger']['joints'] for name in PATIENT_PRESETS
 }
@@ -297,7 +297,7 @@ def test_every_api_converges_for_each_preset(name, layers, p, p_before):
 @settings(max_examples=EXAMPLES // 2, **PROPERTY)
 @given(joints=patients, p=pressures, segment=st.integers(0, 2))
 def test_a_stiff_layer_is_the_inextensible_model(joints, p, segment):
-    # MODEL.md §12: E_L -> inf is the constant-length model; at 1e9 N (7 orders above the
+    # docs/spec/model.md §12: E_L -> inf is the constant-length model; at 1e9 N (7 orders above the
     # elastomer's own axial stiffness) the angles differ by O(1/E_L).
     stiff = [math.inf] * 3
     stiff[segment] = 1e9

@@ -1,9 +1,10 @@
-"""Extensible soft segments (MODEL.md §12): resultants, J_ℓ*, the 6×6 solve, inverse, estimator.
+"""Extensible segments (docs/spec/model.md §12): resultants, J_ℓ*, 6×6 solve, inverse, estimator.
 
 Independent references: the resultants by adaptive quad/dblquad over the section
 (tests/model_reference.py), J_ℓ* by central differences of eq 4 in the arc lengths (the
 reference kinematics of a glove whose arc_length is changed), the 6×6 Jacobian by differences
-of the residual, round trips, the inextensible limit, and the figures MODEL.md §12 states.
+of the residual, round trips, the inextensible limit, and the figures docs/spec/model.md §12
+states.
 """
 
 import math
@@ -16,7 +17,7 @@ from model_reference import exo_digit_points, section_integral, yeoh_stress
 from exodigit_model import GloveModel, GloveSimulation, SimulationSettings, params_from_dict
 
 NOMINAL = GloveModel()
-#: Resultants against adaptive quadrature (relative; MODEL.md: 1e-10).
+#: Resultants against adaptive quadrature (relative; docs/spec/model.md §5, §12).
 RESULTANT_RTOL = 1e-10
 #: Central-difference step (rad, m) and the agreement expected from it.
 STEP = 1e-7
@@ -154,7 +155,8 @@ def test_a_stiffening_layer_converges_to_the_constant_length_model():
 
 
 def test_model_md_figures_for_the_mcp_module():
-    # MODEL.md §12: 52.6 vs 50.5 mm at E_L = 0; 47.6 vs 46.7 mm at E_L = 100 N (50 kPa, MCP).
+    # docs/spec/model.md §12: 52.6 vs 50.5 mm at E_L = 0; 47.6 vs 46.7 mm at E_L = 100 N (50 kPa,
+    # MCP).
     for stiffness, on_finger, free in ((0.0, 52.6, 50.5), (100.0, 47.6, 46.7)):
         model = extensible(stiffness, None, None)
         finger = model.solve([50e3, 0.0, 0.0])

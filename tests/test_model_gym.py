@@ -2,7 +2,7 @@
 
 Expectations are computed without the environment: observations by a plain GloveSimulation
 with the same settings and seed, the default target and reward from their documented formulas
-(MODEL.md §13 for the stepper), reachability by the model's exact inverse.
+(docs/spec/model.md §13 for the stepper), reachability by the model's exact inverse.
 """
 
 import math

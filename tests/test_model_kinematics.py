@@ -1,4 +1,4 @@
-"""Exo-digit and finger kinematics (eqs 1-4, 32-33) and the contact Jacobians (MODEL.md §2-3)."""
+"""Exo-digit and finger kinematics (eqs 1-4, 32-33), Jacobians (docs/spec/model.md §2-3)."""
 
 import math
 
@@ -168,7 +168,7 @@ def test_jacobians_are_lower_triangular(case, q):
 
 @pytest.mark.parametrize('q', [*ANGLES, np.zeros(3), np.full(3, NEAR_ZERO)], ids=str)
 def test_robot_diagonal_is_d_plus_arc_term(case, q):
-    # MODEL.md §3: d_i + ℓ̂_i (1 - cos q_i)/q_i², written as 2 sin²(q/2)/q² (→ 1/2 at 0).
+    # docs/spec/model.md §3: d_i + ℓ̂_i (1 - cos q_i)/q_i², written as 2 sin²(q/2)/q² (→ 1/2 at 0).
     params, model = case
     j_robot, _ = model.contact_jacobians(q)
     for i, segment in enumerate(params.exo_digit.segments):

@@ -1,4 +1,4 @@
-"""Yeoh material along the pure-shear path (MODEL.md §5, eqs 21-23 corrected)."""
+"""Yeoh material along the pure-shear path (docs/spec/model.md §5, eqs 21-23 corrected)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Parameter loading and validation (MODEL.md §10, issue 2 "Parameters")."""
+"""Parameter loading and validation (docs/spec/model.md §10, issue 2 "Parameters")."""
 
 import copy
 import math
@@ -11,7 +11,7 @@ from exodigit_model import ParameterError, dump_params, load_params, params_from
 
 
 def _with(path, value):
-    """A full copy of the MODEL.md defaults with the entry at ``path`` replaced by ``value``."""
+    """The defaults (docs/spec/model.md §10) with the entry at ``path`` set to ``value``."""
     data = copy.deepcopy(MODEL_MD_DEFAULTS)
     node = data
     for key in path[:-1]:
@@ -110,7 +110,8 @@ def test_non_numbers_are_rejected(value):
 
 
 def test_an_empty_value_takes_the_default():
-    # YAML "c1:" with no value loads as None: the key is missing, so MODEL.md's default holds.
+    # YAML "c1:" with no value loads as None: the key is missing, so the default holds
+    # (docs/spec/model.md §10).
     assert params_from_dict({'material': {'c1': None}}).material.c1 == 1.1e5
 
 
@@ -137,7 +138,8 @@ def test_yaml_file_is_merged_over_the_defaults(tmp_path):
 
 
 def test_exponent_floats_in_yaml_are_numbers(tmp_path):
-    # YAML 1.1 (plain PyYAML) reads 1.1e5 and 2e4 as strings; MODEL.md §10 writes them as floats.
+    # YAML 1.1 (plain PyYAML) reads 1.1e5 and 2e4 as strings; docs/spec/model.md §10 writes them
+    # as floats.
     path = tmp_path / 'exponents.yaml'
     path.write_text('material: {c1: 1.1e5, c2: 2e4, c3: -3E+2}\n')
     material = load_params(path).material

@@ -1,4 +1,4 @@
-"""The patient (MODEL.md §11): τ_H, the stepped solve (11.4), inverse, estimators, identification.
+"""The patient (docs/spec/model.md §11): τ_H, stepped solve (11.4), inverse, estimators, fits.
 
 Independent references: tests/model_reference.py (τ_H written from the document with numpy,
 F of 11.4 by quadrature and eq 4), central differences, independent solves of equivalent

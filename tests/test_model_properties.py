@@ -30,7 +30,7 @@ def _scaled(value):
 
 @st.composite
 def glove_parameters(draw):
-    """Material in the ranges of issue 2, every length within ±30 % of MODEL.md §10."""
+    """Material in the ranges of issue 2, every length within ±30 % of docs/spec/model.md §10."""
     defaults = MODEL_MD_DEFAULTS
     segments = [
         {key: draw(_scaled(segment[key])) for key in SEGMENT_LENGTH_KEYS}

@@ -53,7 +53,7 @@ def _joint_angles(joint, angle):
 
 
 def _valid_limit(segment):
-    """q at which the top fibre reaches λ = 1.5 (MODEL.md §5: λ(y) = 1 + y q/ℓ̂)."""
+    """q at which the top fibre reaches λ = 1.5 (docs/spec/model.md §5: λ(y) = 1 + y q/ℓ̂)."""
     return 0.5 * segment.arc_length / section_height(segment)
 
 

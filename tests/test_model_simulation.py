@@ -1,4 +1,4 @@
-"""The stepper (MODEL.md §13): chambers, warm-started solves, sensors, time, batches.
+"""The stepper (docs/spec/model.md §13): chambers, warm-started solves, sensors, time, batches.
 
 Every expectation is computed independently: the chamber pressure from the continuous step
 response of T·dp/dt = u − p, the angles by the reference residual of eq 36

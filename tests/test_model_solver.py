@@ -1,4 +1,4 @@
-"""Coupled and free quasi-static solves, inverse, estimators and identification (MODEL.md §6-8)."""
+"""Coupled and free solves, inverse, estimators and identification (docs/spec/model.md §6-8)."""
 
 import itertools
 import math
@@ -37,7 +37,7 @@ STIFFNESS_RTOL = 1e-7
 STIFF_LIMIT_RTOL = 1e-3
 """K q against its K → ∞ limit at K = 1e3 N·m/rad (error O(stiffness ratio))."""
 PUBLISHED_DEG = 1.0
-"""MODEL.md §10's quoted bending angles, ± degrees."""
+"""docs/spec/model.md §10's quoted bending angles, ± degrees."""
 
 PARAMS = load_params()
 MODEL = GloveModel(PARAMS)
@@ -256,7 +256,7 @@ def test_solution_flags(free):
         assert solution.converged and solution.residual <= RESIDUAL_BOUND
         assert solution.iterations > 0
         stretch = _top_stretch(solution.q)
-        # MODEL.md §12: 0.95 <= lambda <= 1.5 over the section (here the bottom face is at 1)
+        # docs/spec/model.md §12: 0.95 <= lambda <= 1.5 over the section (the bottom face is at 1)
         assert solution.in_valid_range == bool(np.all((stretch >= 0.95) & (stretch <= 1.5)))
         flags.append(solution.in_valid_range)
     assert flags[0] and not flags[-1]
@@ -463,7 +463,7 @@ def test_identification_refuses_a_joint_that_never_moved():
 
 
 def test_published_bending_angles_at_50_kpa():
-    # MODEL.md §10: free ≈ 61°/41°/20°, coupled ≈ 29°/26°/17° with the default parameters.
+    # docs/spec/model.md §10: free ≈ 61°/41°/20°, coupled ≈ 29°/26°/17° with the defaults.
     p = np.full(3, 50e3)
     free = np.degrees(MODEL.solve_free(p))
     coupled = np.degrees(MODEL.solve(p).q)

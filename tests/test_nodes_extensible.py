@@ -1,4 +1,4 @@
-"""An extensible glove over DDS (MODEL.md §12): the plant's ``segment_lengths`` through the kit.
+"""An extensible glove over DDS (docs/spec/model.md §12): ``segment_lengths`` through the kit.
 
 The MCP segment has no separate strain-limiting layer (``layer_axial_stiffness: 0.0``), the PIP
 and DIP keep the default ``.inf`` (inextensible). With the kit's default chamber lag 0 each
@@ -40,7 +40,7 @@ COMMANDS = [
 EXTENSIBLE_MCP = """\
 exo_digit:
   segments:
-    - {layer_axial_stiffness: 0.0}   # N per unit strain: MCP without a layer (MODEL.md §12)
+    - {layer_axial_stiffness: 0.0}   # N per unit strain: MCP with no layer, docs/spec/model.md §12
     - {}
     - {}
 """
@@ -140,7 +140,7 @@ def test_the_estimator_recovers_the_contact_forces_of_an_extensible_glove(
     params_file, model, tmp_path
 ):
     # The robot-side estimate from the published q and p, solved for its own bottom strains
-    # (MODEL.md §12), is the plant's contact force when both run the same glove.
+    # (docs/spec/model.md §12), is the plant's contact force when both run the same glove.
     with GloveSim(params_file, estimator=True, log_dir=tmp_path / 'logs') as glove:
         for command in COMMANDS[:3]:
             state = glove.step(command)

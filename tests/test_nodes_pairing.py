@@ -4,7 +4,8 @@ The node is built in this process and its subscription callbacks are handed mess
 message info rclpy would give (`reliability_inprocess`), so each case controls exactly when a
 message was sent and which sequence number its publisher gave it. Every step has its own
 pressures, and the estimate of a step is the model's estimate from that step's angles and
-pressures (MODEL.md §7): an estimate from angles and pressures of two steps matches no step.
+pressures (docs/spec/model.md §7): an estimate from angles and pressures of two steps matches no
+step.
 """
 
 import time

@@ -1,4 +1,4 @@
-"""The patient over ROS (INTERFACES.md Part II, "The patient"), in lockstep simulated time.
+"""The patient over ROS (docs/spec/ros.md Part II, "The patient"), in lockstep simulated time.
 
 The plant simulates a patient file; a probe publishes ``patient_effort`` and reads the
 estimator's ``estimated_finger_torque``, ``estimated_rest_angle`` and the diagnostics. Expected

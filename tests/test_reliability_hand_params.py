@@ -68,7 +68,8 @@ def test_link_lengths_follow_the_cited_hand_length_ratios(finger):
     assert lengths[0] > lengths[1] > lengths[2], f'{finger}: phalanges must shorten distally'
     assert all(j.stiffness > 0 for j in joints)
     if finger == 'index':
-        # The default finger (46/27/18 mm, MODEL.md §10) is this index finger to the millimetre.
+        # The default finger (46/27/18 mm, docs/spec/model.md §10) is this index finger to the
+        # millimetre.
         for joint, default in zip(joints, defaults, strict=True):
             assert 2 * joint.link_half_length == pytest.approx(
                 2 * default.link_half_length, abs=0.5e-3

@@ -14,12 +14,12 @@ from exodigit_model import JOINT_NAMES, GloveModel, load_params, patient_file
 ANGLE_TOLERANCE_DEG = 1e-6
 #: CSV forces (N, 9 significant digits) against single solves.
 FORCE_TOLERANCE_N = 1e-8
-#: Marker positions (mm) against the closed-form arc chord of MODEL.md eq 4.
+#: Marker positions (mm) against the closed-form arc chord of docs/spec/model.md eq 4.
 MARKER_TOLERANCE_MM = 1e-5
 #: CSV lengths (mm, 9 significant digits) against single solves.
 LENGTH_TOLERANCE_MM = 1e-6
 
-#: A glove whose MCP and PIP bottom faces stretch (MODEL.md §12), N per unit strain.
+#: A glove whose MCP and PIP bottom faces stretch (docs/spec/model.md §12), N per unit strain.
 EXTENSIBLE_GLOVE = """\
 exo_digit:
   segments:
@@ -237,7 +237,7 @@ def test_lengths_csv_equals_single_solves(extensible):
         lengths = [float(row[f'l_{name}_mm']) for name in JOINT_NAMES]
         np.testing.assert_allclose(lengths, solution.lengths * 1e3, atol=LENGTH_TOLERANCE_MM)
         assert row['converged'] == str(int(solution.converged))
-    # the extensible segments do stretch, more on the finger than free (MODEL.md §12)
+    # the extensible segments do stretch, more on the finger than free (docs/spec/model.md §12)
     top = {
         r['condition']: float(r['l_mcp_mm'])
         for r in rows

@@ -17,7 +17,7 @@ FORCE_DECIMALS_N = 0.005
 #: Drawn points (m) against closed forms.
 POINT_TOLERANCE_M = 1e-12
 
-#: A glove with stretching MCP and PIP bottom faces (MODEL.md §12), N per unit strain.
+#: A glove with stretching MCP and PIP bottom faces (docs/spec/model.md §12), N per unit strain.
 EXTENSIBLE_GLOVE = 'exo_digit:\n  segments:\n    - {layer_axial_stiffness: 0.0}\n'
 EXTENSIBLE_GLOVE += '    - {layer_axial_stiffness: 30.0}\n    - {}\n'
 
