@@ -410,6 +410,9 @@ class GloveModel:
                 values = as_joint_rows(name, value)
                 _require_shape(name, values, 'P', (rows, 3))
                 motion[:, index] = values
+        # Read-only as _AT_REST is: numba compiles a kernel once per argument type, and a
+        # writable array is another type than a read-only one.
+        motion.flags.writeable = False
         return motion, 0.0 if dt is None else 1.0 / dt
 
     def _lengths(self, lengths: ArrayLike | None) -> NDArray[np.float64]:
@@ -560,7 +563,7 @@ class GloveModel:
                 strain = lengths / rest - 1.0
             x = np.concatenate([start, strain], axis=1)
         x, forces, torque, status, iterations, residual = solve_rows(
-            self.packed, pressure, np.ascontiguousarray(x), free, motion, rate
+            self.packed, pressure, np.array(x, order='C'), free, motion, rate
         )
         valid, moving_range = validity_rows(self.packed, x, *VALID_STRETCH)
         return BatchSolution(
