@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from exodigit_nodes.dds import use_profile
 from exodigit_nodes.horizon import Horizon, RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
@@ -196,6 +197,7 @@ class RosProbe:
 
     def __init__(self, domain_id: int, name: str = 'exodigit_test_probe') -> None:
         os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        use_profile()
         self.context = rclpy.Context()
         rclpy.init(
             context=self.context,

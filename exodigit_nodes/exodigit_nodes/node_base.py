@@ -35,6 +35,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from exodigit_model import GloveModel, ParameterError, load_params
 
+from .dds import use_profile
 from .inputs import InvalidInputError, RejectionTally
 from .messages import DIAGNOSTICS, status
 from .parameters import ParamSpec, ParamTable
@@ -311,6 +312,7 @@ def serve(
     code = 0
     try:
         try:
+            use_profile()
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except RuntimeError as error:  # rclpy's RCLError: malformed --ros-args
             raise ConfigurationError(' '.join(str(error).split())) from None

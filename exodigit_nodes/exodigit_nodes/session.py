@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from .dds import use_profile
 from .run_record import RunRecord
 from .summary import SIGNALS, GloveSignals, SummaryDisplay
 from .supervisor import Supervisor
@@ -163,6 +164,7 @@ def run_session(session: Session, env: dict) -> int:
     try:
         for name, command in session.processes:
             supervisor.start(name, command)
+        use_profile()
         rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor()
         for glove, glove_signals in zip(session.gloves, signals, strict=True):

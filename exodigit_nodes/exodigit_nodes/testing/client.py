@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..dds import use_profile
 from ..pacing import CONTROLLERS_LABEL
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 
@@ -215,6 +216,7 @@ class GloveSim:
         from ..horizon import RepeatedCall
         from .ros_client import GloveClient
 
+        use_profile()
         self._context = rclpy.Context()
         rclpy.init(
             context=self._context,

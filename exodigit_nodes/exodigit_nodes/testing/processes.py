@@ -25,6 +25,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ..dds import with_profile
+
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
 LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
@@ -70,7 +72,7 @@ def ros_environment(domain_id: int) -> dict[str, str]:
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env.pop('ROS_LOCALHOST_ONLY', None)
     env['PYTHONUNBUFFERED'] = '1'
-    return env
+    return with_profile(env)
 
 
 def format_value(value: Any) -> str:
