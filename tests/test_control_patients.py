@@ -12,10 +12,15 @@ import math
 
 import numpy as np
 import pytest
+from exodigit_model.control import (
+    CommandLoop,
+    Feedback,
+    ForceController,
+    PositionController,
+    SafetyLimiter,
+)
 from exodigit_nodes.catalog import PRESSURE_COMMAND_NODE
-from exodigit_nodes.controllers import CommandLoop, Feedback, ForceController, PositionController
 from exodigit_nodes.pressure_command import safety_limits
-from exodigit_nodes.safety import SafetyLimiter
 
 from exodigit_model import (
     PATIENT_PRESETS,

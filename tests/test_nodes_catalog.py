@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 import yaml
+from exodigit_model.control import MODES
 from exodigit_nodes.catalog import CONFIG_WIDTH, NODES, config_text
 from exodigit_nodes.catalog import main as write_config_main
-from exodigit_nodes.controllers import MODES
 from exodigit_nodes.glove import build_parser, check_arguments, glove_session
 from exodigit_nodes.parameters import ParamSpec
 from exodigit_nodes.run_record import RunRecord

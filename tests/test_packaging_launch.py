@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 import yaml
+from exodigit_model.control import MODES
 from exodigit_nodes.catalog import NODES
-from exodigit_nodes.controllers import MODES
 from exodigit_nodes.glove import sim_time_arguments
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'

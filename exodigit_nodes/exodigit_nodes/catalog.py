@@ -23,17 +23,19 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
+from exodigit_model.control import MODES, SafetyLimits
 from exodigit_model.joining import STEP_TOLERANCE
 
 from exodigit_model import SimulationSettings
 
-from .controllers import MODES
 from .pacing import CLOCKS, MAX_REAL_TIME_FACTOR
 from .parameters import ParamSpec, ParamTable, params_file_spec
 
 PACKAGE = 'exodigit_nodes'
 SIM_DEFAULTS = SimulationSettings()
 """The stepper's defaults, which are the plant's."""
+SAFETY = SafetyLimits()
+"""The safety limiter's defaults (exodigit_model.control), which are pressure_command's."""
 CONFIG_WIDTH = 99
 """Longest line of a generated parameter file's comments, characters."""
 
@@ -324,37 +326,35 @@ PRESSURE_COMMAND_NODE = NodeEntry(
             ParamSpec('force_ki', 5e5, 'force: integral gain, Pa/(N·s)', low=0.0, high=1e8),
             ParamSpec(
                 'max_pressure',
-                60e3,
+                SAFETY.max_pressure,
                 'Safety: highest pressure ever sent, Pa',
                 low=1e3,
                 high=1e6,
             ),
             ParamSpec(
                 'max_pressure_rate',
-                100e3,
+                SAFETY.max_pressure_rate,
                 'Safety: fastest command change, Pa/s',
                 low=1.0,
                 high=1e8,
             ),
             ParamSpec(
                 'joint_lower_limits',
-                (-0.1, -0.1, -0.1),
+                SAFETY.joint_lower,
                 'Safety: range of motion, lower ends, rad',
                 low=-3.14,
                 high=3.14,
             ),
             ParamSpec(
                 'joint_upper_limits',
-                (1.57, 1.75, 1.4),
+                SAFETY.joint_upper,
                 'Safety: range of motion, upper ends, rad',
                 low=-3.14,
                 high=3.14,
             ),
-            # 10 N: the vented glove strapped on the stroke_severe preset's flexed finger already
-            # carries 6 N at a contact; a lower default would leave that patient no way to move.
             ParamSpec(
                 'max_contact_force',
-                10.0,
+                SAFETY.max_contact_force,
                 'Safety: largest |contact force| tolerated, N',
                 low=0.01,
                 high=100.0,

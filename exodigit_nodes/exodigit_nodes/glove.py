@@ -19,10 +19,10 @@ import re
 import sys
 from pathlib import Path
 
+from exodigit_model.control import MODES
 from exodigit_model.params import PATIENT_PRESETS
 
 from exodigit_nodes import catalog
-from exodigit_nodes.controllers import MODES
 from exodigit_nodes.messages import SET_PAUSED
 from exodigit_nodes.pacing import MAX_REAL_TIME_FACTOR
 from exodigit_nodes.run_record import RunRecord

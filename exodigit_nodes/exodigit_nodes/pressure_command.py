@@ -23,22 +23,24 @@ from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
-
-from .catalog import PRESSURE_COMMAND_NODE
-from .controllers import (
+from exodigit_model.control import (
     CommandLoop,
     Controller,
     Feedback,
     ForceController,
     Hold,
     PositionController,
+    SafetyLimiter,
+    SafetyLimits,
     Sine,
     Staircase,
 )
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from .catalog import PRESSURE_COMMAND_NODE
 from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
 from .messages import (
     ESTIMATED_CONTACT_FORCES,
@@ -50,7 +52,6 @@ from .messages import (
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .qos import GLOVE_QOS
-from .safety import SafetyLimiter, SafetyLimits
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""

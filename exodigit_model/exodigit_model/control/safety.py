@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from exodigit_model import JOINT_NAMES
+from ..params import JOINT_NAMES
 
 
 @dataclass(frozen=True)
 class SafetyLimits:
-    """Limits on the command.
+    """Limits on the command; the defaults are the ``pressure_command`` node's.
 
     Attributes
     ----------
@@ -34,11 +34,13 @@ class SafetyLimits:
         Largest |contact force| tolerated, N.
     """
 
-    max_pressure: float
-    max_pressure_rate: float
-    joint_lower: tuple[float, float, float]
-    joint_upper: tuple[float, float, float]
-    max_contact_force: float
+    max_pressure: float = 60e3
+    max_pressure_rate: float = 100e3
+    joint_lower: tuple[float, float, float] = (-0.1, -0.1, -0.1)
+    joint_upper: tuple[float, float, float] = (1.57, 1.75, 1.4)
+    # 10 N: the vented glove strapped on the stroke_severe preset's flexed finger already
+    # carries 6 N at a contact; a lower default would leave that patient no way to move.
+    max_contact_force: float = 10.0
 
     def __post_init__(self) -> None:
         """Refuse limits that cannot hold, naming them."""

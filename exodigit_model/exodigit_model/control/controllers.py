@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from exodigit_model import GloveModel
+from ..model import GloveModel
 
 MODES = {
     'staircase': "steps of staircase_step up to staircase_peak and back, as in the paper's tests",

@@ -1,0 +1,41 @@
+"""The glove's built-in controllers and its safety limiter, without ROS.
+
+What the ``pressure_command`` node of ``exodigit_nodes`` computes each step (docs/spec/ros.md,
+"Safety behaviour"), for in-process use: :class:`~exodigit_model.gym.GloveEnv` puts the same
+limiter between an agent and the chambers, and a controller can be tried on a simulated patient
+with no ROS at all.
+"""
+
+from .controllers import (
+    MODES,
+    Command,
+    CommandLoop,
+    Controller,
+    Feedback,
+    ForceController,
+    Hold,
+    OpenLoop,
+    PIController,
+    PositionController,
+    Sine,
+    Staircase,
+)
+from .safety import Limited, SafetyLimiter, SafetyLimits
+
+__all__ = [
+    'MODES',
+    'Command',
+    'CommandLoop',
+    'Controller',
+    'Feedback',
+    'ForceController',
+    'Hold',
+    'Limited',
+    'OpenLoop',
+    'PIController',
+    'PositionController',
+    'SafetyLimiter',
+    'SafetyLimits',
+    'Sine',
+    'Staircase',
+]
