@@ -9,11 +9,12 @@ import math
 import subprocess
 import sys
 import warnings
+from dataclasses import replace
 
 import gymnasium
 import numpy as np
 import pytest
-from exodigit_model.gym import ENV_ID, GloveEnv
+from exodigit_model.gym import DEFAULT_SAFETY, ENV_ID, GloveEnv
 from gymnasium.utils.env_checker import check_env
 
 from exodigit_model import (
@@ -122,7 +123,7 @@ def test_unseeded_resets_follow_the_last_seed():
 
 def test_observations_equal_a_plain_simulation_with_the_same_seed():
     settings = SimulationSettings(rate_hz=50.0, pressure_time_constant=0.08, **NOISY)
-    env = GloveEnv(MODEL, settings=settings)
+    env = GloveEnv(MODEL, settings=settings, safety=None)
     plain = GloveSimulation(MODEL, SimulationSettings(50.0, 0.08, 100e3, 1e-3, 200.0, seed=21))
 
     def expected(state, k):
@@ -148,7 +149,7 @@ def test_a_params_file_gives_the_model_it_describes(tmp_path):
     path.write_text('finger:\n  joints:\n    - {stiffness: 0.30}\n    - {}\n    - {}\n')
     ideal = SimulationSettings(pressure_time_constant=0.0)
     plain = GloveSimulation(GloveModel(load_params(path)), ideal)
-    env = GloveEnv(params=path, settings=ideal)
+    env = GloveEnv(params=path, settings=ideal, safety=None)
     env.reset(seed=0)
     for command in actions(10):
         observation = env.step(command)[0]
@@ -175,7 +176,7 @@ def test_the_action_space_is_the_supply_range_in_pa(supply):
 
 
 def test_commands_beyond_the_supply_are_clipped_as_the_plant_clips_them():
-    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0))
+    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0), safety=None)
     env.reset(seed=0)
     _, _, _, _, info = env.step([150e3, -1e3, 20e3])
     assert info['saturated']
@@ -191,11 +192,51 @@ def test_an_observation_beyond_its_bounds_is_clipped_and_reported():
     assert not GloveEnv().reset(seed=0)[1]['observation_clipped']
 
 
+# -- the safety limiter -------------------------------------------------------------------
+
+
+def test_the_node_limits_stand_between_the_agent_and_the_chambers():
+    # Ideal chambers: the pressure is the command, which may rise by at most
+    # max_pressure_rate·Δt = 100 kPa/s · 10 ms = 1 kPa a step, up to max_pressure = 60 kPa.
+    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0))
+    env.reset(seed=0)
+    for k in range(1, 71):
+        _, _, _, _, info = env.step([100e3, 100e3, 100e3])
+        expected = min(k * 1e3, 60e3)
+        np.testing.assert_allclose(info['pressure'], [expected] * 3, rtol=1e-12)
+        assert ('rate' in info['safety']) == (k < 60) and 'pressure' in info['safety']
+    _, _, _, _, info = env.step([30e3, 30e3, 30e3])
+    np.testing.assert_allclose(info['pressure'], [59e3] * 3, rtol=1e-12)
+    assert 'pressure' not in info['safety']
+
+
+def test_leaving_the_range_of_motion_ramps_the_command_down_then_caps_it():
+    # The default glove at 60 kPa bends MCP to about 0.6 rad: a range ending at 0.3 rad is left
+    # on the way up. Outside, each step lowers the command by the rate limit (1 kPa); back
+    # inside, it stays capped although the agent keeps asking for 60 kPa.
+    limits = replace(DEFAULT_SAFETY, joint_upper=(0.3, 1.75, 1.4))
+    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0), safety=limits)
+    env.reset(seed=0)
+    commands, outside = [0.0], []
+    for _ in range(150):
+        outside.append(bool(env.state.q_measured[0] > 0.3))
+        info = env.step([60e3, 60e3, 60e3])[4]
+        assert ('back-off' in info['safety']) == outside[-1]
+        commands.append(info['command'][0])
+    steps = np.diff(commands)
+    first_out = outside.index(True)
+    assert np.all(steps[:first_out] == pytest.approx(1e3))  # rising at the rate limit
+    np.testing.assert_allclose(steps[np.array(outside)], -1e3, rtol=1e-9)  # backing off
+    back_in = first_out + outside[first_out:].index(False)
+    assert np.all(steps[back_in:] <= 1e-9)  # never rising again
+    assert 0.25 < env.state.q[0] <= 0.3 + 0.01  # settled at the edge of the range
+
+
 # -- reward, target, episodes --------------------------------------------------------------
 
 
 def test_the_default_reward_is_minus_the_squared_angle_error_to_the_documented_target():
-    env = GloveEnv(MODEL, settings=SimulationSettings(**NOISY))
+    env = GloveEnv(MODEL, settings=SimulationSettings(**NOISY), safety=None)
     plain = GloveSimulation(MODEL)  # the true state does not depend on the noise
     previous, _ = env.reset(seed=2)
     for command in actions(200, seed=8, peak=90e3):
@@ -267,7 +308,7 @@ def test_a_failed_solve_terminates_the_episode_keeping_the_last_good_state():
     # A silicone of C1 = 1 Pa holds 5 kPa on the finger but not 100 kPa (test_model_solver).
     soft = GloveModel(params_from_dict({'material': {'c1': 1.0, 'c2': 0.0, 'c3': 0.0}}))
     settings = SimulationSettings(pressure_time_constant=0.0)
-    env = GloveEnv(soft, settings=settings, target=lambda t: np.zeros(3))
+    env = GloveEnv(soft, settings=settings, target=lambda t: np.zeros(3), safety=None)
     env.reset(seed=0)
     good, _, terminated, _, _ = env.step([5e3, 5e3, 5e3])
     assert not terminated
@@ -292,6 +333,7 @@ def test_a_failed_solve_terminates_the_episode_keeping_the_last_good_state():
         ({'model': MODEL, 'params': 'x.yaml'}, 'model and params'),
         ({'params': 42}, 'params'),
         ({'observe_target': 1}, 'observe_target'),
+        ({'safety': {'max_pressure': 50e3}}, 'safety'),
         ({'settings': SimulationSettings(max_supply_pressure=1e10)}, 'model'),
     ],
     ids=repr,

@@ -3,7 +3,9 @@
 The optional ``gym`` extra (``pip install "./exodigit_model[gym]"``) provides Gymnasium; only this
 module imports it, never the core package. :class:`GloveEnv` steps one glove in-process (no
 ROS, no DDS) with the same :class:`~exodigit_model.simulation.GloveSimulation` as the ROS plant,
-so an agent trained here meets the same physics on the ROS graph.
+behind the same safety limiter as the ROS graph's ``pressure_command``
+(:mod:`exodigit_model.control`), so an agent trained here meets the same physics and the same
+limits on the ROS graph.
 
 Importing the module registers the environment as ``exodigit/Glove-v0``:
 
@@ -31,6 +33,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
+from .control import SafetyLimiter, SafetyLimits
 from .model import GloveModel, as_joint_vector
 from .params import GloveParams, load_params
 from .simulation import NANOSECONDS, GloveSimulation, GloveState, SimulationSettings, step_time_ns
@@ -55,6 +58,9 @@ NOISE_MARGIN = 10.0
 
 SEED_BOUND = 2**63
 """Noise seeds drawn for an unseeded reset lie in [0, this)."""
+
+DEFAULT_SAFETY = SafetyLimits()
+"""The limits between the agent and the chambers: ``pressure_command``'s defaults."""
 
 Target = Callable[[float], ArrayLike]
 """target(t) -> desired joint angles (MCP, PIP, DIP) at time t (s), rad."""
@@ -134,9 +140,11 @@ def tracking_reward(
 class GloveEnv(gymnasium.Env):
     r"""One simulated glove as a Gymnasium environment (docs/spec/model.md §13), tracking a target.
 
-    Each step applies the action as the chamber pressure command for Δt = 1/``rate_hz``:
-    the chambers lag toward it (clipped to the supply range), the coupled quasi-static
-    equations are solved at the new pressures, and the sensors are read with seeded noise.
+    Each step passes the action through the safety limiter of the ROS graph's
+    ``pressure_command`` and applies what it lets through as the chamber pressure command for
+    Δt = 1/``rate_hz``: the chambers lag toward it (clipped to the supply range), the coupled
+    quasi-static equations are solved at the new pressures, and the sensors are read with
+    seeded noise.
 
     Parameters
     ----------
@@ -163,11 +171,18 @@ class GloveEnv(gymnasium.Env):
     observe_target : bool, optional
         Whether the observation ends with the target of the next step (default True: without
         it the agent cannot know where the target is going).
+    safety : SafetyLimits or None, optional
+        The limiter's limits (default :data:`DEFAULT_SAFETY`, the node's defaults: at most
+        60 kPa, 100 kPa/s, backing off outside the range of motion or above 10 N of contact
+        force). As on the ROS graph it sees the last measured angles and the robot-side
+        estimate of the contact forces from the measured angles and pressures (the
+        ``estimator`` node's). None sends the action to the chambers unlimited.
 
     Notes
     -----
     **Action**, Box(0, ``max_supply_pressure``, (3,), float32): chamber pressure commands,
-    MCP, PIP, DIP segment, Pa. Commands outside the box are clipped by the chambers
+    MCP, PIP, DIP segment, Pa. The limiter bounds them first (``info['safety']`` says why
+    it changed an action); commands outside the box are then clipped by the chambers
     (``info['saturated']``), as the plant clips them.
 
     **Observation**, float32, shape (12,) (or (9,) without the target), at t_k:
@@ -199,8 +214,9 @@ class GloveEnv(gymnasium.Env):
 
     **Info** (new arrays every call): ``t`` (s), ``target`` (the target the reward used, rad),
     ``q`` (true angles, rad), ``pressure`` (true chamber pressures, Pa), ``command`` (the
-    command applied, after saturation, Pa), ``converged``, ``in_valid_range``, ``saturated``,
-    ``observation_clipped`` and ``noise_seed``.
+    command applied, after the limiter and saturation, Pa), ``safety`` (per limit that acted
+    on the action, why; empty when it went through), ``converged``, ``in_valid_range``,
+    ``saturated``, ``observation_clipped`` and ``noise_seed``.
     """
 
     metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
@@ -215,6 +231,7 @@ class GloveEnv(gymnasium.Env):
         target: Target | None = None,
         reward: Reward | None = None,
         observe_target: bool = True,
+        safety: SafetyLimits | None = DEFAULT_SAFETY,
     ) -> None:
         self.model = _model(model, params)
         if settings is None:
@@ -232,6 +249,9 @@ class GloveEnv(gymnasium.Env):
                 raise ValueError(f'{name} = {function!r}: must be callable (or None)')
         if not isinstance(observe_target, bool):
             raise ValueError(f'observe_target = {observe_target!r}: must be True or False')
+        if safety is not None and not isinstance(safety, SafetyLimits):
+            raise ValueError(f'safety = {safety!r}: must be a SafetyLimits (or None)')
+        self.safety = safety
         if target is None:
             target = FlexExtendTarget.for_model(
                 self.model, DEFAULT_PEAK_FRACTION * settings.max_supply_pressure
@@ -261,6 +281,8 @@ class GloveEnv(gymnasium.Env):
         self.noise_seed: int | None = None
         """The sensor-noise seed of the current episode."""
         self._next_target = np.zeros(3)
+        self._limiter: SafetyLimiter | None = None
+        self._limited: dict[str, str] = {}
 
     @property
     def state(self) -> GloveState | None:
@@ -292,6 +314,8 @@ class GloveEnv(gymnasium.Env):
             seed = int(self.np_random.integers(SEED_BOUND))
         self.noise_seed = seed
         self.simulation = GloveSimulation(self.model, replace(self.settings, seed=seed))
+        self._limiter = None if self.safety is None else SafetyLimiter(self.safety)
+        self._limited = {}
         state = self.simulation.state
         target = self._target_at(state.t)
         self._next_target = self._target_at(self._time_of(state.step + 1))
@@ -324,7 +348,7 @@ class GloveEnv(gymnasium.Env):
         if self.simulation is None:
             raise gymnasium.error.ResetNeeded('GloveEnv: call reset() before step()')
         action = as_joint_vector('action', action)
-        state = self.simulation.step(action)
+        state = self.simulation.step(self._limit(action))
         target = self._next_target
         reward = self.reward(state, target.copy(), action.copy())
         try:
@@ -340,6 +364,19 @@ class GloveEnv(gymnasium.Env):
         return observation, reward, terminated, truncated, self._info(state, target, clipped)
 
     # -- helpers ---------------------------------------------------------------------------
+
+    def _limit(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
+        """What the limiter lets through of ``action``, from the last measured state."""
+        if self._limiter is None:
+            return action
+        last = self.simulation.state
+        try:
+            forces = self.model.estimate_forces(last.q_measured, last.pressure_measured)
+        except ValueError:  # no strain balances (extensible segments): no estimate published
+            forces = None
+        limited = self._limiter.apply(action, 1.0 / self.settings.rate_hz, last.q_measured, forces)
+        self._limited = limited.reasons
+        return limited.pressure
 
     def _time_of(self, step: int) -> float:
         """t_k, s, exactly as the stepper reports it."""
@@ -364,6 +401,7 @@ class GloveEnv(gymnasium.Env):
             'q': state.q.copy(),
             'pressure': state.pressure.copy(),
             'command': state.command.copy(),
+            'safety': dict(self._limited),
             'converged': bool(state.converged),
             'in_valid_range': bool(state.in_valid_range),
             'saturated': bool(state.saturated),
