@@ -37,6 +37,7 @@ from exodigit_model import GloveModel, ParameterError, load_params
 
 from .dds import use_profile
 from .inputs import InvalidInputError, RejectionTally
+from .lifetime import stop_with_parent
 from .messages import DIAGNOSTICS, status
 from .parameters import ParamSpec, ParamTable
 from .qos import GLOVE_QOS
@@ -300,11 +301,16 @@ def serve(
     KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs for each
     node, in the order built, while every node still exists. Returns the exit status: 0 after a
     normal stop, 2 when the configuration is refused (an exception of ``refused``: one line on
-    stderr, no traceback).
+    stderr, no traceback), 1 when the process that started it is gone already. The process stops
+    as on SIGINT when that process dies (:mod:`.lifetime`): ``ros2 launch`` killed alone does not
+    leave the nodes running.
     """
     stop = StopRequest()
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
+    if not stop_with_parent(signal.SIGINT):
+        print(f'{program}: the process that started it is gone; not starting', file=sys.stderr)
+        return 1
     nodes: list[Node] = []
     executors: dict[type, Any] = {}
     others: list = []

@@ -7,22 +7,20 @@ tests can use it for any command line.
 """
 
 import contextlib
-import ctypes
 import os
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from .lifetime import stop_with_parent
+
 #: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL.
 STOP_GRACE = 5.0
 #: Seconds between two checks while waiting for processes to exit.
 POLL_INTERVAL = 0.05
-#: prctl(2) option: the signal a process gets when its parent dies (Linux).
-PR_SET_PDEATHSIG = 1
 
 
 @dataclass(frozen=True)
@@ -75,10 +73,8 @@ def _child_setup(parent: int) -> Callable[[], None]:
 
     def hook() -> None:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
-        if sys.platform.startswith('linux'):
-            ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGINT)
-            if os.getppid() != parent:  # the parent died before the hook ran: do not start
-                os._exit(1)
+        if not stop_with_parent(signal.SIGINT, parent):  # it died before the hook ran
+            os._exit(1)
 
     return hook
 

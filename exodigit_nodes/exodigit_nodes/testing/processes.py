@@ -13,7 +13,6 @@
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import fcntl
 import os
 import random
@@ -26,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ..dds import with_profile
+from ..lifetime import stop_with_parent
 
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
@@ -110,16 +110,13 @@ def ros_args(
 # -- node processes ------------------------------------------------------------------------
 
 
-_PR_SET_PDEATHSIG = 1
-
-
 def _stop_with_parent() -> None:
     """In the child before exec: SIGTERM it when the test process dies (even by SIGKILL).
 
     A node left running by a killed test session would otherwise keep publishing into a domain
     id that the next session may claim.
     """
-    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    stop_with_parent(signal.SIGTERM)
 
 
 def cpu_seconds(pid: int) -> float:

@@ -1,0 +1,47 @@
+"""A node stops when the process that started it dies (exodigit_nodes/lifetime.py)."""
+
+import os
+import signal
+import subprocess
+import sys
+
+from ros_harness import ros_environment, wait_until
+
+#: Starts the plant as ``ros2 launch`` does (a plain child, no pre-exec hook of ours), prints
+#: its pid and waits; the test kills this starter.
+STARTER = """
+import subprocess, sys
+log = open(sys.argv[1], 'w')
+node = subprocess.Popen([sys.executable, '-m', 'exodigit_nodes.plant'], stderr=log, stdout=log)
+print(node.pid, flush=True)
+node.wait()
+"""
+
+
+def running(pid):
+    """Whether ``pid`` is a live process (a zombie counts as gone)."""
+    try:
+        with open(f'/proc/{pid}/stat') as stat:
+            return stat.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except FileNotFoundError:
+        return False
+
+
+def test_a_node_stops_when_the_process_that_started_it_is_killed(ros_domain, tmp_path):
+    log = tmp_path / 'plant.log'
+    starter = subprocess.Popen(
+        [sys.executable, '-c', STARTER, str(log)],
+        env=ros_environment(ros_domain),
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    node = int(starter.stdout.readline())
+    try:
+        assert wait_until(lambda: 'plant running' in log.read_text(), 30.0), log.read_text()
+        starter.kill()  # SIGKILL: the starter cannot pass anything on
+        starter.wait()
+        assert wait_until(lambda: not running(node), 10.0), 'the plant outlived its starter'
+    finally:
+        if running(node):
+            os.kill(node, signal.SIGKILL)
