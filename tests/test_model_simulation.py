@@ -9,7 +9,6 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.chambers import Chambers
 from model_reference import coupled_residual
 
 from exodigit_model import (
@@ -47,25 +46,26 @@ def sine_commands(steps, peak=40e3, period=200):
 
 
 def test_chamber_lag_matches_the_continuous_step_response():
-    constant, dt, command = 0.05, 0.01, np.array([10e3, 30e3, 50e3])
-    chambers = Chambers(ChamberSettings(time_constant=constant), dt)
+    constant, command = 0.05, np.array([10e3, 30e3, 50e3])
+    simulation = GloveSimulation(settings=SimulationSettings(pressure_time_constant=constant))
     for n in range(1, 41):
-        pressure = chambers.advance(command)
-        expected = command * (1.0 - math.exp(-n * dt / constant))
+        pressure = simulation.step(command).pressure
+        expected = command * (1.0 - math.exp(-n * 0.01 / constant))
         np.testing.assert_allclose(pressure, expected, rtol=EXACT)
 
 
 def test_ideal_chambers_follow_the_command_at_once_and_saturate_reporting_it():
-    chambers = Chambers(ChamberSettings(0.0, 100e3), 0.01)
-    np.testing.assert_array_equal(chambers.advance(np.array([1e3, 2e3, 3e3])), [1e3, 2e3, 3e3])
-    assert not chambers.saturated_now
-    pressure = chambers.advance(np.array([-5.0, 50e3, 2e5]))
-    np.testing.assert_array_equal(pressure, [0.0, 50e3, 100e3])
-    np.testing.assert_array_equal(chambers.command, [0.0, 50e3, 100e3])
-    assert chambers.saturated_now
-    assert (chambers.saturation.below_zero, chambers.saturation.above_supply) == (1, 1)
-    chambers.reset()
-    np.testing.assert_array_equal(chambers.pressure, np.zeros(3))
+    simulation = GloveSimulation(settings=SimulationSettings(pressure_time_constant=0.0))
+    state = simulation.step(np.array([1e3, 2e3, 3e3]))
+    np.testing.assert_array_equal(state.pressure, [1e3, 2e3, 3e3])
+    assert not state.saturated
+    state = simulation.step(np.array([-5.0, 50e3, 2e5]))
+    np.testing.assert_array_equal(state.pressure, [0.0, 50e3, 100e3])
+    np.testing.assert_array_equal(state.command, [0.0, 50e3, 100e3])
+    assert state.saturated
+    saturation = simulation.chambers.saturation
+    assert (saturation.below_zero, saturation.above_supply) == (1, 1)
+    np.testing.assert_array_equal(simulation.reset().pressure, np.zeros(3))
 
 
 @pytest.mark.parametrize(

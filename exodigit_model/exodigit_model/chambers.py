@@ -11,9 +11,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-
-from .kernels.stepping import advance_chambers
 
 
 @dataclass(frozen=True)
@@ -56,7 +53,11 @@ class Saturation:
 
 
 class Chambers:
-    """Pressure in the chambers of one glove or of many, advanced by steps of fixed length.
+    """Pressure in the chambers of one glove or of many, stepped by fixed lengths.
+
+    The step itself is compiled (:func:`.kernels.stepping.advance_chambers`, inside the
+    simulation's step); this object holds the pressures, the last command, the decay per step
+    and the saturation counts between steps.
 
     Parameters
     ----------
@@ -87,24 +88,6 @@ class Chambers:
         """Vent every chamber to zero at once."""
         self.pressure = np.zeros_like(self.pressure)
         self.command = np.zeros_like(self.command)
-
-    def advance(self, command: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Move the pressures one step toward ``command`` (Pa, saturated); return them (Pa).
-
-        ``saturated_now`` says whether this step's command had to be clipped; ``saturation``
-        counts such steps per side.
-        """
-        self.command = np.array(command, dtype=float)
-        below = above = False
-        for pressure, row in zip(
-            self.pressure.reshape(-1, 3), self.command.reshape(-1, 3), strict=True
-        ):
-            low, high = advance_chambers(
-                pressure, row, self.decay, self.settings.max_supply_pressure
-            )
-            below, above = below or low, above or high
-        self.record(below, above)
-        return self.pressure
 
     def record(self, below: bool, above: bool) -> None:
         """Count a step whose command was clipped at zero (``below``) or at the supply."""
