@@ -156,6 +156,7 @@ def hand_config():
         (['--fingers', 'index,index'], '--fingers index,index: give distinct names'),
         (['--lockstep'], '--lockstep, --start-paused and --real-time-factor need --clock sim'),
         (['--part', 'estimators', '--estimator', 'false'], '--part estimators with --estimator'),
+        (['--namespace', '/1hand'], "--namespace '/1hand': must be absolute, each name starting"),
     ],
 )
 def test_a_refused_hand_says_why_in_one_line(ros_domain, tmp_path, arguments, message):

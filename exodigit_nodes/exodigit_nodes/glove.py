@@ -15,7 +15,6 @@ glove.launch.py`` starts the same nodes without the summary.
 """
 
 import argparse
-import re
 import sys
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from exodigit_nodes.run_record import RunRecord
 from exodigit_nodes.runner import (
     UsageError,
     add_session_arguments,
+    check_namespace,
     check_session_arguments,
     start_session,
 )
@@ -49,7 +49,6 @@ CLOCK = catalog.PLANT_NODE.table['clock']
 REAL_TIME_FACTOR = catalog.PLANT_NODE.table['real_time_factor']
 #: The finger the default session's plant simulates (the controller assumes the nominal one).
 DEFAULT_PATIENT = 'stroke_moderate'
-NAMESPACE_PATTERN = re.compile(r'^(/[A-Za-z][A-Za-z0-9_]*)+$')
 EXAMPLES = """examples:
   python -m exodigit_nodes.glove                      # sine session until Ctrl-C
   python -m exodigit_nodes.glove --duration 20        # 20 s, then stop and exit 0
@@ -143,11 +142,7 @@ def check_arguments(args: argparse.Namespace) -> None:
         args.lockstep or args.real_time_factor != REAL_TIME_FACTOR.default
     ):
         raise UsageError('--lockstep and --real-time-factor need --clock sim')
-    if not NAMESPACE_PATTERN.match(args.namespace):
-        raise UsageError(
-            f'--namespace {args.namespace!r}: must be absolute, e.g. /glove or /left/index '
-            '(letters, digits, underscores)'
-        )
+    check_namespace(args.namespace, '/glove or /left/index')
     from exodigit_model import ParameterError, load_params
 
     try:

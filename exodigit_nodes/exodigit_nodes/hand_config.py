@@ -17,6 +17,7 @@ from pathlib import Path
 
 from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from .pacing import TimeSettings
+from .runner import UsageError, check_namespace
 from .session import NOMINAL_PATIENT, with_patient
 
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
@@ -247,8 +248,10 @@ class HandConfig:
 
 def hand_config(options: argparse.Namespace) -> HandConfig:
     """The :class:`HandConfig` of parsed :func:`add_hand_arguments` options (HandError)."""
-    if not options.namespace.startswith('/'):
-        raise HandError(f'--namespace {options.namespace}: must be absolute, e.g. /hand')
+    try:
+        check_namespace(options.namespace, '/hand or /left/hand')
+    except UsageError as error:  # refused here: a node refuses it only once started
+        raise HandError(str(error)) from None
     return HandConfig(
         fingers=tuple(f.strip() for f in options.fingers.split(',') if f.strip()),
         namespace=options.namespace,
