@@ -3,6 +3,12 @@
 Every expectation is exact (lockstep), none is a timing assert: states are compared bit for bit
 with ``GloveSimulation`` stepped in this process with the same commands, time with the grid
 t_k = round(k·10⁹/rate_hz) ns.
+
+Starting a glove costs seconds, a reset milliseconds: the tests that need no special plant
+options share one glove (``glove``, with the estimator), reset before each test, and expect
+everything relative to the simulated time they find (it never rewinds). A test that needs other
+options, a fresh noise stream, or steps the plant behind the kit's back gets a glove of its own
+(``glove_sim``).
 """
 
 import itertools
@@ -16,8 +22,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_model.simulation import step_time_ns
 from exodigit_nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
+from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
 from reliability_inprocess import InProcessNode
 from ros_harness import RosProbe, wait_until
@@ -31,6 +39,8 @@ from exodigit_model import GloveSimulation, SimulationSettings
 CONTROLLER = Path(__file__).with_name('lockstep_controller.py')
 #: How long a negative check (nothing happens) watches, wall s.
 QUIET = 0.3
+#: Step rate of the shared glove (the plant's default), Hz.
+RATE = 100.0
 
 
 def kit_replay(settings: SimulationSettings) -> GloveSimulation:
@@ -54,6 +64,23 @@ def assert_same(state, reference):
 
 def sine(k, peak=40e3):
     return np.array([1.0, 0.7, 0.4]) * peak * 0.5 * (1.0 - math.cos(2 * math.pi * k / 150))
+
+
+@pytest.fixture(scope='module')
+def shared_glove(tmp_path_factory):
+    """One glove, with the estimator, for every test that needs no other plant options."""
+    with GloveSim(estimator=True, log_dir=tmp_path_factory.mktemp('shared_glove')) as glove:
+        yield glove
+
+
+@pytest.fixture
+def glove(shared_glove):
+    """The shared glove at rest, the kit's default timeout, no controller of a test before left."""
+    shared_glove.timeout = DEFAULT_TIMEOUT
+    # A stopped controller leaves the graph a moment later; until then step() refuses to step.
+    assert wait_until(lambda: not shared_glove._node.other_controllers(), 10.0)
+    shared_glove.reset()
+    return shared_glove
 
 
 @pytest.fixture
@@ -96,11 +123,18 @@ def stop(process):
         'angle_noise_std': 2e-3,
         'pressure_noise_std': 300.0,
         'seed': 11,
+        'rate_hz': 250.0,
     }
 )
 def test_the_node_and_the_stepper_give_identical_states_for_the_same_commands(glove_sim):
+    # A glove of its own: the noise streams must start with it. Not at the default rate, so
+    # that the stamps are checked on another grid than the shared glove's.
     settings = SimulationSettings(
-        pressure_time_constant=0.05, angle_noise_std=2e-3, pressure_noise_std=300.0, seed=11
+        pressure_time_constant=0.05,
+        angle_noise_std=2e-3,
+        pressure_noise_std=300.0,
+        seed=11,
+        rate_hz=250.0,
     )
     reference = kit_replay(settings)
     assert_same(glove_sim.state, reference.state)
@@ -114,41 +148,40 @@ def test_the_node_and_the_stepper_give_identical_states_for_the_same_commands(gl
     assert_same(glove_sim.step([5e3, 5e3, 5e3]), reference.step([5e3, 5e3, 5e3]))
 
 
-@pytest.mark.glove_sim(plant={'rate_hz': 250.0})
-def test_clock_is_monotone_and_advances_one_period_per_step(glove_sim, probe_for):
-    probe = probe_for(glove_sim.domain_id)
+def test_clock_is_monotone_and_advances_one_period_per_step(glove, probe_for):
+    probe = probe_for(glove.domain_id)
     clocks = probe.subscribe('/clock', Clock)
-    states = probe.subscribe(f'{glove_sim.namespace}/joint_states', JointState)
+    states = probe.subscribe(f'{glove.namespace}/joint_states', JointState)
     for _ in range(50):  # until the plant has matched the probe's readers (a bounded retry)
-        first = glove_sim.reset()
+        first = glove.reset()
         if wait_until(lambda: clocks.count() and states.count(), 0.2):
             break
     states.clear()
-    stamps = [glove_sim.step([20e3, 20e3, 20e3]).t for _ in range(200)]
+    stamps = [glove.step([20e3, 20e3, 20e3]).t for _ in range(200)]
     assert wait_until(lambda: states.count() >= 200, 10.0)
     ticks = [c.clock.sec * 10**9 + c.clock.nanosec for c in clocks.messages()]
-    start = round(first.t * 250.0)
-    assert ticks[-201:] == [round(k * 1e9 / 250.0) for k in range(start, start + 201)]
+    start = round(first.t * RATE)
+    assert ticks[-201:] == [round(k * 1e9 / RATE) for k in range(start, start + 201)]
     assert all(b > a for a, b in itertools.pairwise(ticks))
     assert [round(t * 1e9) for t in stamps] == ticks[-200:]
 
 
-def test_reset_rests_the_glove_but_never_rewinds_time(glove_sim):
+def test_reset_rests_the_glove_but_never_rewinds_time(glove):
     for k in range(50):
-        before = glove_sim.step(sine(k))
+        before = glove.step(sine(k))
     assert before.q.max() > 0.05
-    rest = glove_sim.reset()
-    assert rest.t == pytest.approx(before.t + 0.01, abs=1e-12)
+    rest = glove.reset()
+    assert rest.t == pytest.approx(before.t + 1 / RATE, abs=1e-12)
     np.testing.assert_array_equal(rest.pressure, np.zeros(3))
     np.testing.assert_array_equal(rest.q, np.zeros(3))
-    after = glove_sim.step(np.zeros(3))
+    after = glove.step(np.zeros(3))
     assert after.t > rest.t
 
 
-def test_a_bad_command_is_refused_before_it_is_sent(glove_sim):
+def test_a_bad_command_is_refused_before_it_is_sent(glove):
     with pytest.raises(ValueError, match='three finite'):
-        glove_sim.step([1.0, math.nan, 0.0])
-    assert glove_sim.step([1e3, 1e3, 1e3]).pressure[0] == 1e3
+        glove.step([1.0, math.nan, 0.0])
+    assert glove.step([1e3, 1e3, 1e3]).pressure[0] == 1e3
 
 
 def test_kit_parameters_cannot_be_overridden():
@@ -157,6 +190,7 @@ def test_kit_parameters_cannot_be_overridden():
 
 
 def test_pause_and_step_advance_exactly_one_step_each(glove_sim, probe_for):
+    # A glove of its own: the kit's client would take the steps made here for its own later.
     probe = probe_for(glove_sim.domain_id)
     ns = glove_sim.namespace
     states = probe.subscribe(f'{ns}/joint_states', JointState)
@@ -186,33 +220,40 @@ def _t(joint_state):
 # -- an external controller in lockstep ----------------------------------------------------
 
 
-def replay_external(steps, run_lengths):
-    """States and commands of runs with the lockstep controller, stepped in process."""
+def replay_external(rest, run_lengths):
+    """(Time, state, command) of runs with the lockstep controller, stepped in process.
+
+    The runs start from the glove's rest state ``rest`` (a reset); the in-process stepper
+    starts at step 1, so its step n is the glove's step n + shift, which is what the
+    controller sees (its commands are a function of that time).
+    """
     simulation = kit_replay(SimulationSettings(pressure_time_constant=0.0))
+    shift = round(rest.t * RATE) - simulation.state.step
     state = simulation.step(np.zeros(3))  # the first run's fresh state (latest command: 0)
     records = []
     for length in run_lengths:
         run = []
         while len(run) < length:
-            run.append((state, command_at(state.t)))
-            state = simulation.step(command_at(state.t))
+            t = step_time_ns(state.step + shift, RATE) / 1e9
+            run.append((t, state, command_at(t)))
+            state = simulation.step(command_at(t))
         records.append(run)
-    assert sum(len(r) for r in records) == steps
     return records
 
 
 @pytest.mark.parametrize('delay', [0.0, 0.02], ids=['fast', 'slow'])
-def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove_sim, delay):
-    controller = start_controller(glove_sim, '--delay', str(delay))
+def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove, delay):
+    rest = glove.state
+    controller = start_controller(glove, '--delay', str(delay))
     try:
-        records = [glove_sim.run(0.5), glove_sim.run(0.3)]
+        records = [glove.run(0.5), glove.run(0.3)]
     finally:
         stop(controller)
-    expected = replay_external(80, [50, 30])
+    expected = replay_external(rest, [50, 30])
     for record, runs in zip(records, expected, strict=True):
         assert len(record.t) == len(runs)
-        for i, (state, command) in enumerate(runs):
-            assert record.t[i] == state.t
+        for i, (t, state, command) in enumerate(runs):
+            assert record.t[i] == t
             np.testing.assert_array_equal(record.q[i], state.q_measured)
             np.testing.assert_array_equal(record.pressure[i], state.pressure_measured)
             np.testing.assert_array_equal(record.forces[i], state.forces)
@@ -220,25 +261,33 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove_sim, del
             np.testing.assert_array_equal(record.command[i], command)
 
 
-def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove_sim, probe_for):
-    controller = start_controller(glove_sim, '--stall-after', '10')
+def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove, probe_for):
+    controller = start_controller(glove, '--stall-after', '10')
     try:
-        assert len(glove_sim.run(0.05).t) == 5  # in step with the controller
-        glove_sim.timeout = 5.0  # then it hangs after 5 more answers
-        with pytest.raises(GloveSimError, match='waited 5 s for the next state'):
-            glove_sim.run(0.5)
+        start = glove.run(0.05).t[-1]  # in step with the controller
+        glove.timeout = 1.0  # then it hangs after 5 more answers (no need to wait long)
+        with pytest.raises(GloveSimError, match='waited 1 s for the next state'):
+            glove.run(0.5)
     finally:
         stop(controller)
-    probe = probe_for(glove_sim.domain_id)
-    assert probe.get_parameters(f'{glove_sim.namespace}/plant', ['run_until']) == [0.0]
+    probe = probe_for(glove.domain_id)
+    plant = f'{glove.namespace}/plant'
+    assert probe.get_parameters(plant, ['run_until', 'pause_at']) == [0.0, 0.0]
+    # The test steps the glove again, past the end the failed run was to have.
+    glove.timeout = DEFAULT_TIMEOUT
+    assert wait_until(lambda: not glove._node.other_controllers(), 10.0)
+    state = glove.step(np.zeros(3))
+    while state.t < start + 0.6:
+        previous, state = state, glove.step(np.zeros(3))
+        assert state.t == pytest.approx(previous.t + 1 / RATE, abs=1e-12)
 
 
-def test_the_test_cannot_step_beside_an_external_controller(glove_sim):
-    controller = start_controller(glove_sim)
+def test_the_test_cannot_step_beside_an_external_controller(glove):
+    controller = start_controller(glove)
     try:
-        assert wait_until(glove_sim._node.other_controllers, 10.0)
+        assert wait_until(glove._node.other_controllers, 10.0)
         with pytest.raises(GloveSimError, match='run'):
-            glove_sim.step([1e3, 1e3, 1e3])
+            glove.step([1e3, 1e3, 1e3])
     finally:
         stop(controller)
 
@@ -251,6 +300,7 @@ def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_ag
 ):
     probe = RosProbe(launcher.domain_id, name='lockstep_timeout_probe')
     ns = f'/lockstep_timeout_{time.monotonic_ns()}'
+    processes = []
     try:
         pressures = probe.subscribe(f'{ns}/chamber_pressure', Float64MultiArray)
         diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
@@ -261,7 +311,7 @@ def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_ag
             'real_time_factor': 0.0,
             'pressure_time_constant': 0.0,
         }
-        launcher.start('plant', plant, namespace=ns)
+        processes.append(launcher.start('plant', plant, namespace=ns))
         controller_parameters = {
             'mode': 'hold',
             'lockstep': True,
@@ -269,6 +319,7 @@ def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_ag
             'max_pressure_rate': 1e8,
         }
         controller = launcher.start('pressure_command', controller_parameters, namespace=ns)
+        processes.append(controller)
         held = pressures.wait_for(lambda m: m.data[0] == 20e3, 30.0)
         assert held is not None, controller.stderr()
         controller.kill()  # kill -9: no zero command on the way out
@@ -283,11 +334,15 @@ def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_ag
         # It keeps stepping (unlocked, at real time) and locks step again with a new controller.
         count = pressures.count()
         assert wait_until(lambda: pressures.count() > count + 5, 10.0)
-        launcher.start('pressure_command', controller_parameters, namespace=ns)
+        processes.append(launcher.start('pressure_command', controller_parameters, namespace=ns))
         assert pressures.wait_for(lambda m: m.data[0] == 20e3, 30.0, since=time.monotonic())
         assert wait_until(lambda: _lockstep_status(diagnostics, ns, 'locked', 'waiting'), 10.0)
     finally:
         probe.close()
+        # Now, not at the module's end: in lockstep at real-time factor 0 the two would step
+        # as fast as they can, on the cores the other tests need.
+        for process in reversed(processes):
+            process.stop()
 
 
 def _lockstep_status(diagnostics, ns, *words):
@@ -334,8 +389,7 @@ def test_lockstep_needs_simulated_time(launcher):
     assert len(lines) == 1 and 'lockstep needs clock sim' in lines[0]
 
 
-@pytest.mark.glove_sim(estimator=True)
-def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_step(glove_sim):
+def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_step(glove):
     controller = subprocess.Popen(
         [
             sys.executable,
@@ -343,14 +397,14 @@ def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_ste
             'exodigit_nodes.pressure_command',
             '--ros-args',
             *('-p', 'mode:=force', '-p', 'lockstep:=true', '-p', 'use_sim_time:=true'),
-            *('-r', f'__ns:={glove_sim.namespace}'),
+            *('-r', f'__ns:={glove.namespace}'),
         ],
-        env=glove_sim.env,
+        env=glove.env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
     try:
-        record = glove_sim.run(3.0)  # waits for one answer per state: none missing, none extra
+        record = glove.run(3.0)  # waits for one answer per state: none missing, none extra
     finally:
         stop(controller)
     assert len(record.t) == len(record.command) == 300

@@ -331,7 +331,8 @@ class GloveSim:
         ------
         GloveSimError
             If the controller or the plant does not go on within ``timeout``; the plant's
-            ``run_until`` is reset first, so this client can go on stepping it.
+            ``run_until`` and ``pause_at`` are reset first, so this client can go on stepping
+            it (also past the end the run was to have).
         """
         steps = round(seconds * self.rate_hz)
         if not (math.isfinite(seconds) and steps >= 1):
@@ -417,14 +418,23 @@ class GloveSim:
     def _release_run_until(self, failure: GloveSimError | None = None) -> None:
         """Let the plant step freely again after a :meth:`run` (also one that ``failure`` ended).
 
-        A failure to do so after a ``failure`` becomes a note on it, not a new error.
+        After a ``failure`` the plant has not reached the run's ``pause_at``: that is cleared
+        too, else it would pause the plant at that time in a later :meth:`step` (which then
+        waits in vain). A failure to do either after a ``failure`` becomes a note on it, not a
+        new error.
         """
         try:
             self._answered(self._node.horizon.release().answer, 'reset run_until')
+            if failure is not None:
+                self._call(
+                    self._node.parameter_client,
+                    self._node.pause_at_request(0.0),
+                    'reset pause_at',
+                )
         except GloveSimError as error:
             if failure is None:
                 raise
-            failure.add_note(f'and run_until stays set: {error}')
+            failure.add_note(f'and run_until or pause_at stays set: {error}')
 
     def _call(self, client, request, what: str):
         future = client.call_async(request)
