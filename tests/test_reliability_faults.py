@@ -7,8 +7,10 @@ kill the estimator (plant and controller carry on), restart it (forces at once, 
 one identification window), normal. "Normal" is checked against the model (see
 `reliability_session.GloveSession.normal`); no manual step is ever taken between faults.
 
-A second session holds the controller in ``position`` mode and stops the plant: with no fresh
-feedback the controller reports it and ramps down to zero, never outside its limits.
+A second session (namespace ``/faults_position``: a plant and a controller in ``position`` mode;
+no estimator, since what is checked is the controller's answer to stale joint_states) stops the
+plant: with no fresh feedback the controller reports it and ramps down to zero, never outside its
+limits. Both sessions start together, so their start-ups overlap.
 """
 
 import itertools
@@ -30,24 +32,38 @@ from ros_harness import wait_until
 COMMAND_TIMEOUT = 0.5
 #: A vented chamber holds less than this, Pa.
 VENTED = 100.0
-#: How long to watch the survivors of a kill, s.
-WATCH = 1.5
+#: How long to watch the survivors of a kill, s: past every timeout of theirs (0.5 s), so a
+#: survivor that needed the killed node would have shown it.
+WATCH = 1.0
 #: Controller feedback timeout (its default), s, and its diagnostics period, s.
 FEEDBACK_TIMEOUT = 0.5
 REPORT_PERIOD = 1.0
 #: The controller's rate limit in the position session, Pa/s: slow enough that its ramp down
 #: lasts past the moment its feedback is surely stale.
 RAMP_RATE = 20e3
+#: The position session's nodes: position mode closes its loop on joint_states.
+POSITION_NODES = ('plant', 'pressure_command')
 #: Plant steps of jitter allowed on one window (a late identification tick, delivery to the
 #: probe); an estimator that needed a second window would take WINDOW more.
 DELIVERY_SLACK = 25
 
 
 @pytest.fixture(scope='module')
-def session(launcher, probe):
+def sessions(launcher, probe):
+    """Both sessions' processes, started at once (each fixture below waits for its own)."""
     glove = GloveSession(launcher, probe, '/faults')
+    overrides = {'pressure_command': {'mode': 'position', 'max_pressure_rate': RAMP_RATE}}
+    position = GloveSession(launcher, probe, '/faults_position', overrides)
     for node in NODES:
         glove.start(node)
+    for node in POSITION_NODES:
+        position.start(node)
+    return glove, position
+
+
+@pytest.fixture(scope='module')
+def session(sessions):
+    glove, _ = sessions
     problems = glove.normal(since=-1.0, timeout=2 * START_TIMEOUT)
     assert problems == [], f'glove not normal at start: {problems}'
     return glove
@@ -119,11 +135,8 @@ def test_estimator_killed_others_carry_on_and_it_resumes_within_one_window(sessi
 
 
 @pytest.fixture(scope='module')
-def position_session(launcher, probe):
-    overrides = {'pressure_command': {'mode': 'position', 'max_pressure_rate': RAMP_RATE}}
-    glove = GloveSession(launcher, probe, '/faults_position', overrides)
-    for node in NODES:
-        glove.start(node)
+def position_session(sessions):
+    _, glove = sessions
     assert glove.flowing('joint_states', -1.0, timeout=2 * START_TIMEOUT)
     assert glove.reported('pressure_command', -1.0)
     return glove

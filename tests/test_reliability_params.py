@@ -1,22 +1,29 @@
-"""Every declared parameter of every running node, tried at runtime with values it must refuse.
+"""Every declared parameter of every glove node, tried at runtime with values it must refuse.
 
-Parameters are found over each node's ListParameters and DescribeParameters services, so a new
-parameter is covered as soon as it is declared. For each one, `reliability_params.bad_values`
-derives from its descriptor alone: out-of-range numbers, NaN and ±Inf, wrong types, unknown
-choices, joint vectors of the wrong length. Each must be refused through SetParameters with a
-reason naming the parameter, and the node must keep the old value and keep running. Read-only
-parameters refuse any change. A valid change of every writable parameter is accepted (so a
-node that refuses everything fails), and the old value is put back.
+Each node class is built in this process with its defaults, in the probe's context (no second
+DDS participant), and asked what its ListParameters, DescribeParameters, GetParameters and
+SetParameters services would ask it: ``list_parameters``, ``describe_parameters``,
+``get_parameters`` and, per parameter, ``set_parameters_atomically`` of
+``Parameter.from_parameter_msg`` (rclpy's services do exactly that, and nothing more, for each
+request). The services themselves answer over DDS from node processes in
+tests/test_nodes_plant.py, test_nodes_command.py and test_nodes_glove.py.
+
+Parameters are found by listing them, so a new parameter is covered as soon as it is declared.
+For each one, `reliability_params.bad_values` derives from its descriptor alone: out-of-range
+numbers, NaN and ±Inf, wrong types, unknown choices, joint vectors of the wrong length. Each must
+be refused with a reason naming the parameter, and the node must keep the old value and raise
+nothing. Read-only parameters refuse any change. A valid change of every writable parameter is
+accepted (so a node that refuses everything fails), and the old value is put back.
 """
 
 import math
 
 import pytest
-from rcl_interfaces.msg import ParameterType
-from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
+from exodigit_nodes.catalog import NODES as ENTRIES
+from rcl_interfaces.msg import ParameterType, SetParametersResult
+from rclpy.exceptions import ParameterNotDeclaredException
+from rclpy.parameter import Parameter
 from reliability_params import bad_values, other_valid_value, parameter, python_value, value
-from ros_harness import DISCOVERY_TIMEOUT
-from sensor_msgs.msg import JointState
 
 NAMESPACE = '/params'
 NODES = ('plant', 'pressure_command', 'estimator')
@@ -27,31 +34,38 @@ RCLPY_PARAMETERS = ('use_sim_time',)
 
 
 @pytest.fixture(scope='module')
-def nodes(launcher, probe):
-    started = {name: launcher.start(name, namespace=NAMESPACE) for name in NODES}
-    states = probe.subscribe(f'{NAMESPACE}/joint_states', JointState)
-    assert states.wait_count(1, timeout=3 * DISCOVERY_TIMEOUT), 'plant did not start'
-    return started
+def nodes(probe):
+    """Each glove node, built with its defaults in the probe's context; nothing spins them."""
+    classes = {entry.executable: entry.node_class() for entry in ENTRIES}
+    built = {}
+    try:
+        for name in NODES:
+            built[name] = classes[name](context=probe.context, namespace=NAMESPACE)
+        yield built
+    finally:
+        for node in built.values():
+            node.destroy_node()
 
 
-def described(probe, node: str) -> dict:
-    names = probe.call(
-        f'{NAMESPACE}/{node}/list_parameters', ListParameters, ListParameters.Request()
-    ).result.names
-    request = DescribeParameters.Request(names=list(names))
-    response = probe.call(f'{NAMESPACE}/{node}/describe_parameters', DescribeParameters, request)
-    return dict(zip(names, response.descriptors, strict=True))
+def described(node) -> dict:
+    names = node.list_parameters([], 0).names
+    return dict(zip(names, node.describe_parameters(names), strict=True))
 
 
-def current(probe, node: str, names: list[str]) -> dict:
-    request = GetParameters.Request(names=names)
-    response = probe.call(f'{NAMESPACE}/{node}/get_parameters', GetParameters, request)
-    return dict(zip(names, response.values, strict=True))
+def current(node, names: list[str]) -> dict:
+    return {p.name: p.get_parameter_value() for p in node.get_parameters(names)}
 
 
-def set_each(probe, node: str, parameters: list) -> list:
-    request = SetParameters.Request(parameters=parameters)
-    return probe.call(f'{NAMESPACE}/{node}/set_parameters', SetParameters, request).results
+def set_each(node, parameters: list) -> list:
+    """What SetParameters answers: each parameter message set on its own."""
+    results = []
+    for message in parameters:
+        try:
+            result = node.set_parameters_atomically([Parameter.from_parameter_msg(message)])
+        except ParameterNotDeclaredException as error:
+            result = SetParametersResult(successful=False, reason=str(error))
+        results.append(result)
+    return results
 
 
 def same(a, b) -> bool:
@@ -62,11 +76,11 @@ def same(a, b) -> bool:
 
 
 @pytest.mark.parametrize('node', NODES)
-def test_every_bad_value_of_every_parameter_is_refused_naming_it(probe, nodes, node):
-    descriptors = described(probe, node)
+def test_every_bad_value_of_every_parameter_is_refused_naming_it(nodes, node):
+    descriptors = described(nodes[node])
     ours = sorted(set(descriptors) - set(RCLPY_PARAMETERS))
     assert ours, f'{node} declares no parameters'
-    before = current(probe, node, sorted(descriptors))
+    before = current(nodes[node], sorted(descriptors))
     tries = []
     for name, descriptor in sorted(descriptors.items()):
         assert descriptor.description or name in RCLPY_PARAMETERS, f'{node}.{name}: no description'
@@ -75,7 +89,7 @@ def test_every_bad_value_of_every_parameter_is_refused_naming_it(probe, nodes, n
             changed = other_valid_value(descriptor, before[name])
             cases.append(('a change of a read-only parameter', changed or before[name]))
         tries += [(name, what, parameter(name, bad)) for what, bad in cases]
-    results = set_each(probe, node, [p for _, _, p in tries])
+    results = set_each(nodes[node], [p for _, _, p in tries])
     outcomes = list(zip(tries, results, strict=True))
     accepted = [f'{name} = {what}' for (name, what, _), r in outcomes if r.successful]
     assert accepted == [], f'{node} accepted: {accepted}'
@@ -85,17 +99,16 @@ def test_every_bad_value_of_every_parameter_is_refused_naming_it(probe, nodes, n
         if name not in r.reason and name not in RCLPY_PARAMETERS
     ]
     assert unnamed == [], f'{node} refused without naming the parameter: {unnamed}'
-    after = current(probe, node, sorted(descriptors))
+    after = current(nodes[node], sorted(descriptors))
     changed = [name for name in descriptors if not same(before[name], after[name])]
     assert changed == [], f'{node} changed {changed} although every set was refused'
-    assert nodes[node].alive()
 
 
 @pytest.mark.parametrize('node', NODES)
-def test_a_valid_change_of_every_writable_parameter_is_accepted(probe, nodes, node):
-    descriptors = described(probe, node)
+def test_a_valid_change_of_every_writable_parameter_is_accepted(nodes, node):
+    descriptors = described(nodes[node])
     names = sorted(set(descriptors) - set(RCLPY_PARAMETERS))
-    before = current(probe, node, names)
+    before = current(nodes[node], names)
     changes = {}
     for name in names:
         descriptor = descriptors[name]
@@ -105,22 +118,20 @@ def test_a_valid_change_of_every_writable_parameter_is_accepted(probe, nodes, no
     assert changes, f'{node}: no writable parameter with a known valid value'
     try:
         for name, new in changes.items():
-            result = set_each(probe, node, [parameter(name, new)])[0]
+            result = set_each(nodes[node], [parameter(name, new)])[0]
             assert result.successful, f'{node}.{name} = {python_value(new)}: {result.reason}'
-            assert same(current(probe, node, [name])[name], new)
+            assert same(current(nodes[node], [name])[name], new)
     finally:
-        set_each(probe, node, [parameter(name, before[name]) for name in changes])
-    after = current(probe, node, names)
+        set_each(nodes[node], [parameter(name, before[name]) for name in changes])
+    after = current(nodes[node], names)
     assert all(same(before[n], after[n]) for n in changes), 'old values not restored'
-    assert nodes[node].alive()
 
 
 @pytest.mark.parametrize('node', NODES)
-def test_use_sim_time_can_be_switched_at_runtime(probe, nodes, node):
+def test_use_sim_time_can_be_switched_at_runtime(nodes, node):
     def sim_time(on: bool) -> list:
         return [parameter('use_sim_time', value(ParameterType.PARAMETER_BOOL, on))]
 
-    results = set_each(probe, node, sim_time(True))
-    set_each(probe, node, sim_time(False))
+    results = set_each(nodes[node], sim_time(True))
+    set_each(nodes[node], sim_time(False))
     assert results[0].successful, f'{node}: use_sim_time := true refused: {results[0].reason}'
-    assert nodes[node].alive()
