@@ -30,10 +30,11 @@ COMMANDS = ([20e3, 10e3, 5e3], [35e3, 25e3, 15e3])
 ANGLE_TOLERANCE = 1e-6
 #: Plant cycles (joint_states messages) to wait after the last command before stopping.
 AFTER_LAST_COMMAND = 20
-#: Plant cycles to hold each command once the plant has settled on it (4 s at 100 Hz): longer
-#: than Fast DDS's 3 s heartbeat period, for which a reader that joined late or missed a message
-#: (the recorder on a loaded machine) holds back what comes after it.
-SETTLED_STEPS = 400
+#: Plant cycles to hold each command once the plant has settled on it (0.5 s at 100 Hz): ten
+#: heartbeat periods of the project's Fast DDS profile (50 ms, exodigit_nodes/dds.py), after
+#: which a reader that joined late or missed a message (the recorder on a loaded machine) has
+#: asked for it again and caught up. Fast DDS's own 3 s period needed 400 cycles here.
+SETTLED_STEPS = 50
 #: Seconds for the plant to settle, or for the recorder to start or stop.
 TIMEOUT = 60.0
 
