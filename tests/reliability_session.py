@@ -25,10 +25,11 @@ RATE = 100.0
 MAX_SUPPLY = 100e3
 MAX_PRESSURE = 60e3
 MAX_PRESSURE_RATE = 100e3
-#: Estimator window (pairs) and identification period (s): one window is WINDOW / RATE s. Short,
-#: so that a (re)started estimator identifies K_H within a fraction of a second: on noise-free
-#: data a fit over 20 pairs is as exact as one over 100, and waits for "normal" end sooner.
-WINDOW = 20
+#: Estimator window (pairs) and identification period (s): one window is WINDOW / RATE s. The
+#: estimator fits whatever part of the window it holds (exact on noise-free data), so a
+#: (re)started one identifies K_H at its first tick: a short period ends every wait for
+#: "normal" within a fifth of a second of data.
+WINDOW = 100
 IDENTIFICATION_PERIOD = 0.2
 #: Relative agreement of the identified stiffness with the model's K_H (noise-free data).
 STIFFNESS_TOLERANCE = 0.02
