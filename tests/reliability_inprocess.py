@@ -1,8 +1,9 @@
 """A glove node class run in this process, its callbacks driven directly: no DDS traffic.
 
-`InProcessNode` constructs a node class under its own rclpy context (``--ros-args`` parameter
-overrides, a private domain id, loopback discovery), replaces each publisher's ``publish`` with
-a recorder, and hands out the node's subscription and timer callbacks. A test feeds the
+`InProcessNode` constructs a node class in the test probe's rclpy context (node-local
+``--ros-args`` parameter overrides; no second DDS participant in the test process, see
+:meth:`ros_harness.RosProbe.local_node`), replaces each publisher's ``publish`` with a
+recorder, and hands out the node's subscription and timer callbacks. A test feeds the
 subscription callbacks messages that went through an ``rclpy.serialization`` round trip (what
 the wire would deliver) and fires the timers by hand; the recorded outputs are then checked.
 """
@@ -15,7 +16,6 @@ import time
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 
-import rclpy
 from rclpy.serialization import deserialize_message, serialize_message
 
 #: Namespace of in-process nodes, so no other test's publisher ever matches their subscriptions.
@@ -51,19 +51,15 @@ class InProcessNode:
         A glove node class (constructed with no arguments).
     overrides : dict
         Parameter name -> value as a ``-p name:=value`` string.
-    domain_id : int
-        Private ROS domain of the context (the node lives in namespace `NAMESPACE`).
+    probe : RosProbe
+        The test probe, whose context the node joins (in namespace `NAMESPACE`; nothing spins
+        it but the test).
     """
 
-    def __init__(self, node_class: type, overrides: dict[str, str], domain_id: int) -> None:
+    def __init__(self, node_class: type, overrides: dict[str, str], probe) -> None:
         args = ['--ros-args', '-r', f'__ns:={NAMESPACE}']
         args += [f for k, v in overrides.items() for f in ('-p', f'{k}:={v}')]
-        rclpy.init(args=args, domain_id=domain_id)
-        try:
-            self.node = node_class()
-        except BaseException:
-            rclpy.try_shutdown()
-            raise
+        self.node = node_class(context=probe.context, cli_args=args)
         self.published: dict[str, list] = defaultdict(list)
         self.sequence: dict[str, int] = {}
         for publisher in self.node.publishers:
@@ -119,9 +115,8 @@ class InProcessNode:
         return taken
 
     def close(self) -> None:
-        """Destroy the node and shut its context down."""
+        """Destroy the node (the probe's context stays up)."""
         self.node.destroy_node()
-        rclpy.try_shutdown()
 
 
 def non_finite(published: dict[str, list]) -> list[str]:

@@ -38,8 +38,8 @@ def steps(model):
 
 
 @pytest.fixture
-def estimator(ros_domain):
-    node = InProcessNode(Estimator, {}, ros_domain)
+def estimator(probe):
+    node = InProcessNode(Estimator, {}, probe)
     yield node
     node.close()
 
@@ -165,10 +165,10 @@ def test_angles_after_lost_messages_pair_with_nothing(estimator, model, steps):
 
 @pytest.mark.parametrize(('tolerance', 'estimated'), [(0.1, [0, 1, 2, 3]), (0.02, [0, 1, 3])])
 def test_angles_later_than_the_pairing_tolerance_pair_with_nothing(
-    ros_domain, model, steps, tolerance, estimated
+    probe, model, steps, tolerance, estimated
 ):
     # Step 2's angles come 30 ms after its pressure (the next pressure 40 ms after it).
-    node = InProcessNode(Estimator, {'pairing_tolerance': repr(tolerance)}, ros_domain)
+    node = InProcessNode(Estimator, {'pairing_tolerance': repr(tolerance)}, probe)
     try:
         pressure = Publisher(node, 'chamber_pressure')
         angles = Publisher(node, 'joint_states')

@@ -411,11 +411,11 @@ def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_ste
     np.testing.assert_allclose(record.forces[-1], [0.1, 0.1, 0.1], atol=0.01)
 
 
-def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estimator(ros_domain):
+def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estimator(probe):
     # Else the estimate of the first state it is sent could leave before it can hear it, and
     # the glove would wait for that answer forever.
     node = InProcessNode(
-        PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, ros_domain
+        PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, probe
     )
     try:
         node.node.listen_once_estimated()

@@ -77,8 +77,8 @@ def node_class(module_name: str) -> type:
 
 
 @pytest.fixture(scope='module', params=sorted(NODES))
-def node(request, ros_domain):
-    made = InProcessNode(node_class(request.param), NODES[request.param], ros_domain)
+def node(request, probe):
+    made = InProcessNode(node_class(request.param), NODES[request.param], probe)
     made.reported = {}  # topic -> rejection count in the node's latest diagnostics
     made.fire_timers()
     made.take()

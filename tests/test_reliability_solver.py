@@ -48,7 +48,7 @@ def write(tmp_path, name: str, data: dict) -> str:
 
 
 @pytest.fixture
-def plant_for(tmp_path, ros_domain):
+def plant_for(tmp_path, probe):
     made = []
 
     def build(name: str, data: dict) -> tuple[InProcessNode, GloveModel]:
@@ -61,7 +61,7 @@ def plant_for(tmp_path, ros_domain):
             'pressure_time_constant': '0.0',
             'max_supply_pressure': str(SUPPLY),
         }
-        node = InProcessNode(Plant, overrides, ros_domain)
+        node = InProcessNode(Plant, overrides, probe)
         made.append(node)
         return node, GloveModel(load_params(path))
 
