@@ -1,19 +1,22 @@
 """The hand command as a user runs it: ``python -m exodigit_nodes.hand``, summary and records.
 
-A lockstep session of two fingers for one simulated second: every finger's record has exactly
-one row per step and its angles are what an in-process stepper of that finger's own model file
-gives for the recorded commands (an independent replay, not the node's code path over DDS).
+One session, read by the tests that need a running hand: two fingers in lockstep for one
+simulated second. Every finger's record has exactly one row per step and its angles are what
+that finger's own model file gives for the recorded pressures (an independent solve, not the
+node's code path over DDS); the estimators run in the hand's second process and their estimates
+reach the records; at the stop every command node sends zero pressure. Refusals of bad input
+are ``main`` calls in this process, and one run of the command for its exit status.
 """
 
 import csv
-import signal
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from exodigit_nodes.hand import main as hand_main
 from exodigit_nodes.hand_config import hand_config_dir
-from ros_harness import ros_environment, wait_until
+from ros_harness import ros_environment
 
 from exodigit_model import GloveModel, load_params
 
@@ -23,6 +26,8 @@ JOINTS = ('mcp', 'pip', 'dip')
 RATE = 100.0
 #: Recorded angles (12 significant digits) against the solve of the recorded pressures, rad.
 ANGLE_TOLERANCE = 1e-9
+#: Simulated seconds of the session.
+DURATION = 1.0
 #: Seconds for a session to start, run and stop.
 TIMEOUT = 120.0
 
@@ -31,14 +36,6 @@ def read_record(path):
     with open(path, newline='') as file:
         rows = list(csv.DictReader(file))
     return {key: np.array([float(r[key]) if r[key] else np.nan for r in rows]) for key in rows[0]}
-
-
-def estimated_rows(path) -> int:
-    """Rows of a record being written that carry the estimated forces (complete lines only)."""
-    if not path.is_file():
-        return 0
-    lines = [line for line in path.read_text().splitlines(keepends=True) if line.endswith('\n')]
-    return sum(all(row[f'f_est_{j}_n'] for j in JOINTS) for row in csv.DictReader(lines))
 
 
 def columns(table, tag, unit):
@@ -58,20 +55,29 @@ def run_hand(ros_domain, tmp_path, *arguments, timeout=TIMEOUT):
     )
 
 
-def test_a_timed_lockstep_hand_records_every_step_of_every_finger(ros_domain, tmp_path):
-    out = tmp_path / 'run'
+@pytest.fixture(scope='module')
+def session(ros_domain, tmp_path_factory):
+    """One lockstep session of two fingers for DURATION simulated seconds, run to its end."""
+    workdir = tmp_path_factory.mktemp('hand')
     result = run_hand(
         ros_domain,
-        tmp_path,
+        workdir,
         *('--fingers', ','.join(FINGERS), '--clock', 'sim', '--lockstep'),
-        *('--real-time-factor', '0', '--duration', '1', '--out', str(out)),
+        *('--real-time-factor', '0', '--duration', f'{DURATION:g}', '--out', str(workdir / 'run')),
     )
-    assert result.returncode == 0, result.stderr
+    return result, workdir / 'run'
+
+
+def test_a_timed_lockstep_hand_records_every_step_of_every_finger(session):
+    result, out = session
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert f'stopping ({DURATION:g} simulated s elapsed)' in result.stdout
+    steps = round(DURATION * RATE)
     for finger in FINGERS:
         path = out / finger / 'signals.csv'
-        assert f'run record: {path} ({round(RATE)} samples)' in result.stdout
+        assert f'run record: {path} ({steps} samples)' in result.stdout
         table = read_record(path)
-        np.testing.assert_allclose(table['time_s'], np.arange(round(RATE)) / RATE, atol=1e-12)
+        np.testing.assert_allclose(table['time_s'], np.arange(steps) / RATE, atol=1e-12)
         # each row's angles are the finger model's equilibrium at that row's chamber pressures
         model = GloveModel(load_params([hand_config_dir() / f'{finger}.yaml']))
         solved = model.solve_batch(columns(table, 'p', 'kpa') * 1e3)
@@ -88,47 +94,54 @@ def test_a_timed_lockstep_hand_records_every_step_of_every_finger(ros_domain, tm
         assert (out / finger / 'signals.png').read_bytes()[:4] == b'\x89PNG'
 
 
-def test_sigint_stops_the_hand_cleanly_with_its_records(ros_domain, tmp_path):
-    out = tmp_path / 'run'
-    process = subprocess.Popen(
-        [*HAND, '--namespace', f'/hand_{ros_domain}', '--fingers', 'index', '--out', str(out)],
-        cwd=tmp_path,
-        env=ros_environment(ros_domain),
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    record = out / 'index' / 'signals.csv'
-    try:
-        # the estimators start in a process of their own: wait for their first estimate too
-        assert wait_until(lambda: estimated_rows(record) > 0, TIMEOUT)
-    finally:
-        process.send_signal(signal.SIGINT)
-        stdout, stderr = process.communicate(timeout=TIMEOUT)
-    assert process.returncode == 0, stderr
-    assert 'stopping (SIGINT)' in stdout
-    assert 'Traceback' not in stderr
+def test_the_hand_stops_cleanly_with_zero_pressure_sent_and_the_estimates_recorded(session):
+    result, out = session
+    assert result.returncode == 0, result.stderr
+    assert 'Traceback' not in result.stderr
     log = (out / 'logs' / 'hand_nodes.log').read_text()
-    assert 'sent zero pressure' in log
-    # the estimators run in a process of their own, and their estimates reached the record
-    assert '.index.estimator]' in (out / 'logs' / 'hand_estimators.log').read_text()
-    assert '.index.estimator]' not in log
-    assert np.isfinite(columns(read_record(record), 'f_est', 'n')).all(axis=1).any()
+    assert log.count('sent zero pressure') == len(FINGERS)  # every finger's command node
+    # the estimators run in a process of their own, and their estimates reached the records
+    estimators = (out / 'logs' / 'hand_estimators.log').read_text()
+    for finger in FINGERS:
+        assert f'.{finger}.estimator]' in estimators
+        assert f'.{finger}.estimator]' not in log
+        table = read_record(out / finger / 'signals.csv')
+        assert np.isfinite(columns(table, 'f_est', 'n')).all(axis=1).any(), finger
+
+
+def test_a_refused_hand_command_exits_2_with_one_line_on_stderr(ros_domain, tmp_path):
+    # The command itself (the other refusals: main in this process, below).
+    result = run_hand(ros_domain, tmp_path, '--fingers', 'pinky', timeout=30.0)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        'hand: --fingers pinky: give distinct names from thumb,index,middle,ring,little'
+    ]
+    assert result.stdout == ''
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize(
     ('arguments', 'message'),
     [
         (['--fingers', 'pinky'], 'hand: --fingers pinky: give distinct names from thumb,'),
+        (['--fingers', 'index,index'], 'hand: --fingers index,index: give distinct names'),
         (['--duration', '-1'], 'hand: --duration -1.0: must be a finite number of seconds'),
         (['--clock', 'sim', '--real-time-factor', '-2'], 'hand: --real-time-factor -2: '),
+        (['--lockstep'], 'hand: --lockstep, --start-paused and --real-time-factor need --clock'),
+        (['--namespace', 'hand'], "hand: --namespace 'hand': must be absolute"),
+        (['--namespace', '/1hand'], "hand: --namespace '/1hand': must be absolute"),
         (['--patient', 'nobody.yaml'], 'hand: --patient: '),
+        (['--ros-params', 'missing.yaml'], 'hand: --ros-params missing.yaml: no such file'),
     ],
 )
-def test_a_refused_hand_starts_nothing_and_says_why(ros_domain, tmp_path, arguments, message):
-    result = run_hand(ros_domain, tmp_path, *arguments, timeout=30.0)
-    assert result.returncode == 2
-    lines = result.stderr.strip().splitlines()
+def test_a_refused_hand_starts_nothing_and_says_why(
+    tmp_path, monkeypatch, capsys, arguments, message
+):
+    # The runner's main, in this process: it returns before starting a process or rclpy.
+    monkeypatch.chdir(tmp_path)
+    assert hand_main(arguments) == 2
+    printed = capsys.readouterr()
+    lines = printed.err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(message), lines
-    assert not (tmp_path / 'runs').exists()
+    assert printed.out == ''
+    assert list(tmp_path.iterdir()) == []  # no runs/ directory
