@@ -42,7 +42,11 @@ def test_the_node_reaches_its_targets_with_chamber_lag_and_sensor_noise(glove_si
         record = glove_sim.run(4.0)
     finally:
         node.terminate()
-        node.wait(10)
+        try:
+            node.wait(10)
+        except subprocess.TimeoutExpired:  # what is checked is the run, not the node's exit
+            node.kill()
+            node.wait()
     assert record.t[-1] - record.t[0] == pytest.approx(4.0 - 0.01)
     settled = record.q[-50:]  # the last half second
     np.testing.assert_allclose(settled.mean(axis=0), TARGETS, atol=TOLERANCE)
