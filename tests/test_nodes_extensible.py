@@ -3,7 +3,8 @@
 The MCP segment has no separate strain-limiting layer (``layer_axial_stiffness: 0.0``), the PIP
 and DIP keep the default ``.inf`` (inextensible). With the kit's default chamber lag 0 each
 published state is the coupled solve at its command, so the lengths are compared with an
-independent ``GloveModel(load_params(file)).solve(p)``.
+independent ``GloveModel(load_params(file)).solve(p)``. One glove (with markers) serves three
+tests, put to rest before each; the estimator's test has a glove of its own.
 """
 
 import math
@@ -17,7 +18,7 @@ import pytest
 from exodigit_nodes.markers import ARC_SAMPLES
 from exodigit_nodes.testing import GloveSim
 from lockstep_controller import command_at
-from ros_harness import RosProbe
+from ros_harness import RosProbe, wait_until
 from visualization_msgs.msg import MarkerArray
 
 from exodigit_model import GloveModel, load_params
@@ -46,21 +47,37 @@ exo_digit:
 """
 
 
-@pytest.fixture
-def params_file(tmp_path):
-    path = tmp_path / 'extensible_mcp.yaml'
+@pytest.fixture(scope='module')
+def params_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp('extensible') / 'extensible_mcp.yaml'
     path.write_text(EXTENSIBLE_MCP)
     return path
 
 
-@pytest.fixture
+@pytest.fixture(scope='module')
 def model(params_file):
     return GloveModel(load_params(params_file))
 
 
-@pytest.fixture
+@pytest.fixture(scope='module')
 def rest(model):
     return np.array([segment.arc_length for segment in model.params.exo_digit.segments])
+
+
+@pytest.fixture(scope='module')
+def shared_glove(params_file, tmp_path_factory):
+    options = {'plant': {'marker_rate_hz': 20.0}}
+    with GloveSim(params_file, **options, log_dir=tmp_path_factory.mktemp('logs')) as glove:
+        yield glove
+
+
+@pytest.fixture
+def glove(shared_glove):
+    """The shared glove at rest, no controller of an earlier test left on the graph."""
+    # A stopped controller leaves the graph a moment later; until then step() refuses to step.
+    assert wait_until(lambda: not shared_glove._node.other_controllers(), 10.0)
+    shared_glove.reset()
+    return shared_glove
 
 
 def assert_lengths_of_the_solve(lengths, solution, rest):
@@ -69,39 +86,36 @@ def assert_lengths_of_the_solve(lengths, solution, rest):
     np.testing.assert_array_equal(lengths[1:], rest[1:])
 
 
-def test_the_plant_publishes_the_segment_lengths_of_the_solve(params_file, model, rest, tmp_path):
-    with GloveSim(params_file, log_dir=tmp_path / 'logs') as glove:
-        np.testing.assert_array_equal(glove.state.lengths, rest)
-        for command in COMMANDS:
-            state = glove.step(command)
-            np.testing.assert_array_equal(state.pressure, command)  # no chamber lag, no noise
-            solution = model.solve(command)
-            assert solution.converged
-            assert_lengths_of_the_solve(state.lengths, solution, rest)
-            np.testing.assert_allclose(state.q, solution.q, rtol=0.0, atol=ANGLE_TOLERANCE)
-            if command[0] > 0.0:
-                assert state.lengths[0] > rest[0] + 1e-4  # the MCP stretches under pressure
-        np.testing.assert_array_equal(glove.reset().lengths, rest)
+def test_the_plant_publishes_the_segment_lengths_of_the_solve(glove, model, rest):
+    np.testing.assert_array_equal(glove.state.lengths, rest)
+    for command in COMMANDS:
+        state = glove.step(command)
+        np.testing.assert_array_equal(state.pressure, command)  # no chamber lag, no noise
+        solution = model.solve(command)
+        assert solution.converged
+        assert_lengths_of_the_solve(state.lengths, solution, rest)
+        np.testing.assert_allclose(state.q, solution.q, rtol=0.0, atol=ANGLE_TOLERANCE)
+        if command[0] > 0.0:
+            assert state.lengths[0] > rest[0] + 1e-4  # the MCP stretches under pressure
+    np.testing.assert_array_equal(glove.reset().lengths, rest)
 
 
-def test_a_run_records_the_segment_lengths_of_each_step(params_file, model, rest, tmp_path):
-    with GloveSim(params_file, log_dir=tmp_path / 'logs') as glove:
-        glove.reset()
-        controller = subprocess.Popen(
-            [sys.executable, str(CONTROLLER), '--ros-args', '-r', f'__ns:={glove.namespace}'],
-            env=glove.env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-        )
+def test_a_run_records_the_segment_lengths_of_each_step(glove, model, rest):
+    controller = subprocess.Popen(
+        [sys.executable, str(CONTROLLER), '--ros-args', '-r', f'__ns:={glove.namespace}'],
+        env=glove.env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        record = glove.run(0.3)
+    finally:
+        controller.send_signal(signal.SIGINT)
         try:
-            record = glove.run(0.3)
-        finally:
-            controller.send_signal(signal.SIGINT)
-            try:
-                controller.wait(5)
-            except subprocess.TimeoutExpired:
-                controller.kill()
-                controller.wait()
+            controller.wait(5)
+        except subprocess.TimeoutExpired:
+            controller.kill()
+            controller.wait()
     assert record.lengths.shape == (30, 3)
     assert record.lengths[:, 0].max() > rest[0] + 1e-4  # the run pressurised the MCP
     for t, pressure, lengths, command in zip(
@@ -111,20 +125,19 @@ def test_a_run_records_the_segment_lengths_of_each_step(params_file, model, rest
         assert_lengths_of_the_solve(lengths, model.solve(pressure), rest)
 
 
-def test_markers_draw_the_arcs_at_the_published_lengths(params_file, rest, tmp_path):
-    with GloveSim(params_file, plant={'marker_rate_hz': 20.0}, log_dir=tmp_path / 'logs') as glove:
-        probe = RosProbe(glove.domain_id, name='extensible_probe')
-        try:
-            markers = probe.subscribe(f'{glove.namespace}/markers', MarkerArray)
-            state = glove.step([40e3, 40e3, 40e3])  # lockstep: the plant holds this state
+def test_markers_draw_the_arcs_at_the_published_lengths(glove, rest):
+    probe = RosProbe(glove.domain_id, name='extensible_probe')
+    try:
+        markers = probe.subscribe(f'{glove.namespace}/markers', MarkerArray)
+        state = glove.step([40e3, 40e3, 40e3])  # lockstep: the plant holds this state
 
-            def stamped_now(array):
-                stamp = array.markers[0].header.stamp
-                return round(state.t * 1e9) == stamp.sec * 10**9 + stamp.nanosec
+        def stamped_now(array):
+            stamp = array.markers[0].header.stamp
+            return round(state.t * 1e9) == stamp.sec * 10**9 + stamp.nanosec
 
-            array = markers.wait_for(stamped_now, 10.0)
-        finally:
-            probe.close()
+        array = markers.wait_for(stamped_now, 10.0)
+    finally:
+        probe.close()
     assert array is not None, 'no markers of the stepped state'
     assert state.lengths[0] > rest[0] + 1e-4
     # The backbone: base block, then each arc (ARC_SAMPLES points) and the two ends of its block.
