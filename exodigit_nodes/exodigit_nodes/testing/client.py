@@ -185,6 +185,7 @@ class GloveSim:
         self.rate_hz = float(parameters.get('rate_hz', 100.0))
         self._processes: list[NodeProcess] = []
         self._node = None
+        self._estimator = estimator
         try:
             self._start('plant', parameters)
             if estimator:
@@ -269,10 +270,14 @@ class GloveSim:
         """
         return self._reset(with_estimate=True)
 
-    def _settle_estimates(self) -> None:
-        """Let the estimate of the start-up state (if the estimator had it) arrive and go."""
+    def _settle_estimates(self, count: int = 1) -> None:
+        """Let ``count`` estimates of states already taken arrive, then drop them.
+
+        Estimates are paired with states in order, so one arriving late (the estimator answers
+        a run's states too) would be paired with a later step. Waits up to ESTIMATE_GRACE.
+        """
         deadline = time.monotonic() + ESTIMATE_GRACE
-        while not self._node.estimate_count() and time.monotonic() < deadline:
+        while self._node.estimate_count() < count and time.monotonic() < deadline:
             self._executor.spin_once(timeout_sec=POLL)
         self._node.clear_estimates()
 
@@ -378,7 +383,8 @@ class GloveSim:
             raise
         self._release_run_until()
         commands = self._node.take_commands(steps)
-        self._node.clear_estimates()
+        if self._estimator:  # the estimator answers the run's states too
+            self._settle_estimates(steps)
         self._external_synced = True
         self._paused = True  # pause_at stopped the plant at the last state
         self.state = states[-1]
