@@ -1,7 +1,7 @@
 """ros_ws/ is a colcon workspace reaching both packages; colcon builds it into a ROS install space.
 
-The build runs when colcon is installed in the same environment as rclpy (ROS_NOTES.md); it is
-skipped, with the reason, otherwise.
+The build runs when colcon is installed in the same environment as rclpy (requirements/dev.txt
+installs colcon-common-extensions in the venv); it is skipped, with the reason, otherwise.
 """
 
 import os
