@@ -24,9 +24,16 @@ MODEL_SPEC = 'docs/spec/model.md'
 ROS_SPEC = 'docs/spec/ros.md'
 PAPER_EQUATIONS = range(1, 37)
 """The paper's equations, eqs 1-36."""
-GONE = ('MODEL' + '.md', 'INTERFACES' + '.md', '../' + 'shared', '/work/' + 'shared')
-"""Names of the documents outside the repository that docs/spec replaces (spelt so that this
-file does not contain them)."""
+GONE = (
+    'MODEL' + '.md',
+    'INTERFACES' + '.md',
+    'ROS_NOTES' + '.md',
+    'STYLE' + '.md',
+    '../' + 'shared',
+    '/work/' + 'shared',
+)
+"""Names of documents outside the repository (the working notes docs/spec replaces; spelt so
+that this file does not contain them)."""
 
 DOCUMENT = re.compile(r'(?<![\w/.:-])((?:[\w.-]+/)*[\w-]+\.md)\b')
 """A Markdown file named by its path (a URL is not: its path follows ``:`` or ``/``)."""
