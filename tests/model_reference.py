@@ -17,7 +17,7 @@ QUAD_OPTIONS = {'epsabs': 0.0, 'epsrel': 1e-13, 'limit': 200}
 JACOBIAN_STEP = 1e-6
 """Central-difference step of the reference contact Jacobian, rad."""
 
-MODEL_MD_DEFAULTS = {
+SPEC_DEFAULTS = {
     'material': {'c1': 1.1e5, 'c2': 2.0e4, 'c3': 0.0},
     'exo_digit': {
         'base_block_half_length': 0.010,

@@ -154,7 +154,7 @@ def test_a_stiffening_layer_converges_to_the_constant_length_model():
     assert errors[1] / errors[2] == pytest.approx(100.0, rel=0.1)  # first order in 1/E_L
 
 
-def test_model_md_figures_for_the_mcp_module():
+def test_the_specifications_figures_for_the_mcp_module():
     # docs/spec/model.md §12: 52.6 vs 50.5 mm at E_L = 0; 47.6 vs 46.7 mm at E_L = 100 N (50 kPa,
     # MCP).
     for stiffness, on_finger, free in ((0.0, 52.6, 50.5), (100.0, 47.6, 46.7)):

@@ -3,16 +3,17 @@
 import copy
 import math
 import re
+from pathlib import Path
 
 import pytest
-from model_reference import MODEL_MD_DEFAULTS, SEGMENT_LENGTH_KEYS
+from model_reference import SEGMENT_LENGTH_KEYS, SPEC_DEFAULTS
 
 from exodigit_model import ParameterError, dump_params, load_params, params_from_dict
 
 
 def _with(path, value):
     """The defaults (docs/spec/model.md §10) with the entry at ``path`` set to ``value``."""
-    data = copy.deepcopy(MODEL_MD_DEFAULTS)
+    data = copy.deepcopy(SPEC_DEFAULTS)
     node = data
     for key in path[:-1]:
         node = node[key]
@@ -26,12 +27,21 @@ def _message(data):
     return str(caught.value)
 
 
-def test_defaults_equal_model_md_section_10():
-    assert load_params().to_dict() == MODEL_MD_DEFAULTS
+def test_defaults_equal_the_specification_section_10():
+    assert load_params().to_dict() == SPEC_DEFAULTS
 
 
-def test_full_model_md_dict_builds_the_defaults():
-    assert params_from_dict(MODEL_MD_DEFAULTS) == load_params()
+def test_the_full_specification_dict_builds_the_defaults():
+    assert params_from_dict(SPEC_DEFAULTS) == load_params()
+
+
+def test_the_specifications_parameter_file_is_the_defaults(tmp_path):
+    # docs/spec/model.md §10 prints the default file; read as a user's file, it is what it says.
+    spec = (Path(__file__).resolve().parents[1] / 'docs' / 'spec' / 'model.md').read_text()
+    section = spec[spec.index('## 10.') : spec.index('# Part II')]
+    printed = tmp_path / 'printed.yaml'
+    printed.write_text(re.search(r'```yaml\n(.*?)```', section, re.S).group(1))
+    assert params_from_dict(SPEC_DEFAULTS) == load_params(printed)
 
 
 def test_parameter_error_is_a_value_error():
@@ -39,7 +49,7 @@ def test_parameter_error_is_a_value_error():
 
 
 def test_unknown_top_level_key_is_named():
-    data = copy.deepcopy(MODEL_MD_DEFAULTS)
+    data = copy.deepcopy(SPEC_DEFAULTS)
     data['glove'] = {}
     message = _message(data)
     assert 'glove' in message and 'unknown' in message
@@ -59,7 +69,7 @@ def test_unknown_key_inside_a_segment_is_named():
 @pytest.mark.parametrize('count', [2, 4])
 @pytest.mark.parametrize('where', [('exo_digit', 'segments'), ('finger', 'joints')])
 def test_wrong_counts_are_rejected(where, count):
-    entries = copy.deepcopy(MODEL_MD_DEFAULTS[where[0]][where[1]])
+    entries = copy.deepcopy(SPEC_DEFAULTS[where[0]][where[1]])
     entries = (entries * 2)[:count]
     message = _message(_with(where, entries))
     assert where[1] in message and str(count) in message and '3' in message
@@ -131,7 +141,7 @@ def test_yaml_file_is_merged_over_the_defaults(tmp_path):
     path.write_text(
         'material:\n  c1: 2.5e5\nfinger:\n  joints:\n    - {}\n    - {stiffness: 0.1}\n    - {}\n'
     )
-    expected = copy.deepcopy(MODEL_MD_DEFAULTS)
+    expected = copy.deepcopy(SPEC_DEFAULTS)
     expected['material']['c1'] = 2.5e5
     expected['finger']['joints'][1]['stiffness'] = 0.1
     assert load_params(path).to_dict() == expected
@@ -147,7 +157,7 @@ def test_exponent_floats_in_yaml_are_numbers(tmp_path):
 
 
 def test_dump_then_load_round_trips(tmp_path):
-    data = copy.deepcopy(MODEL_MD_DEFAULTS)
+    data = copy.deepcopy(SPEC_DEFAULTS)
     data['material'] = {'c1': 123456.789, 'c2': -1.5e3, 'c3': 7.25}
     data['exo_digit']['segments'][2]['arc_length'] = 0.0171234567891
     data['finger']['joints'][1]['stiffness'] = 0.0

@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from model_reference import (
-    MODEL_MD_DEFAULTS,
     SEGMENT_LENGTH_KEYS,
+    SPEC_DEFAULTS,
     exo_digit_points,
     robot_contact_jacobian,
 )
@@ -31,7 +31,7 @@ def _scaled(value):
 @st.composite
 def glove_parameters(draw):
     """Material in the ranges of issue 2, every length within ±30 % of docs/spec/model.md §10."""
-    defaults = MODEL_MD_DEFAULTS
+    defaults = SPEC_DEFAULTS
     segments = [
         {key: draw(_scaled(segment[key])) for key in SEGMENT_LENGTH_KEYS}
         for segment in defaults['exo_digit']['segments']

@@ -1,7 +1,8 @@
 """The node table (exodigit_nodes.catalog) is the one source of the nodes, modes and defaults: the
 parameters say their units, setup.py's console scripts, the venv runner, the config YAML and the
 README's parameter blocks agree with it (the launch file: test_packaging_launch.py; each node
-module's --help prints its entry's table: test_nodes_units.py)."""
+module's --help prints its entry's table: test_nodes_units.py; the interface specification names
+every parameter)."""
 
 import ast
 import re
@@ -231,3 +232,13 @@ def test_each_readme_parameter_block_is_the_nodes_help(node):
         f'README, "{README_SECTION[3:]}": paste the parameters of '
         f'python -m {node.module} --help into the {node.executable} block'
     )
+
+
+@pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
+def test_the_interface_specification_names_every_parameter_of_each_node(node):
+    # docs/spec/ros.md lists each node's parameters by name (their defaults live in the table).
+    spec = (ROOT / 'docs' / 'spec' / 'ros.md').read_text()
+    section = spec[spec.index('## Parameters\n') : spec.index('## QoS')]
+    entry = section[section.index(f'- `{node.executable}`: ') :].split('\n- `')[0]
+    named = set(re.findall(r'`(\w+)`', entry))
+    assert sorted(set(node.table.specs) - named) == []
