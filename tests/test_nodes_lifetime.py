@@ -1,4 +1,4 @@
-"""A node stops when the process that started it dies (exodigit_nodes/lifetime.py)."""
+"""How a node process ends: its starter dies (lifetime.py), or its embedder shuts rclpy down."""
 
 import os
 import signal
@@ -45,3 +45,32 @@ def test_a_node_stops_when_the_process_that_started_it_is_killed(ros_domain, tmp
     finally:
         if running(node):
             os.kill(node, signal.SIGKILL)
+
+
+#: Runs one finger of ``hand_nodes`` in a program that shuts rclpy down itself half a second
+#: after the nodes are built (as code embedding the nodes may).
+EMBEDDER = """
+import threading, rclpy
+from exodigit_nodes import hand_nodes
+build = hand_nodes.build_hand
+def build_then_shut_down(*args):
+    nodes = build(*args)
+    threading.Timer(0.5, rclpy.shutdown).start()
+    return nodes
+hand_nodes.build_hand = build_then_shut_down
+raise SystemExit(hand_nodes.main(['--fingers', 'index', '--part', 'gloves']))
+"""
+
+
+def test_nodes_shut_down_by_their_embedder_stop_without_last_words(ros_domain, tmp_path):
+    # The command node's last words publish zero pressure; with the context gone that raised.
+    done = subprocess.run(
+        [sys.executable, '-c', EMBEDDER],
+        env=ros_environment(ros_domain),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert 'Traceback' not in done.stderr, done.stderr

@@ -30,7 +30,6 @@ summary and the run records.
 from __future__ import annotations
 
 import argparse
-import gc
 import sys
 
 from rclpy.node import Node
@@ -39,7 +38,7 @@ from rclpy.utilities import remove_ros_args
 
 from .catalog import PLANT_NODE
 from .hand_config import PARTS, HandConfig, HandError, add_hand_arguments, hand_config
-from .node_base import GloveNode, serve
+from .node_base import freeze_start_up, last_words, serve
 from .plant import Plant
 from .sim_time import SimulatedTime
 
@@ -114,13 +113,8 @@ def main(args: list[str] | None = None) -> int:
 
     def make_nodes() -> list[Node]:
         nodes = build_hand(config, options.part)
-        gc.collect()  # start-up objects out of the collector's way (as every node does)
-        gc.freeze()
+        freeze_start_up()
         return nodes
-
-    def last_words(node: Node) -> None:
-        if isinstance(node, GloveNode):
-            node.on_shutdown()
 
     return serve('hand_nodes', argv, make_nodes, last_words)
 

@@ -266,17 +266,29 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
 
     def make_node() -> GloveNode:
         node = node_class()
-        # Long-lived start-up objects (model tables, messages) out of the collector's way:
-        # shorter garbage-collection pauses in the loops.
-        gc.collect()
-        gc.freeze()
+        freeze_start_up()
         return node
 
-    def last_words(node: GloveNode) -> None:
-        if rclpy.ok():
-            node.on_shutdown()
-
     return serve(program, args, make_node, last_words)
+
+
+def freeze_start_up() -> None:
+    """Move the long-lived start-up objects (model tables, messages) out of the collector's way.
+
+    Shorter garbage-collection pauses in the loops; call once the nodes are built.
+    """
+    gc.collect()
+    gc.freeze()
+
+
+def last_words(node: Node) -> None:
+    """A glove node's last words (:meth:`GloveNode.on_shutdown`) while its context is up.
+
+    After an external shutdown (``rclpy.shutdown()`` by the code that embeds the node) nothing
+    can be sent any more, so nothing is tried; other nodes have no last words.
+    """
+    if isinstance(node, GloveNode) and node.context.ok():
+        node.on_shutdown()
 
 
 def executor_class(node: Node) -> type:
