@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from exodigit_nodes.pacing import TimeSettings
 from exodigit_nodes.sim_time import MEASURE_WINDOW, SimulatedTime
 from ros_harness import NodeProcess, RosProbe, wait_until
@@ -83,7 +84,7 @@ def session(ros_domain, tmp_path_factory):
             )
             for finger in FINGERS
         }
-        yield {name: inbox.messages() for name, inbox in inboxes.items()}, parameters
+        yield {name: inbox.messages() for name, inbox in inboxes.items()}, parameters, probe
     finally:
         code = process.stop()
         probe.close()
@@ -100,7 +101,7 @@ def seconds(stamp) -> float:
 
 
 def test_each_finger_has_its_own_names_and_parameters(session):
-    messages, parameters = session
+    messages, parameters, _ = session
     for finger in FINGERS:
         names = messages[f'{finger}/joint_states'][0].name
         assert list(names) == [f'{finger}_mcp', f'{finger}_pip', f'{finger}_dip']
@@ -111,7 +112,7 @@ def test_each_finger_has_its_own_names_and_parameters(session):
 
 
 def test_the_fingers_step_together_on_one_clock(session):
-    messages, _ = session
+    messages, *_ = session
     grid = [round(k * 1e9 / RATE) for k in range(1, STEPS + 1)]
     for finger in FINGERS:
         stamps = [round(seconds(m.header.stamp) * 1e9) for m in messages[f'{finger}/joint_states']]
@@ -127,7 +128,7 @@ def replay(finger_model: str, commands) -> np.ndarray:
 
 
 def test_each_finger_is_its_own_model_stepped_with_its_own_commands(session):
-    messages, _ = session
+    messages, *_ = session
     for finger in FINGERS:
         published = np.array([m.position for m in messages[f'{finger}/joint_states']])
         answers = [np.array(m.data) for m in messages[f'{finger}/pressure_command']]
@@ -138,9 +139,32 @@ def test_each_finger_is_its_own_model_stepped_with_its_own_commands(session):
 
 
 def test_every_finger_is_estimated_once_per_step(session):
-    messages, _ = session
+    messages, *_ = session
     for finger in FINGERS:
         assert len(messages[f'{finger}/estimated_contact_forces']) == STEPS
+
+
+def test_a_time_setting_set_on_one_finger_is_not_undone_by_another(session):
+    # The fingers share one simulated time: a finger whose own time setting changes must not
+    # push its stale copies of the others (real_time_factor 2 set on one finger, then the
+    # lockstep timeout on another, used to put the factor back to 0).
+    *_, probe = session
+    diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
+    first, second = (f'{NAMESPACE}/{finger}/plant' for finger in FINGERS)
+    assert all(r.successful for r in probe.set_parameters(first, {'real_time_factor': 2.0}))
+    assert all(r.successful for r in probe.set_parameters(second, {'lockstep_timeout': 3.0}))
+    since = time.monotonic()
+
+    def factor_set(message) -> str | None:
+        for status in message.status:
+            if status.name == second:
+                values = {item.key: item.value for item in status.values}
+                return values.get('real time factor (set)')
+        return None
+
+    report = diagnostics.wait_for(lambda m: factor_set(m) is not None, TIMEOUT, since)
+    assert report is not None, 'no simulation report from the second finger'
+    assert factor_set(report) == '2'
 
 
 def hand_config():

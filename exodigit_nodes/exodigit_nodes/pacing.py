@@ -9,7 +9,7 @@ lockstep) is re-anchored instead of publishing a burst of steps to catch up.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 CLOCKS = ('wall', 'sim')
 """Time sources of the plant: the system clock, or its own simulated time."""
@@ -49,6 +49,10 @@ class TimeSettings:
     start_paused: bool = False
     pause_at: float = 0.0
     run_until: float = 0.0
+
+
+#: The parameters (plant's and hand's) that are :class:`TimeSettings` fields.
+TIME_SETTING_NAMES = frozenset(field.name for field in fields(TimeSettings))
 
 
 class Pacer:

@@ -57,7 +57,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import TimeSettings, known_node
+from .pacing import TIME_SETTING_NAMES, TimeSettings, known_node
 from .parameters import describe_files
 from .qos import GLOVE_QOS
 from .sim_time import SimulatedTime
@@ -218,18 +218,13 @@ class Plant(GloveNode):
                 self.marker_timer = self.create_timer(
                     1.0 / settings.marker_rate_hz, self.publish_markers, clock=self.report_clock
                 )
-        if self.time is not None and changed & {
-            'real_time_factor',
-            'lockstep_timeout',
-            'pause_at',
-            'run_until',
-        }:
-            self.time.configure(
-                real_time_factor=settings.time.real_time_factor,
-                lockstep_timeout=settings.time.lockstep_timeout,
-                pause_at=settings.time.pause_at,
-                run_until=settings.time.run_until,
-            )
+        time_changes = {
+            name: getattr(settings.time, name) for name in changed & TIME_SETTING_NAMES
+        }
+        if self.time is not None and time_changes:
+            # Only what changed: the time may be a hand's, shared with other fingers' plants
+            # whose own copies of the other settings are not this one's.
+            self.time.configure(**time_changes)
 
     # -- inputs ----------------------------------------------------------------------------
 
