@@ -281,7 +281,7 @@ _Yaml12Loader.add_implicit_resolver(
 def _check_keys(path: str, data: Any, known: Mapping[str, Any]) -> None:
     if not isinstance(data, Mapping):
         raise ParameterError(f'{path or "file"} = {data!r}: must be a mapping of keys to values')
-    unknown = sorted(set(data) - set(known))
+    unknown = sorted(set(data) - set(known), key=str)  # YAML keys need not be strings
     if unknown:
         where = f'{path}.' if path else ''
         raise ParameterError(
