@@ -35,34 +35,49 @@ import time
 
 import rclpy
 from exodigit_nodes.dds import PROFILE, PROFILE_VARIABLE
-from exodigit_nodes.qos import GLOVE_QOS, RECORD_QOS
+from exodigit_nodes.qos import READER_QOS, RECORD_QOS, WRITER_QOS
 from exodigit_nodes.testing import claim_domain
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import HistoryPolicy, QoSProfile
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
+#: Publishers' QoS: the glove's (keep-last 1,000), keep-last 10 as they had before, keep-all.
+WRITERS = {
+    'glove': WRITER_QOS,
+    'keep-last-10': READER_QOS,
+    'keep-all': QoSProfile(
+        history=HistoryPolicy.KEEP_ALL,
+        reliability=WRITER_QOS.reliability,
+        durability=WRITER_QOS.durability,
+    ),
+}
 #: A stall longer than this counts in "late samples", s.
 LATE = 0.1
 #: How long a fresh client waits for its answer before it counts as dropped, s.
 ANSWER_TIMEOUT = 2.0
 
 
-def publish(topics: int, rate: float, seconds: float) -> None:
+def publish(topics: int, rate: float, seconds: float, writer: str) -> None:
     """The publisher process: ``topics`` topics at ``rate`` Hz, sequence number in data[0]."""
     rclpy.init()
     node = rclpy.create_node('bench_publisher')
+    qos = WRITERS[writer]
     publishers = [
-        node.create_publisher(Float64MultiArray, f'bench_{i}', GLOVE_QOS) for i in range(topics)
+        node.create_publisher(Float64MultiArray, f'bench_{i}', qos) for i in range(topics)
     ]
     time.sleep(2.0)  # discovery
     start = time.monotonic()
     sequence = 0
+    longest = 0.0
     while time.monotonic() - start < seconds:
         for publisher in publishers:
+            before = time.monotonic()
             publisher.publish(Float64MultiArray(data=[float(sequence), 0.0, 0.0, 0.0]))
+            longest = max(longest, time.monotonic() - before)
         sequence += 1
         time.sleep(max(0.0, start + sequence / rate - time.monotonic()))
-    print(json.dumps({'sent': sequence}), flush=True)
+    print(json.dumps({'sent': sequence, 'longest_publish_s': longest}), flush=True)
     time.sleep(1.0)  # let the last heartbeats repair what is missing
     node.destroy_node()
     rclpy.shutdown()
@@ -77,7 +92,7 @@ def subscribe(topics: int, seconds: float, keep_all: bool) -> None:
     def taker(index):
         return lambda message: arrivals[index].append((int(message.data[0]), time.monotonic()))
 
-    qos = RECORD_QOS if keep_all else GLOVE_QOS
+    qos = RECORD_QOS if keep_all else READER_QOS
     for i in range(topics):
         node.create_subscription(Float64MultiArray, f'bench_{i}', taker(i), qos)
     executor = SingleThreadedExecutor()
@@ -120,7 +135,7 @@ def starved_topics(args, profile: bool, domain: int) -> dict:
     listen = args.seconds + 6.0
     subscriber = child('subscribe', env, args.topics, listen, int(args.keep_all))
     assert subscriber.stdout.readline().strip() == 'ready'
-    publisher = child('publish', env, args.topics, args.rate, args.seconds)
+    publisher = child('publish', env, args.topics, args.rate, args.seconds, args.writer)
     stops = []
     time.sleep(2.5)  # the publisher's discovery pause
     began = time.monotonic()
@@ -131,7 +146,8 @@ def starved_topics(args, profile: bool, domain: int) -> dict:
         time.sleep(args.starve)
         subscriber.send_signal(signal.SIGCONT)
         stops.append((stopped, time.monotonic()))
-    sent = json.loads(publisher.stdout.readline())['sent']
+    published = json.loads(publisher.stdout.readline())
+    sent = published['sent']
     publisher.wait()
     arrivals = json.loads(subscriber.stdout.readline())
     subscriber.wait()
@@ -144,7 +160,13 @@ def starved_topics(args, profile: bool, domain: int) -> dict:
             gap -= sum(max(0.0, min(after, end) - max(before, start)) for start, end in stops)
             longest = max(longest, gap)
             late += gap > LATE
-    return {'sent': sent * args.topics, 'lost': lost, 'longest_stall_s': longest, 'late': late}
+    return {
+        'sent': sent * args.topics,
+        'lost': lost,
+        'longest_stall_s': round(longest, 4),
+        'late': late,
+        'longest_publish_s': round(published['longest_publish_s'], 4),
+    }
 
 
 def call(calls: int) -> None:
@@ -193,10 +215,18 @@ def main() -> None:
     parser.add_argument('--period', type=float, default=2.0, help='time between stops, s')
     parser.add_argument('--starve', type=float, default=0.3, help='length of a stop, s')
     parser.add_argument('--keep-all', action='store_true', help='subscribe as a recorder')
+    parser.add_argument(
+        '--writer',
+        choices=tuple(WRITERS),
+        default='glove',
+        help="publishers' history: the glove's keep-last 1,000 (default), keep-last 10 (the "
+        "glove's before) or keep-all (Fast DDS keeps up to 5,000, then blocks, then fails)",
+    )
     parser.add_argument('--calls', type=int, default=50, help='fresh clients of case 2')
     args = parser.parse_args()
     if args.role == 'publish':
-        return publish(int(args.values[0]), float(args.values[1]), float(args.values[2]))
+        topics, rate, seconds, writer = args.values
+        return publish(int(topics), float(rate), float(seconds), writer)
     if args.role == 'subscribe':
         return subscribe(int(args.values[0]), float(args.values[1]), bool(int(args.values[2])))
     if args.role == 'serve':

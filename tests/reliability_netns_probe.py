@@ -12,7 +12,7 @@ import sys
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from exodigit_nodes.qos import GLOVE_QOS
+from exodigit_nodes.qos import READER_QOS
 from rclpy.executors import ExternalShutdownException
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -46,7 +46,7 @@ def main(topics: list[str]) -> int:
         node = rclpy.create_node('netns_probe')
         for topic in topics:
             kind, callback = listener(topic)
-            node.create_subscription(kind, topic, callback, GLOVE_QOS)
+            node.create_subscription(kind, topic, callback, READER_QOS)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -10,7 +10,7 @@ import itertools
 
 import pytest
 from exodigit_nodes.horizon import LEAD_STEPS, RAISE_STEPS, Horizon, RepeatedCall
-from exodigit_nodes.qos import GLOVE_QOS
+from exodigit_nodes.qos import RECORD_QOS, WRITER_QOS
 from rcl_interfaces.msg import ParameterValue
 from rclpy.task import Future
 
@@ -101,20 +101,23 @@ def test_the_first_limit_waits_for_the_rate_and_lies_lead_steps_ahead():
     assert limits(node.clients['set_parameters']) == pytest.approx([LEAD_STEPS * PERIOD])
 
 
-def test_the_lead_is_shorter_than_what_each_publisher_keeps():
-    # one step in flight beyond the lead must still be in every publisher's history
-    assert GLOVE_QOS.depth >= LEAD_STEPS + 1
+def test_the_lead_is_shorter_than_what_each_publisher_and_each_recording_reader_keeps():
+    # one step in flight beyond the lead must still be in every publisher's history, and a
+    # recording reader must have room for all of them
+    assert WRITER_QOS.depth >= LEAD_STEPS + 1
+    assert RECORD_QOS.depth >= LEAD_STEPS + 1
     assert 0 < RAISE_STEPS < LEAD_STEPS
 
 
-@pytest.mark.parametrize('end', [0.0, 0.25])
-def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end):
+@pytest.mark.parametrize('end_steps', [0, 2.5 * LEAD_STEPS])
+def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end_steps):
+    end = end_steps * PERIOD
     node = StandInNode()
     hold = Horizon(node, '/glove/plant', period=PERIOD)
     hold.start(end)
     wait_ready(hold)
     setter = node.clients['set_parameters']
-    steps = round(end / PERIOD) if end else 40  # the plant pauses at the end of the run
+    steps = round(end_steps) if end else 3 * LEAD_STEPS  # the plant pauses at the run's end
     for k in range(1, steps + 1):  # it takes a step only while the limit allows it
         received = k * PERIOD
         assert received <= limits(setter)[-1] + 1e-12

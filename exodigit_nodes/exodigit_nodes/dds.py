@@ -2,9 +2,10 @@
 
 A reliable reader that misses a sample (a process starved of CPU for a moment, a full
 shared-memory port) gets it again only after the writer's next heartbeat, by default 3 s later,
-and only if the sample is still among the writer's last 10 by then. A service server drops an
-answer when the new client's reply reader has not matched within 100 ms. The profile
-``fastdds.xml`` beside this module shortens the heartbeat to 50 ms and lets a server wait 1 s.
+and only if the writer still keeps the sample by then (:data:`.qos.WRITER_DEPTH`). A service
+server drops an answer when the new client's reply reader has not matched within 100 ms. The
+profile ``fastdds.xml`` beside this module shortens the heartbeat to 50 ms and lets a server
+wait 1 s.
 
 rmw_fastrtps reads the file named by ``FASTRTPS_DEFAULT_PROFILES_FILE`` when a process creates
 its first participant, so every node's ``main``, the runners, the testing kit and the tests set

@@ -42,7 +42,7 @@ from .messages import (
 )
 from .node_base import GloveNode, load_model, run
 from .parameters import describe_files
-from .qos import GLOVE_QOS
+from .qos import READER_QOS, WRITER_QOS
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
@@ -70,22 +70,22 @@ class Estimator(GloveNode):
         self.stiffness_message = joint_vector_message()
         self.rest_message = joint_vector_message()
         self.force_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_CONTACT_FORCES, GLOVE_QOS
+            Float64MultiArray, ESTIMATED_CONTACT_FORCES, WRITER_QOS
         )
         self.torque_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_FINGER_TORQUE, GLOVE_QOS
+            Float64MultiArray, ESTIMATED_FINGER_TORQUE, WRITER_QOS
         )
         self.stiffness_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, GLOVE_QOS
+            Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, WRITER_QOS
         )
         self.rest_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_REST_ANGLE, GLOVE_QOS
+            Float64MultiArray, ESTIMATED_REST_ANGLE, WRITER_QOS
         )
         # Pressures first: when both topics have messages waiting, the executor takes them in
         # this order, the order the plant sends a step in, so the pairer knows a step's pressure
         # before its angles (and a lost sample's partner before the next step's).
-        self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, GLOVE_QOS)
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+        self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, READER_QOS)
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, READER_QOS)
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )

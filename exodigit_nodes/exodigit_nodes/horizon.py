@@ -1,18 +1,17 @@
-"""Keeps a plant in simulated time at most a few steps ahead of what a runner has received.
+"""Keeps a plant in simulated time at most a few hundred steps ahead of what a runner received.
 
-Every glove topic keeps the last 10 messages of each publisher (docs/spec/ros.md, "QoS"). A reader
-that misses a message (Fast DDS dropped it on the way, which a loaded machine makes more likely)
-holds back the ones after it until the publisher's next heartbeat, up to 3 s later, and gets it
-again only if it is still among those 10. A plant in simulated time at a real-time factor of 0
-takes hundreds of steps in that time, so the runner's record lost runs of 9 to 49 steps (one
-lockstep hand run in four on this 2-core machine beside two busy processes, one in six idle).
+Every glove publisher keeps its last 1,000 samples for readers that have not acknowledged them
+(:data:`.qos.WRITER_QOS`), and a reader that misses one asks for it again within 50 ms (the
+project's Fast DDS profile, :mod:`.dds`). A plant in simulated time at a real-time factor of 0
+takes thousands of steps a second, faster than a Python process records them; without a hold,
+a runner that falls 1,000 steps behind would lose the oldest.
 
 So a runner in simulated time holds the plant with its ``run_until`` parameter
 (:class:`.sim_time.SimulatedTime`): it keeps it at most `LEAD_STEPS` past the newest step that
 every glove of the run has received whole (each of its streams: one held back holds the plant),
-and raises it each time `RAISE_STEPS` more have arrived.
-A message in flight is then always among the last 10 of its publisher; a reader that waits for a
-heartbeat holds the plant for as long, and nothing is lost.
+and raises it each time `RAISE_STEPS` more have arrived. A message in flight is then always
+among what its publisher keeps, and nothing is lost. (Before the publishers kept 1,000, they
+kept 10, and this hold had to be raised every 4 steps.)
 """
 
 from __future__ import annotations
@@ -24,10 +23,10 @@ from rclpy.node import Node
 
 from .messages import set_double_request
 
-LEAD_STEPS = 8
-"""Most steps the plant may take past the newest one received: fewer than the 10 messages each
-publisher keeps (one step in flight beyond them is still among those 10)."""
-RAISE_STEPS = 4
+LEAD_STEPS = 400
+"""Most steps the plant may take past the newest one received: fewer than the samples each
+publisher keeps (:data:`.qos.WRITER_DEPTH`; one step in flight beyond them is still kept)."""
+RAISE_STEPS = 100
 """Steps received between two raises of ``run_until``."""
 RUN_UNTIL = 'run_until'
 RESEND = 1.0

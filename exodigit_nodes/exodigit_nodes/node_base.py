@@ -40,7 +40,7 @@ from .inputs import InvalidInputError, RejectionTally
 from .lifetime import stop_with_parent
 from .messages import DIAGNOSTICS, status
 from .parameters import ParamSpec, ParamTable
-from .qos import GLOVE_QOS
+from .qos import WRITER_QOS
 
 LOG_THROTTLE = 2.0
 """Shortest time between two repeats of a warning logged from a loop or callback, s."""
@@ -143,7 +143,9 @@ class GloveNode(Node):
         self._pending: tuple[dict[str, Any], Any] | None = None
         self.rejections = RejectionTally()
         self.last_rejection: float | None = None
-        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS, GLOVE_QOS)
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS, WRITER_QOS
+        )
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 

@@ -59,7 +59,7 @@ from .messages import (
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .pacing import TIME_SETTING_NAMES, TimeSettings, known_node
 from .parameters import describe_files
-from .qos import GLOVE_QOS
+from .qos import READER_QOS, WRITER_QOS
 from .sim_time import SimulatedTime
 from .watchdog import Watchdog
 
@@ -118,12 +118,12 @@ class Plant(GloveNode):
         # Outputs first, then the input: a controller that sees our command subscription has
         # seen the outputs announced too.
         self.pressure_publisher = self.create_publisher(
-            Float64MultiArray, CHAMBER_PRESSURE, GLOVE_QOS
+            Float64MultiArray, CHAMBER_PRESSURE, WRITER_QOS
         )
-        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, GLOVE_QOS)
-        self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, GLOVE_QOS)
+        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, WRITER_QOS)
+        self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, WRITER_QOS)
         self.length_publisher = self.create_publisher(
-            Float64MultiArray, SEGMENT_LENGTHS, GLOVE_QOS
+            Float64MultiArray, SEGMENT_LENGTHS, WRITER_QOS
         )
         self.outputs = (
             (self.pressure_publisher, CHAMBER_PRESSURE),
@@ -131,11 +131,11 @@ class Plant(GloveNode):
             (self.force_publisher, CONTACT_FORCES),
             (self.length_publisher, SEGMENT_LENGTHS),
         )
-        self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, GLOVE_QOS)
+        self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, WRITER_QOS)
         self.command_subscription = self.create_subscription(
-            Float64MultiArray, PRESSURE_COMMAND, self.on_command, GLOVE_QOS
+            Float64MultiArray, PRESSURE_COMMAND, self.on_command, READER_QOS
         )
-        self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, GLOVE_QOS)
+        self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, READER_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
         self.marker_timer = None
         self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)

@@ -51,7 +51,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .qos import GLOVE_QOS
+from .qos import READER_QOS, WRITER_QOS
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
@@ -121,7 +121,7 @@ class PressureCommand(GloveNode):
         # Subscriptions before the publisher: when the plant sees our commands' publisher, it
         # has (practically always) seen our joint_states subscription announced first.
         self.forces_subscription = self.create_subscription(
-            Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, GLOVE_QOS
+            Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
         )
         self.estimator_timer = None
         if self.lockstep and self.values['mode'] == 'force':
@@ -139,8 +139,8 @@ class PressureCommand(GloveNode):
             )
         else:
             self.listen_to_states()
-        self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, GLOVE_QOS)
-        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, READER_QOS)
+        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
         if not self.lockstep:
             self.create_timer(self.period, self.tick)
         self.create_timer(DIAGNOSTIC_PERIOD, self.report)
@@ -201,7 +201,7 @@ class PressureCommand(GloveNode):
 
     def listen_to_states(self) -> None:
         """Subscribe ``joint_states`` (the state each command answers in lockstep)."""
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, GLOVE_QOS)
+        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, READER_QOS)
 
     def listen_once_estimated(self) -> None:
         """Lockstep force mode: subscribe states once every estimator publisher is matched."""

@@ -1,19 +1,38 @@
-"""The one QoS profile of every exodigit topic (docs/spec/ros.md, "QoS").
+"""The QoS profiles of the exodigit topics (docs/spec/ros.md, "QoS").
 
-Reliable, keep-last 10, volatile: a subscriber with the default rclpy profile (``depth=10``)
-matches it. ``markers`` and ``/diagnostics`` use the same profile at lower rates; ``/clock`` has
-its own (:data:`CLOCK_QOS`).
+Every topic is reliable and volatile, so a subscriber with the default rclpy profile
+(``depth=10``) matches every publisher. Publishers keep the last 1,000 samples
+(:data:`WRITER_QOS`), so a reader that keeps every message (:data:`RECORD_QOS`) loses none
+when its process stalls for seconds. Subscriptions keep the last 10 (:data:`READER_QOS`): a
+controller wants the latest state, not a backlog.
+``markers`` and ``/diagnostics`` use the same profiles at lower rates; ``/clock`` has its own
+(:data:`CLOCK_QOS`).
 """
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-GLOVE_QOS = QoSProfile(
+WRITER_DEPTH = 1000
+"""Samples each publisher keeps for readers that have not acknowledged them: 10 s at 100 Hz."""
+
+WRITER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=WRITER_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""Profile of every publisher of the glove nodes: reliable, keep-last :data:`WRITER_DEPTH`,
+volatile. A reader that stalls gets every sample back as long as it is less than
+:data:`WRITER_DEPTH` behind (the project's profile, :mod:`.dds`, repairs its gap within 50 ms);
+the publisher never waits for anyone (keep-all would block it, then fail, once a stalled reader
+is 5,000 samples behind: ``benchmarks/bench_transport.py``)."""
+
+READER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=10,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""Profile of every publisher and subscription of the glove nodes."""
+"""Profile of every subscription of the glove nodes: reliable, keep-last 10, volatile."""
 
 CLOCK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -31,5 +50,6 @@ RECORD_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 """Subscriptions that must keep every message (the live summary's run record, the bag recorder):
-matches :data:`GLOVE_QOS` publishers, and buffers up to 100 s at 100 Hz when the plant runs faster
-than real time in simulated time and the recording process falls behind."""
+with :data:`WRITER_QOS` publishers they get every sample, and they buffer up to 100 s at 100 Hz
+when the plant runs faster than real time in simulated time and the recording process falls
+behind."""

@@ -31,7 +31,7 @@ from ..messages import (
     set_double_request,
 )
 from ..pacing import known_node
-from ..qos import GLOVE_QOS, RECORD_QOS
+from ..qos import RECORD_QOS, WRITER_QOS
 from .client import SimState
 
 
@@ -75,7 +75,7 @@ class GloveClient(Node):
             Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_QOS
         )
         self.command_message = joint_vector_message()
-        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, GLOVE_QOS)
+        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
         plant = f'{namespace.rstrip("/")}/plant'
         self.reset_client = self.create_client(Trigger, RESET)
         self.step_client = self.create_client(Trigger, STEP)
