@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'tests'))
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from exodigit_nodes.plant import Plant
+from exodigit_nodes.nodes.plant import Plant
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 from ros_harness import (

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from exodigit_model.kernels import jit
-from exodigit_nodes.qos import RECORD_QOS
+from exodigit_nodes.nodes.qos import RECORD_QOS
 from exodigit_nodes.testing import GloveSim, claim_domain
 from exodigit_nodes.testing.processes import NodeProcess
 from plain_path import run_plain

@@ -1,8 +1,8 @@
 """What the transport loses and how long it stalls, with and without the project's DDS profile.
 
 Each case runs twice, once with ``FASTRTPS_DEFAULT_PROFILES_FILE`` naming
-``exodigit_nodes/fastdds.xml`` (:mod:`exodigit_nodes.dds`) and once with no profile (Fast DDS's
-defaults), every process in a domain of its own with discovery on loopback:
+``exodigit_nodes/nodes/fastdds.xml`` (:mod:`exodigit_nodes.nodes.dds`) and once with no profile
+(Fast DDS's defaults), every process in a domain of its own with discovery on loopback:
 
 1. **Many topics into one starved process.** A publisher process sends ``--topics`` topics at
    ``--rate`` Hz each (Float64MultiArray, the glove's QoS: reliable, keep-last 10), each message
@@ -34,8 +34,8 @@ import sys
 import time
 
 import rclpy
-from exodigit_nodes.dds import PROFILE, PROFILE_VARIABLE
-from exodigit_nodes.qos import READER_QOS, RECORD_QOS, WRITER_QOS
+from exodigit_nodes.nodes.dds import PROFILE, PROFILE_VARIABLE
+from exodigit_nodes.nodes.qos import READER_QOS, RECORD_QOS, WRITER_QOS
 from exodigit_nodes.testing import claim_domain
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile

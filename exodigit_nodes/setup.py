@@ -10,8 +10,8 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
-    # The Fast DDS profile every process of the package names (exodigit_nodes/dds.py).
-    package_data={PACKAGE: ['fastdds.xml']},
+    # The Fast DDS profile every process of the package names (exodigit_nodes/nodes/dds.py).
+    package_data={f'{PACKAGE}.nodes': ['fastdds.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
@@ -36,13 +36,13 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            f'plant = {PACKAGE}.plant:main',
-            f'pressure_command = {PACKAGE}.pressure_command:main',
-            f'estimator = {PACKAGE}.estimator:main',
+            f'plant = {PACKAGE}.nodes.plant:main',
+            f'pressure_command = {PACKAGE}.nodes.pressure_command:main',
+            f'estimator = {PACKAGE}.nodes.estimator:main',
             f'glove = {PACKAGE}.glove:main',
             f'hand = {PACKAGE}.hand:main',
-            f'hand_nodes = {PACKAGE}.hand_nodes:main',
-            f'recorder = {PACKAGE}.recorder:main',
+            f'hand_nodes = {PACKAGE}.nodes.hand_nodes:main',
+            f'recorder = {PACKAGE}.nodes.recorder:main',
         ],
         # The testing kit's glove_sim fixture, for every pytest run where the package is installed.
         'pytest11': [f'exodigit_glove_sim = {PACKAGE}.testing.plugin'],

@@ -16,9 +16,10 @@ cannot be made.
 import contextlib
 import os
 import shutil
+import signal
 import subprocess
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pytest
 
@@ -59,6 +60,8 @@ class NetnsPair:
     names: tuple[str, str]
     addresses: tuple[str, str]
     veths: tuple[str, str]
+    started: list[subprocess.Popen] = field(default_factory=list)
+    """What :meth:`popen` started (a process may not have entered its namespace yet)."""
 
     @classmethod
     def create(cls, tag: str, subnet: int) -> 'NetnsPair':
@@ -123,9 +126,11 @@ class NetnsPair:
 
     def popen(self, side: int, argv: Sequence[str], **kwargs) -> subprocess.Popen:
         """Start ``argv`` inside namespace ``side`` (in its own session, for group signals)."""
-        return subprocess.Popen(
+        process = subprocess.Popen(
             ['ip', 'netns', 'exec', self.names[side], *argv], start_new_session=True, **kwargs
         )
+        self.started.append(process)
+        return process
 
     def pids(self) -> list[int]:
         """Processes still running inside either namespace."""
@@ -142,10 +147,18 @@ class NetnsPair:
         return found
 
     def close(self) -> None:
-        """Kill whatever still runs inside, then delete both namespaces (and the veth)."""
+        """Kill whatever still runs inside, then delete both namespaces (and the veth).
+
+        What :meth:`popen` started is killed by its process group too: one that has not entered
+        its namespace yet is not among :meth:`pids` (a CI run's sleeper outlived the close).
+        """
+        for process in self.started:
+            if process.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(process.pid, signal.SIGKILL)
         for pid in self.pids():
             with contextlib.suppress(ProcessLookupError):
-                os.kill(pid, 9)
+                os.kill(pid, signal.SIGKILL)
         for name in self.names:
             subprocess.run(
                 ['ip', 'netns', 'delete', name],

@@ -12,7 +12,7 @@ import sys
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from exodigit_nodes.qos import READER_QOS
+from exodigit_nodes.nodes.qos import READER_QOS
 from rclpy.executors import ExternalShutdownException
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray

@@ -13,8 +13,8 @@ Used by every test that needs ROS (tests/conftest.py gives fixtures around it). 
   topics (:class:`Inbox`), publish, call services, set and get other nodes' parameters
   (rcl_interfaces SetParameters/GetParameters), list topics. Its context is the only one the
   test process opens (:meth:`RosProbe.local_node` gives in-process tests their nodes).
-* :meth:`RosProbe.hold` keeps a plant in simulated time within a few steps of what the probe
-  has received (as the runners do, :mod:`exodigit_nodes.horizon`), so a test that counts every
+* :meth:`RosProbe.hold` keeps a plant in simulated time within a few steps of what the probe has
+  received (as the runners do, :mod:`exodigit_nodes.runner.horizon`), so a test that counts every
   step of a plant at real-time factor 0 loses none to a reader held back for a heartbeat.
 * :func:`wait_until` polls a condition with a timeout: tests never sleep a fixed time.
 
@@ -40,8 +40,8 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
-from exodigit_nodes.dds import use_profile
-from exodigit_nodes.horizon import Horizon, RepeatedCall
+from exodigit_nodes.nodes.dds import use_profile
+from exodigit_nodes.runner.horizon import Horizon, RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
     DomainLease,
@@ -280,7 +280,7 @@ class RosProbe:
         return dict(self.node.get_service_names_and_types())
 
     def hold(self, plant: str, *, period: float, end: float = 0.0) -> Horizon:
-        """A :class:`~exodigit_nodes.horizon.Horizon` on ``plant`` (fully qualified name).
+        """A :class:`~exodigit_nodes.runner.horizon.Horizon` on ``plant`` (fully qualified name).
 
         Call its ``ready()`` until True before the plant runs, then ``follow(t)`` with the newest
         stamp t (s) up to which every inbox the test counts has received each step; ``end`` is the

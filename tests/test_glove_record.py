@@ -7,9 +7,9 @@ from datetime import datetime
 
 import numpy as np
 import pytest
-from exodigit_nodes.ros_env import discovery_settings
-from exodigit_nodes.run_record import RunRecord, csv_columns, new_run_directory, read_csv
-from exodigit_nodes.summary import SIGNALS, GloveSignals, SummaryDisplay
+from exodigit_nodes.logic.ros_env import discovery_settings
+from exodigit_nodes.runner.run_record import RunRecord, csv_columns, new_run_directory, read_csv
+from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay
 
 NODES = ('plant', 'estimator', 'pressure_command')
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'

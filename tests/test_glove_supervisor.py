@@ -6,7 +6,7 @@ import subprocess
 import sys
 import time
 
-from exodigit_nodes.supervisor import Supervisor
+from exodigit_nodes.runner.supervisor import Supervisor
 from ros_harness import wait_until
 
 WAIT = 10.0
@@ -28,7 +28,7 @@ while True:
 PARENT = """
 import os, sys, time
 from pathlib import Path
-from exodigit_nodes.supervisor import Supervisor
+from exodigit_nodes.runner.supervisor import Supervisor
 log_dir, child_code, order_log = sys.argv[1:]
 supervisor = Supervisor(os.environ, log_dir=Path(log_dir))
 supervisor.start('plant', [sys.executable, '-c', child_code, 'plant', order_log])

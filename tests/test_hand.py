@@ -17,8 +17,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from exodigit_nodes.pacing import TimeSettings
-from exodigit_nodes.sim_time import MEASURE_WINDOW, SimulatedTime
+from exodigit_nodes.logic.pacing import TimeSettings
+from exodigit_nodes.nodes.sim_time import MEASURE_WINDOW, SimulatedTime
 from ros_harness import NodeProcess, RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -168,7 +168,7 @@ def test_a_time_setting_set_on_one_finger_is_not_undone_by_another(session):
 
 
 def hand_config():
-    from exodigit_nodes.hand_config import hand_config_dir
+    from exodigit_nodes.nodes.hand_config import hand_config_dir
 
     return hand_config_dir()
 

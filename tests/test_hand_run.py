@@ -1,12 +1,12 @@
 """The hand command as a user runs it: ``python -m exodigit_nodes.hand``, summary and records.
 
-One session, read by the tests that need a running hand: two fingers in lockstep for one
-simulated second. Every finger's record has exactly one row per step and its angles are what
-that finger's own model file gives for the recorded pressures (an independent solve, not the
-node's code path over DDS); the estimators run in the hand's second process and their estimates
-reach the records; at the stop every command node sends zero pressure. Refusals of bad input
-are ``main`` calls in this process, and one run of the command for its exit status.
-"""
+One session, read by the tests that need a running hand: two fingers in lockstep for one simulated
+second. Every finger's record has exactly one row per step and its angles are what that finger's
+own model file gives for the recorded pressures (an independent solve, not the node's code path
+over DDS); the estimators run in the hand's second process and, with the controllers in ``force``
+mode, their estimates reach the records; at the stop every command node sends zero pressure.
+Refusals of bad input are ``main`` calls in this process, and one run of the command for its exit
+status."""
 
 import csv
 import subprocess
@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 from exodigit_nodes.hand import main as hand_main
-from exodigit_nodes.hand_config import hand_config_dir
+from exodigit_nodes.nodes.hand_config import hand_config_dir
 from ros_harness import ros_environment
 
 from exodigit_model import GloveModel, load_params
@@ -57,12 +57,17 @@ def run_hand(ros_domain, tmp_path, *arguments, timeout=TIMEOUT):
 
 @pytest.fixture(scope='module')
 def session(ros_domain, tmp_path_factory):
-    """One lockstep session of two fingers for DURATION simulated seconds, run to its end."""
+    """One lockstep session of two fingers for DURATION simulated seconds, run to its end.
+
+    In ``force`` mode each controller's answer waits for its step's estimate, so the estimators
+    are in lockstep too (in the other modes they are not: at real-time factor 0 the plants can
+    finish a short session before an estimator's first estimate arrives).
+    """
     workdir = tmp_path_factory.mktemp('hand')
     result = run_hand(
         ros_domain,
         workdir,
-        *('--fingers', ','.join(FINGERS), '--clock', 'sim', '--lockstep'),
+        *('--fingers', ','.join(FINGERS), '--clock', 'sim', '--lockstep', '--mode', 'force'),
         *('--real-time-factor', '0', '--duration', f'{DURATION:g}', '--out', str(workdir / 'run')),
     )
     return result, workdir / 'run'

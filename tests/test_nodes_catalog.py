@@ -1,8 +1,8 @@
-"""The node table (exodigit_nodes.catalog) is the one source of the nodes, modes and defaults: the
-parameters say their units, setup.py's console scripts, the venv runner, the config YAML and the
-README's parameter blocks agree with it (the launch file: test_packaging_launch.py; each node
-module's --help prints its entry's table: test_nodes_units.py; the interface specification names
-every parameter)."""
+"""The node table (exodigit_nodes.nodes.catalog) is the one source of the nodes, modes and
+defaults: the parameters say their units, setup.py's console scripts, the venv runner, the config
+YAML and the README's parameter blocks agree with it (the launch file: test_packaging_launch.py;
+each node module's --help prints its entry's table: test_nodes_units.py; the interface
+specification names every parameter)."""
 
 import ast
 import re
@@ -11,18 +11,18 @@ from pathlib import Path
 import pytest
 import yaml
 from exodigit_model.control import MODES
-from exodigit_nodes.catalog import CONFIG_WIDTH, NODES, config_text
-from exodigit_nodes.catalog import main as write_config_main
 from exodigit_nodes.glove import build_parser, check_arguments, glove_session
-from exodigit_nodes.parameters import ParamSpec
-from exodigit_nodes.run_record import RunRecord
+from exodigit_nodes.logic.parameters import ParamSpec
+from exodigit_nodes.nodes.catalog import CONFIG_WIDTH, NODES, config_text
+from exodigit_nodes.nodes.catalog import main as write_config_main
+from exodigit_nodes.runner.run_record import RunRecord
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = ROOT / 'exodigit_nodes'
 CONFIG = PACKAGE_DIR / 'config'
 README = ROOT / 'README.md'
 README_SECTION = '## Nodes, topics and parameters'
-REGENERATE = 'python -m exodigit_nodes.catalog --write-config exodigit_nodes/config'
+REGENERATE = 'python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config'
 by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
 ROS_PARAMETERS = ('use_sim_time',)
 """Parameters rclpy declares on every node (not in the table)."""

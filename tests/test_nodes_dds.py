@@ -1,10 +1,10 @@
-"""The Fast DDS profile every exodigit process names (exodigit_nodes/dds.py)."""
+"""The Fast DDS profile every exodigit process names (exodigit_nodes/nodes/dds.py)."""
 
 import os
 import subprocess
 import sys
 
-from exodigit_nodes.dds import PROFILE, PROFILE_VARIABLE, with_profile
+from exodigit_nodes.nodes.dds import PROFILE, PROFILE_VARIABLE, with_profile
 from exodigit_nodes.testing import ros_environment
 
 #: A process that makes a participant, a writer and a reader, so Fast DDS reads its profiles.

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from exodigit_nodes.markers import ARC_SAMPLES
+from exodigit_nodes.nodes.markers import ARC_SAMPLES
 from exodigit_nodes.testing import GloveSim
 from lockstep_controller import command_at
 from ros_harness import RosProbe, wait_until

@@ -1,4 +1,4 @@
-"""How far a runner lets a simulated plant run ahead (exodigit_nodes.horizon), without DDS.
+"""How far a runner lets a simulated plant run ahead (exodigit_nodes.runner.horizon), without DDS.
 
 The plant's parameter services are stand-ins that answer when the test says so; what is checked
 is the rule of the module: ``run_until`` stays at most LEAD_STEPS past the newest step received,
@@ -9,12 +9,11 @@ lost is sent again.
 import itertools
 
 import pytest
-from exodigit_nodes.horizon import LEAD_STEPS, RAISE_STEPS, Horizon, RepeatedCall
-from exodigit_nodes.qos import RECORD_QOS, WRITER_QOS
+from exodigit_nodes.nodes.qos import RECORD_QOS, WRITER_QOS
+from exodigit_nodes.runner import horizon
+from exodigit_nodes.runner.horizon import LEAD_STEPS, RAISE_STEPS, Horizon, RepeatedCall
 from rcl_interfaces.msg import ParameterValue
 from rclpy.task import Future
-
-from exodigit_nodes import horizon
 
 PERIOD = 0.01
 READY_POLLS = 100

@@ -12,7 +12,8 @@ from ros_harness import ros_environment, wait_until
 STARTER = """
 import subprocess, sys
 log = open(sys.argv[1], 'w')
-node = subprocess.Popen([sys.executable, '-m', 'exodigit_nodes.plant'], stderr=log, stdout=log)
+plant = [sys.executable, '-m', 'exodigit_nodes.nodes.plant']
+node = subprocess.Popen(plant, stderr=log, stdout=log)
 print(node.pid, flush=True)
 node.wait()
 """
@@ -51,7 +52,7 @@ def test_a_node_stops_when_the_process_that_started_it_is_killed(ros_domain, tmp
 #: after the nodes are built (as code embedding the nodes may).
 EMBEDDER = """
 import threading, rclpy
-from exodigit_nodes import hand_nodes
+from exodigit_nodes.nodes import hand_nodes
 build = hand_nodes.build_hand
 def build_then_shut_down(*args):
     nodes = build(*args)

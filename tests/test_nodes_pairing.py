@@ -13,7 +13,7 @@ import time
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
-from exodigit_nodes.estimator import Estimator
+from exodigit_nodes.nodes.estimator import Estimator
 from reliability_inprocess import InProcessNode, wire_copy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from exodigit_model.simulation import step_time_ns
-from exodigit_nodes.pressure_command import PressureCommand
+from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
@@ -355,7 +355,7 @@ def _lockstep_status(diagnostics, ns, *words):
 
 
 def test_run_until_holds_the_steps_there_and_raising_it_lets_them_go_on(launcher, probe_for):
-    # What a runner does to keep its record whole (exodigit_nodes.horizon): not a pause.
+    # What a runner does to keep its record whole (exodigit_nodes.runner.horizon): not a pause.
     ns = '/run_until'
     parameters = {'clock': 'sim', 'real_time_factor': 0.0, 'start_paused': True}
     launcher.start('plant', {**parameters, 'run_until': 0.05, 'marker_rate_hz': 0.0}, namespace=ns)
@@ -394,7 +394,7 @@ def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_ste
         [
             sys.executable,
             '-m',
-            'exodigit_nodes.pressure_command',
+            'exodigit_nodes.nodes.pressure_command',
             '--ros-args',
             *('-p', 'mode:=force', '-p', 'lockstep:=true', '-p', 'use_sim_time:=true'),
             *('-r', f'__ns:={glove.namespace}'),

@@ -6,7 +6,7 @@ line). Each node is also started once with a bad parameter.
 """
 
 import pytest
-from exodigit_nodes.node_base import ConfigurationError, load_model
+from exodigit_nodes.nodes.node_base import ConfigurationError, load_model
 
 BAD_FILES = {
     'missing': None,

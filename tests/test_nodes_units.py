@@ -7,9 +7,8 @@ import sys
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
-from exodigit_nodes.catalog import NODES
-from exodigit_nodes.estimation import StiffnessWindow
-from exodigit_nodes.inputs import (
+from exodigit_nodes.logic.estimation import StiffnessWindow
+from exodigit_nodes.logic.inputs import (
     InvalidInputError,
     RejectionTally,
     joint_positions,
@@ -17,9 +16,10 @@ from exodigit_nodes.inputs import (
     stamp_age,
     stamp_seconds,
 )
-from exodigit_nodes.node_base import descriptor
-from exodigit_nodes.parameters import ParamSpec, ParamTable
-from exodigit_nodes.watchdog import Watchdog
+from exodigit_nodes.logic.parameters import ParamSpec, ParamTable
+from exodigit_nodes.logic.watchdog import Watchdog
+from exodigit_nodes.nodes.catalog import NODES
+from exodigit_nodes.nodes.node_base import descriptor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from test_control import stiffer_finger_model
@@ -210,7 +210,7 @@ def test_window_identifies_the_finger_stiffness_and_slides(model):
 
 
 def test_markers_draw_the_finger_links_at_their_length_and_forces_to_scale(model):
-    from exodigit_nodes.markers import FORCE_SCALE, GloveMarkers
+    from exodigit_nodes.nodes.markers import FORCE_SCALE, GloveMarkers
 
     markers = GloveMarkers(model)
     solution = model.solve([40e3, 40e3, 40e3])
@@ -238,7 +238,7 @@ def drawn_arcs(array, samples):
 
 
 def test_markers_draw_the_arcs_at_the_given_lengths(monkeypatch):
-    from exodigit_nodes import markers as markers_module
+    from exodigit_nodes.nodes import markers as markers_module
 
     data = load_params().to_dict()
     data['exo_digit']['segments'][0]['layer_axial_stiffness'] = 0.0  # MCP stretches (§12)
@@ -274,11 +274,15 @@ def test_markers_draw_the_arcs_at_the_given_lengths(monkeypatch):
 # -- packaging of the logic ----------------------------------------------------------------
 
 
-def test_the_plain_logic_imports_no_ros():
-    modules = 'catalog, estimation, inputs, pacing, parameters, watchdog'
+def test_the_plain_logic_and_the_node_table_import_no_ros():
+    # exodigit_nodes.logic is the ROS-free layer; the node table is read by launch files and
+    # runners without ROS.
     code = (
-        'import sys\n'
-        f'from exodigit_nodes import {modules}\n'
+        'import importlib, pkgutil, sys\n'
+        'import exodigit_nodes.logic as logic\n'
+        'for module in pkgutil.iter_modules(logic.__path__):\n'
+        "    importlib.import_module(f'exodigit_nodes.logic.{module.name}')\n"
+        'import exodigit_nodes.nodes.catalog\n'
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in "
         "{'rclpy', 'std_msgs', 'sensor_msgs', 'rcl_interfaces'})\n"
         'print(bad); sys.exit(1 if bad else 0)'

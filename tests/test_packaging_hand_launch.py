@@ -10,8 +10,8 @@ import types
 from pathlib import Path
 
 import pytest
-from exodigit_nodes.hand_config import hand_config, hand_options
-from exodigit_nodes.hand_nodes import build_parser
+from exodigit_nodes.nodes.hand_config import hand_config, hand_options
+from exodigit_nodes.nodes.hand_nodes import build_parser
 from test_packaging_launch import Recorded, console_scripts
 
 LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'launch' / 'hand.launch.py'

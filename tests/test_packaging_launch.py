@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 import yaml
 from exodigit_model.control import MODES
-from exodigit_nodes.catalog import NODES
 from exodigit_nodes.glove import sim_time_arguments
+from exodigit_nodes.nodes.catalog import NODES
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'
 LAUNCH_FILE = PACKAGE_DIR / 'launch' / 'glove.launch.py'

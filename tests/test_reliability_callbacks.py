@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_nodes.node_base import GloveNode
+from exodigit_nodes.nodes.node_base import GloveNode
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from reliability_fuzz import HOSTILE_NUMBERS, WRONG_LENGTHS
@@ -66,7 +66,7 @@ stamps = st.one_of(
 
 
 def node_class(module_name: str) -> type:
-    module = importlib.import_module(f'exodigit_nodes.{module_name}')
+    module = importlib.import_module(f'exodigit_nodes.nodes.{module_name}')
     found = [
         c
         for c in vars(module).values()

@@ -19,7 +19,7 @@ accepted (so a node that refuses everything fails), and the old value is put bac
 import math
 
 import pytest
-from exodigit_nodes.catalog import NODES as ENTRIES
+from exodigit_nodes.nodes.catalog import NODES as ENTRIES
 from rcl_interfaces.msg import ParameterType, SetParametersResult
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_nodes.plant import Plant
+from exodigit_nodes.nodes.plant import Plant
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from reliability_inprocess import InProcessNode, non_finite

@@ -74,7 +74,7 @@ def start(pair, side: int, argv: list[str], domain: int, tmp_path: Path, label: 
 
 
 def node(module: str, parameters: dict) -> list[str]:
-    command = [sys.executable, '-m', f'exodigit_nodes.{module}']
+    command = [sys.executable, '-m', f'exodigit_nodes.nodes.{module}']
     return [*command, *ros_args(parameters, namespace=NAMESPACE)]
 
 

@@ -31,7 +31,7 @@ ANGLE_TOLERANCE = 1e-6
 #: Plant cycles (joint_states messages) to wait after the last command before stopping.
 AFTER_LAST_COMMAND = 20
 #: Plant cycles to hold each command once the plant has settled on it (0.5 s at 100 Hz): ten
-#: heartbeat periods of the project's Fast DDS profile (50 ms, exodigit_nodes/dds.py), after
+#: heartbeat periods of the project's Fast DDS profile (50 ms, exodigit_nodes/nodes/dds.py), after
 #: which a reader that joined late or missed a message (the recorder on a loaded machine) has
 #: asked for it again and caught up. Fast DDS's own 3 s period needed 400 cycles here.
 SETTLED_STEPS = 50
@@ -43,7 +43,7 @@ def recorder_command(output):
     return [
         sys.executable,
         '-m',
-        'exodigit_nodes.recorder',
+        'exodigit_nodes.nodes.recorder',
         '--output',
         str(output),
         '--ros-args',
@@ -269,7 +269,7 @@ def test_recorder_stops_by_itself_after_duration(ros_domain, tmp_path):
 )
 def test_recorder_refuses_bad_arguments(arguments, fragment, ros_domain, tmp_path):
     result = subprocess.run(
-        [sys.executable, '-m', 'exodigit_nodes.recorder', *arguments],
+        [sys.executable, '-m', 'exodigit_nodes.nodes.recorder', *arguments],
         cwd=tmp_path,
         env=ros_environment(ros_domain),
         capture_output=True,

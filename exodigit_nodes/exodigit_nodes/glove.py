@@ -21,22 +21,20 @@ from pathlib import Path
 from exodigit_model.control import MODES
 from exodigit_model.params import PATIENT_PRESETS
 
-from exodigit_nodes import catalog
-from exodigit_nodes.messages import SET_PAUSED
-from exodigit_nodes.pacing import MAX_REAL_TIME_FACTOR
-from exodigit_nodes.run_record import RunRecord
-from exodigit_nodes.runner import (
-    UsageError,
+from exodigit_nodes.logic.options import UsageError, check_namespace, with_patient
+from exodigit_nodes.logic.pacing import MAX_REAL_TIME_FACTOR
+from exodigit_nodes.nodes import catalog
+from exodigit_nodes.nodes.messages import SET_PAUSED
+from exodigit_nodes.runner.common import (
     add_session_arguments,
-    check_namespace,
     check_session_arguments,
     start_session,
 )
-from exodigit_nodes.session import (
+from exodigit_nodes.runner.run_record import RunRecord
+from exodigit_nodes.runner.session import (
     Session,
     WatchedGlove,
     identification_references,
-    with_patient,
 )
 
 #: The glove's node executables, in start order (the plant first, commands last).
@@ -156,8 +154,8 @@ def check_arguments(args: argparse.Namespace) -> None:
 
 
 def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list[str]:
-    """The command line of one node process (same Python, ``-m exodigit_nodes.<node>``)."""
-    command = [sys.executable, '-m', f'exodigit_nodes.{node}']
+    """The command line of one node process (same Python, ``-m exodigit_nodes.nodes.<node>``)."""
+    command = [sys.executable, '-m', f'exodigit_nodes.nodes.{node}']
     if node == 'recorder':
         command += ['--output', str(record.bag_path)]
     command += ['--ros-args', '-r', f'__ns:={args.namespace}']

@@ -16,10 +16,19 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from exodigit_nodes.hand_config import HandConfig, HandError, add_hand_arguments, hand_config
-from exodigit_nodes.run_record import LOG_DIR_NAME, RunRecord
-from exodigit_nodes.runner import add_session_arguments, check_session_arguments, start_session
-from exodigit_nodes.session import Session, WatchedGlove, identification_references
+from exodigit_nodes.nodes.hand_config import (
+    HandConfig,
+    HandError,
+    add_hand_arguments,
+    hand_config,
+)
+from exodigit_nodes.runner.common import (
+    add_session_arguments,
+    check_session_arguments,
+    start_session,
+)
+from exodigit_nodes.runner.run_record import LOG_DIR_NAME, RunRecord
+from exodigit_nodes.runner.session import Session, WatchedGlove, identification_references
 
 PROCESS = 'hand_nodes'
 #: The hand's processes: name and ``hand_nodes --part`` (the controllers' process stops first).
@@ -70,7 +79,7 @@ def session_config(options: argparse.Namespace) -> HandConfig:
 
 def hand_session(config: HandConfig, options: argparse.Namespace, run_dir: Path) -> Session:
     """The :class:`.session.Session` of a hand: its processes, one watched glove per finger."""
-    command = [sys.executable, '-m', f'exodigit_nodes.{PROCESS}', *config.arguments()]
+    command = [sys.executable, '-m', f'exodigit_nodes.nodes.{PROCESS}', *config.arguments()]
     ros_args = []
     for path in options.ros_params:
         ros_args += ['--params-file', str(Path(path).resolve())]

@@ -7,8 +7,8 @@
 
 Each node reads its defaults from its ``config/<executable>.yaml`` in the package share
 directory; the launch arguments below override them. The nodes, the modes and the arguments'
-defaults come from the node table, ``exodigit_nodes.catalog`` (the installed package), from which
-those config files are generated. Simulated time (docs/spec/ros.md Part II) is what
+defaults come from the node table, ``exodigit_nodes.nodes.catalog`` (the installed package), from
+which those config files are generated. Simulated time (docs/spec/ros.md Part II) is what
 ``python -m exodigit_nodes.glove --clock sim --real-time-factor X --lockstep`` sets: the plant
 owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
 ``use_sim_time`` and pressure_command answers each joint_states in lockstep.
@@ -23,7 +23,7 @@ import os
 import signal
 
 from ament_index_python.packages import get_package_share_directory
-from exodigit_nodes.catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
+from exodigit_nodes.nodes.catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
 from launch.event_handlers import OnProcessExit

@@ -9,12 +9,12 @@ plant and controller, and the hand's simulated time) and ``--part estimators`` (
 ``estimator:=false``); finger f in ``<namespace>/<f>`` with joint prefix ``f_`` and its model
 ``config/hand/<f>.yaml`` (README, "A whole hand"). The launch arguments are the
 options of ``hand_nodes --help``, with their choices and defaults, from one table
-(``exodigit_nodes.hand_config.hand_options``) that the venv runner ``python -m
+(``exodigit_nodes.nodes.hand_config.hand_options``) that the venv runner ``python -m
 exodigit_nodes.hand`` reads too. When either process exits the launch ends, and fails (exit 1)
 if that process failed.
 """
 
-from exodigit_nodes.hand_config import hand_options
+from exodigit_nodes.nodes.hand_config import hand_options
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
 from launch.conditions import IfCondition

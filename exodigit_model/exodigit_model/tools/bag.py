@@ -1,7 +1,7 @@
 """``exodigit plot``: plots from a rosbag2 (MCAP or SQLite) bag of a glove session.
 
-Reads the bag written by ``python -m exodigit_nodes.recorder`` (or ``ros2 bag record``) with the
-``rosbags`` library, whatever the namespace: topics are matched by their last name component
+Reads the bag written by ``python -m exodigit_nodes.nodes.recorder`` (or ``ros2 bag record``) with
+the ``rosbags`` library, whatever the namespace: topics are matched by their last name component
 (``joint_states``, ``chamber_pressure``, ``pressure_command``, ``contact_forces``,
 ``estimated_contact_forces``). Writes two figures: angles, pressures and forces against time,
 and joint angle against chamber pressure (the ``exodigit curves`` view of a session), where each

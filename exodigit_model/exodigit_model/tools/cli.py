@@ -45,7 +45,7 @@ DESCRIPTIONS = {
     "the segments' bottom layers (E_L, docs/spec/model.md §12) to measured samples and write a "
     'parameter file, with standard errors and a measured-against-model plot.',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
-    'exodigit_nodes.recorder (or ros2 bag record).',
+    'exodigit_nodes.nodes.recorder (or ros2 bag record).',
 }
 
 

@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..dds import use_profile
-from ..pacing import CONTROLLERS_LABEL
+from ..logic.pacing import CONTROLLERS_LABEL
+from ..nodes.dds import use_profile
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 
 DEFAULT_TIMEOUT = 60.0
@@ -214,7 +214,7 @@ class GloveSim:
         from rclpy.experimental import EventsExecutor
         from rclpy.signals import SignalHandlerOptions
 
-        from ..horizon import RepeatedCall
+        from ..runner.horizon import RepeatedCall
         from .ros_client import GloveClient
 
         use_profile()
@@ -325,7 +325,7 @@ class GloveSim:
         the latest command) so that a node started since sees a state to answer; later runs go
         on exactly where the last one stopped. Start your node after ``reset()``. The plant
         runs at most 8 steps ahead of the states this client has received (its ``run_until``,
-        :mod:`exodigit_nodes.horizon`), so no state is lost on a loaded machine.
+        :mod:`exodigit_nodes.runner.horizon`), so no state is lost on a loaded machine.
 
         Returns
         -------

@@ -24,8 +24,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..dds import with_profile
-from ..lifetime import stop_with_parent
+from ..logic.lifetime import stop_with_parent
+from ..nodes.dds import with_profile
 
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
@@ -162,7 +162,7 @@ class NodeProcess:
         label = f'{module}{(namespace or "").replace("/", "_")}-{time.monotonic_ns()}'
         self.stdout_path = workdir / f'{label}.out'
         self.stderr_path = workdir / f'{label}.err'
-        command = [sys.executable, '-m', f'exodigit_nodes.{module}', *(arguments or [])]
+        command = [sys.executable, '-m', f'exodigit_nodes.nodes.{module}', *(arguments or [])]
         command += ros_args(parameters, namespace, name, extra)
         with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
             self.process = subprocess.Popen(

@@ -15,8 +15,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from ..horizon import Horizon
-from ..messages import (
+from ..logic.pacing import known_node
+from ..nodes.messages import (
     CHAMBER_PRESSURE,
     CONTACT_FORCES,
     ESTIMATED_CONTACT_FORCES,
@@ -30,8 +30,8 @@ from ..messages import (
     joint_vector_message,
     set_double_request,
 )
-from ..pacing import known_node
-from ..qos import RECORD_QOS, WRITER_QOS
+from ..nodes.qos import RECORD_QOS, WRITER_QOS
+from ..runner.horizon import Horizon
 from .client import SimState
 
 

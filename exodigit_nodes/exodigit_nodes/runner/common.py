@@ -1,8 +1,8 @@
 """What the glove and hand runners share on their command line and at start.
 
 Both take ``--duration``, ``--ros-params`` and ``--out`` (:func:`add_session_arguments`,
-checked by :func:`check_session_arguments`) and a ``--namespace`` (:func:`check_namespace`),
-and both start the same way once their own options are checked (:func:`start_session`): the
+checked by :func:`check_session_arguments`) and a ``--namespace``
+(:func:`..logic.options.check_namespace`), and both start the same way once their own options are checked (:func:`start_session`): the
 discovery settings, the run directory, then :func:`.session.run_session`.
 """
 
@@ -11,33 +11,14 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from .ros_env import discovery_settings
+from ..logic.options import UsageError
+from ..logic.ros_env import discovery_settings
 from .run_record import new_run_directory
 from .session import Session, run_session
-
-NAMESPACE_PATTERN = re.compile(r'^(/[A-Za-z][A-Za-z0-9_]*)+$')
-"""A namespace every node of a glove or hand can take: absolute, each name a letter first."""
-
-
-class UsageError(ValueError):
-    """A command-line value a runner refuses before starting anything."""
-
-
-def check_namespace(namespace: str, examples: str) -> None:
-    """Refuse a ``--namespace`` a node would refuse only once started (UsageError, one line).
-
-    ``examples``: good values to suggest, e.g. ``/glove or /left/index``.
-    """
-    if not NAMESPACE_PATTERN.match(namespace):
-        raise UsageError(
-            f'--namespace {namespace!r}: must be absolute, each name starting with a letter '
-            f'followed by letters, digits or underscores, e.g. {examples}'
-        )
 
 
 def add_session_arguments(parser: argparse.ArgumentParser) -> None:

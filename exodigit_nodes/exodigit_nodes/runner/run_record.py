@@ -2,8 +2,8 @@
 
 The CSV is written row by row while the glove runs (nothing is held in memory, nothing is lost
 when a run is long); the plot is drawn from the CSV at the end. Columns are named after
-`exodigit_nodes.summary.SIGNALS` with their unit (``time_s``, ``p_cmd_mcp_kpa``, ``q_pip_deg``,
-``f_est_dip_n`` …); a value not received yet is an empty cell.
+`exodigit_nodes.runner.summary.SIGNALS` with their unit (``time_s``, ``p_cmd_mcp_kpa``,
+``q_pip_deg``, ``f_est_dip_n`` …); a value not received yet is an empty cell.
 """
 
 import csv
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, Sample
+from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, Sample
 
 CSV_NAME = 'signals.csv'
 PLOT_NAME = 'signals.png'

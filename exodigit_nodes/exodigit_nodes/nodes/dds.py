@@ -12,7 +12,7 @@ its first participant, so every node's ``main``, the runners, the testing kit an
 it before ``rclpy.init``, unless the user already named a profile of their own. A user's own
 node gets it with::
 
-    export FASTRTPS_DEFAULT_PROFILES_FILE=$(python3 -m exodigit_nodes.dds)
+    export FASTRTPS_DEFAULT_PROFILES_FILE=$(python3 -m exodigit_nodes.nodes.dds)
 """
 
 import os

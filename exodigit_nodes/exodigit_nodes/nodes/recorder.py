@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m exodigit_nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
+    python -m exodigit_nodes.nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
 
 Subscribes, in its namespace, to every glove topic of docs/spec/ros.md (``chamber_pressure``,
 ``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
@@ -154,10 +154,10 @@ class Recorder(Node):
 def parse_arguments(argv: list[str]) -> argparse.Namespace:
     """The recorder's own options (``--ros-args`` removed first)."""
     parser = argparse.ArgumentParser(
-        prog='python -m exodigit_nodes.recorder',
+        prog='python -m exodigit_nodes.nodes.recorder',
         description='Record every glove topic of the namespace to a rosbag2 MCAP bag.',
-        epilog='example:\n  python -m exodigit_nodes.recorder --output runs/bag --duration 20 '
-        '--ros-args -r __ns:=/glove',
+        epilog='example:\n  python -m exodigit_nodes.nodes.recorder --output runs/bag '
+        '--duration 20 --ros-args -r __ns:=/glove',
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument('--output', required=True, metavar='DIR', help='bag folder to create')

@@ -35,11 +35,11 @@ from rclpy.signals import SignalHandlerOptions
 
 from exodigit_model import GloveModel, ParameterError, load_params
 
+from ..logic.inputs import InvalidInputError, RejectionTally
+from ..logic.lifetime import stop_with_parent
+from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
-from .inputs import InvalidInputError, RejectionTally
-from .lifetime import stop_with_parent
 from .messages import DIAGNOSTICS, status
-from .parameters import ParamSpec, ParamTable
 from .qos import WRITER_QOS
 
 LOG_THROTTLE = 2.0

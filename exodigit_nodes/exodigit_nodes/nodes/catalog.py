@@ -6,7 +6,7 @@ parameter table from it, the venv runner (:mod:`.glove`) and the hand runner sta
 argument defaults from it, and the ROS parameter files ``config/<executable>.yaml`` are generated
 from it (a test checks the committed files against it)::
 
-    python -m exodigit_nodes.catalog --write-config exodigit_nodes/config
+    python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config
 
 The README's parameter blocks are each node's ``--help`` (:meth:`.ParamTable.help`), also checked
 by a test. No rclpy here, so the launch file and the tests read the table without ROS;
@@ -28,8 +28,8 @@ from exodigit_model.joining import STEP_TOLERANCE
 
 from exodigit_model import SimulationSettings
 
-from .pacing import CLOCKS, MAX_REAL_TIME_FACTOR
-from .parameters import ParamSpec, ParamTable, params_file_spec
+from ..logic.pacing import CLOCKS, MAX_REAL_TIME_FACTOR
+from ..logic.parameters import ParamSpec, ParamTable, params_file_spec
 
 PACKAGE = 'exodigit_nodes'
 SIM_DEFAULTS = SimulationSettings()
@@ -64,12 +64,12 @@ class NodeEntry:
 
     @property
     def module(self) -> str:
-        """The module that runs it (``python -m exodigit_nodes.plant``), whose ``main`` it is."""
-        return f'{PACKAGE}.{self.executable}'
+        """The module that runs it (``python -m exodigit_nodes.nodes.plant``): its ``main``."""
+        return f'{PACKAGE}.nodes.{self.executable}'
 
     @property
     def entry_point(self) -> str:
-        """The console script's target in setup.py: ``exodigit_nodes.plant:main``."""
+        """The console script's target in setup.py: ``exodigit_nodes.nodes.plant:main``."""
         return f'{self.module}:main'
 
     @property
@@ -388,8 +388,8 @@ def config_text(entry: NodeEntry) -> str:
             f'{entry.executable} --ros-args --params-file {path} (or python -m {entry.module} '
             '...).'
         ),
-        '# Generated from exodigit_nodes/catalog.py: edit the table there, then run',
-        '#   python -m exodigit_nodes.catalog --write-config exodigit_nodes/config',
+        '# Generated from exodigit_nodes/nodes/catalog.py: edit the table there, then run',
+        '#   python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config',
         '/**:',
         '  ros__parameters:',
     ]
@@ -425,9 +425,9 @@ def write_config(directory: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m exodigit_nodes.catalog --write-config DIR``: (re)generate the config files."""
+    """``python -m exodigit_nodes.nodes.catalog --write-config DIR``: (re)generate the configs."""
     parser = argparse.ArgumentParser(
-        prog='python -m exodigit_nodes.catalog',
+        prog='python -m exodigit_nodes.nodes.catalog',
         description="Write each glove node's ROS parameter file (<executable>.yaml, every "
         'parameter at its default) from the node table.',
     )

@@ -15,7 +15,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .lifetime import stop_with_parent
+from ..logic.lifetime import stop_with_parent
 
 #: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL.
 STOP_GRACE = 5.0

@@ -1,7 +1,7 @@
 """The glove's signals as one picture: latest values, run-record samples and the terminal summary.
 
-Plain Python (numpy), no ROS: `exodigit_nodes.monitor` feeds it from the topics. Values are SI
-inside; kPa, degrees and the unit labels appear only in the text this module writes.
+Plain Python (numpy), no ROS: `exodigit_nodes.runner.monitor` feeds it from the topics. Values are
+SI inside; kPa, degrees and the unit labels appear only in the text this module writes.
 """
 
 import math

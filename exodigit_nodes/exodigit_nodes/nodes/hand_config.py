@@ -15,10 +15,9 @@ import argparse
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..logic.options import NOMINAL_PATIENT, UsageError, check_namespace, with_patient
+from ..logic.pacing import TimeSettings
 from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
-from .pacing import TimeSettings
-from .runner import UsageError, check_namespace
-from .session import NOMINAL_PATIENT, with_patient
 
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 """The fingers of a hand, thumb first."""
@@ -45,7 +44,7 @@ class HandError(ValueError):
 
 def hand_config_dir() -> Path:
     """``config/hand`` of the package: in the source tree, or in its ament share directory."""
-    source = Path(__file__).resolve().parents[1] / 'config' / 'hand'
+    source = Path(__file__).resolve().parents[2] / 'config' / 'hand'
     if source.is_dir():
         return source
     from ament_index_python.packages import get_package_share_directory

@@ -1,7 +1,7 @@
 """ROS wiring of the glove's live summary: subscribes to every glove topic, feeds `GloveSignals`.
 
 The node only converts messages to arrays; what is joined, shown and recorded is decided by
-`exodigit_nodes.summary` and `exodigit_nodes.run_record`.
+`exodigit_nodes.runner.summary` and `exodigit_nodes.runner.run_record`.
 """
 
 import time
@@ -14,10 +14,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
-from exodigit_nodes.inputs import sent_seconds
-from exodigit_nodes.messages import DIAGNOSTICS, SET_PAUSED
-from exodigit_nodes.qos import RECORD_QOS
-from exodigit_nodes.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
+from exodigit_nodes.logic.inputs import sent_seconds
+from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
+from exodigit_nodes.nodes.qos import RECORD_QOS
+from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
 
 
 def status_node(status_name: str, namespace: str, nodes) -> str | None:

@@ -30,8 +30,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from exodigit_model import GloveState
 
+from ..logic.pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
 from .messages import CLOCK, PRESSURE_COMMAND, SET_PAUSED, STEP
-from .pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
 from .qos import CLOCK_QOS
 
 POLL_LIMITS = (0.5e-3, 0.01)

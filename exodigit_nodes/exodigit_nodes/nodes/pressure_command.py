@@ -13,7 +13,7 @@ simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with on
 from that state and its stamp (in ``force`` mode: from that state and the estimate of the same
 step).
 
-Run: ``python -m exodigit_nodes.pressure_command --ros-args -p mode:=staircase``.
+Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
 
 from __future__ import annotations
@@ -40,8 +40,14 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..logic.inputs import (
+    InvalidInputError,
+    joint_positions,
+    joint_vector,
+    stamp_age,
+    stamp_seconds,
+)
 from .catalog import PRESSURE_COMMAND_NODE
-from .inputs import InvalidInputError, joint_positions, joint_vector, stamp_age, stamp_seconds
 from .messages import (
     ESTIMATED_CONTACT_FORCES,
     JOINT_STATES,

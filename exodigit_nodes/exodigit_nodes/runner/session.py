@@ -17,13 +17,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .dds import use_profile
+from ..nodes.dds import use_profile
 from .run_record import RunRecord
 from .summary import SIGNALS, GloveSignals, SummaryDisplay
 from .supervisor import Supervisor
 
-NOMINAL_PATIENT = 'nominal'
-"""``--patient`` value for the model files alone (their nominal finger)."""
 #: Seconds between two refreshes of the terminal summary.
 REFRESH_PERIOD = 0.25
 #: Lines of a dead process's log shown when it exits unexpectedly.
@@ -108,15 +106,6 @@ class StopRequest:
         self.signal_name = signal.Signals(signum).name
 
 
-def with_patient(files: list[str], patient: str) -> list[str]:
-    """A plant's model files: ``files``, then the patient (a preset's or a YAML) merged over."""
-    from exodigit_model import PATIENT_PRESETS, patient_file
-
-    if patient == NOMINAL_PATIENT:
-        return list(files)
-    return [*files, str(patient_file(patient) if patient in PATIENT_PRESETS else patient)]
-
-
 def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:
     """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate."""
     from exodigit_model import load_params
@@ -150,7 +139,7 @@ def run_session(session: Session, env: dict) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    from .catalog import PLANT_NODE
+    from ..nodes.catalog import PLANT_NODE
     from .horizon import Horizon
     from .monitor import GloveMonitor
 

@@ -10,7 +10,7 @@ the effective linear patient τ̂_H = k (q − q_r) and publishes its stiffness 
 ``estimated_finger_stiffness`` and its rest angle as ``estimated_rest_angle``, with the fit's
 RMSE in ``/diagnostics`` (large when a linear spring does not explain the finger).
 
-Run: ``python -m exodigit_nodes.estimator --ros-args -p max_sample_age:=0.05``.
+Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.05``.
 """
 
 from __future__ import annotations
@@ -20,9 +20,8 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from .catalog import ESTIMATOR_NODE
-from .estimation import Pair, SamplePairer, StiffnessWindow
-from .inputs import (
+from ..logic.estimation import Pair, SamplePairer, StiffnessWindow
+from ..logic.inputs import (
     InvalidInputError,
     joint_positions,
     joint_vector,
@@ -30,6 +29,8 @@ from .inputs import (
     stamp_age,
     stamp_seconds,
 )
+from ..logic.parameters import describe_files
+from .catalog import ESTIMATOR_NODE
 from .messages import (
     CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
@@ -41,7 +42,6 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import GloveNode, load_model, run
-from .parameters import describe_files
 from .qos import READER_QOS, WRITER_QOS
 
 DIAGNOSTIC_PERIOD = 1.0

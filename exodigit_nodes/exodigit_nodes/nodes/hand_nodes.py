@@ -22,8 +22,9 @@ second thread when both are in the process. Ctrl-C / SIGTERM: every command node
 pressure, then all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
 (one line on stderr).
 
-Run: ``python -m exodigit_nodes.hand_nodes --fingers index,middle --ros-args -p rate_hz:=200``
-(``ros2 run exodigit_nodes hand_nodes ...``); ``python -m exodigit_nodes.hand`` adds the live
+Run: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
+rate_hz:=200`` (``ros2 run exodigit_nodes hand_nodes ...``); ``python -m exodigit_nodes.hand`` adds
+the live
 summary and the run records.
 """
 

@@ -19,8 +19,8 @@ a command comes. Services ``set_paused`` (std_srvs/SetBool) and ``step`` (std_sr
 one step while paused) control simulated time; ``pause_at`` pauses at a given simulated time,
 ``run_until`` holds the steps there until it is raised.
 
-Run: ``python -m exodigit_nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or, for
-a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
+Run: ``python -m exodigit_nodes.nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or,
+for a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
 """
 
 from __future__ import annotations
@@ -40,8 +40,11 @@ from visualization_msgs.msg import MarkerArray
 
 from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationSettings
 
+from ..logic.inputs import InvalidInputError, joint_vector
+from ..logic.pacing import TIME_SETTING_NAMES, TimeSettings, known_node
+from ..logic.parameters import describe_files
+from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
-from .inputs import InvalidInputError, joint_vector
 from .markers import GloveMarkers
 from .messages import (
     CHAMBER_PRESSURE,
@@ -57,11 +60,8 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
-from .pacing import TIME_SETTING_NAMES, TimeSettings, known_node
-from .parameters import describe_files
 from .qos import READER_QOS, WRITER_QOS
 from .sim_time import SimulatedTime
-from .watchdog import Watchdog
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""

@@ -21,7 +21,7 @@ import time
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 
-from .messages import set_double_request
+from ..nodes.messages import set_double_request
 
 LEAD_STEPS = 400
 """Most steps the plant may take past the newest one received: fewer than the samples each
