@@ -37,6 +37,7 @@ from .control import SafetyLimiter, SafetyLimits
 from .model import GloveModel, as_joint_vector
 from .params import GloveParams, load_params
 from .simulation import NANOSECONDS, GloveSimulation, GloveState, SimulationSettings, step_time_ns
+from .trials.protocols import flex_extend
 
 ENV_ID = 'exodigit/Glove-v0'
 """The id under which importing this module registers :class:`GloveEnv` with Gymnasium."""
@@ -72,6 +73,9 @@ Reward = Callable[[GloveState, NDArray[np.float64], NDArray[np.float64]], float]
 @dataclass(frozen=True)
 class FlexExtendTarget:
     r"""A slow flex-extend: q*(t) = peak · (1 − cos(2πt / period)) / 2, rad.
+
+    The continuous passive motion of the trials from the straight finger
+    (:func:`exodigit_model.trials.protocols.flex_extend` with low = 0, high = ``peak``).
 
     Starts at rest (q* = 0 at t = 0), reaches ``peak`` at t = period/2 and returns to rest at
     t = period. Every point lies on the straight line from 0 to ``peak``; for the default
@@ -120,8 +124,8 @@ class FlexExtendTarget:
         return cls(tuple(solution.q.tolist()), period)
 
     def __call__(self, t: float) -> NDArray[np.float64]:
-        """q*(t), rad, shape (3,)."""
-        return np.array(self.peak) * (0.5 * (1.0 - math.cos(2.0 * math.pi * t / self.period)))
+        """q*(t), rad, shape (3,): the trials' flex-extend cycle from rest to ``peak``."""
+        return flex_extend(t, np.zeros(3), np.array(self.peak), self.period)
 
 
 def tracking_reward(
