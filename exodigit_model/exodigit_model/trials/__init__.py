@@ -1,8 +1,10 @@
-"""Virtual patient trials without ROS: populations of patients and session protocols.
+"""Virtual patient trials without ROS: populations, session protocols, metrics and rules.
 
 A population (docs/populations.md) is a set of distributions over the patient parameters of
 docs/spec/model.md §11, sampled reproducibly from a seed. A session protocol gives the duration,
-the rate and the joint targets of a session.
+the rate and the joint targets of a session; the metrics of each patient are accumulated step by
+step over the whole batch, summarized over the patients, and judged by a pass/fail rule
+(docs/trials.md).
 
 >>> from exodigit_model.trials import load_population
 >>> patients = load_population('stroke_moderate').sample(100, seed=1)
@@ -10,7 +12,18 @@ the rate and the joint targets of a session.
 (100, 3)
 """
 
+from .aggregates import DEFAULT_PERCENTILES, DEFAULT_WORST, summarize, worst_patients
 from .distributions import Distribution, Fixed, LogNormal, Normal, Uniform
+from .metrics import (
+    DEFAULT_FORCE_LIMIT,
+    METRIC_NAMES,
+    METRICS,
+    Metric,
+    MetricAccumulator,
+    MetricSettings,
+    PatientMetrics,
+    column_names,
+)
 from .populations import (
     PATIENT_FIELDS,
     POPULATIONS,
@@ -31,10 +44,17 @@ from .protocols import (
     flex_extend,
     make_protocol,
 )
+from .rules import COMPARISONS, Rule, RuleResult
 
 __all__ = [
+    'COMPARISONS',
+    'DEFAULT_FORCE_LIMIT',
+    'DEFAULT_PERCENTILES',
+    'DEFAULT_WORST',
     'FUNCTIONAL_FLEXION',
     'FUNCTIONAL_RANGE',
+    'METRICS',
+    'METRIC_NAMES',
     'PATIENT_FIELDS',
     'POPULATIONS',
     'PROTOCOLS',
@@ -44,14 +64,23 @@ __all__ = [
     'Fixed',
     'GraspRelease',
     'LogNormal',
+    'Metric',
+    'MetricAccumulator',
+    'MetricSettings',
     'Normal',
+    'PatientMetrics',
     'Patients',
     'Population',
+    'Rule',
+    'RuleResult',
     'SessionProtocol',
     'Staircase',
     'Uniform',
+    'column_names',
     'flex_extend',
     'load_population',
     'make_protocol',
     'population_file',
+    'summarize',
+    'worst_patients',
 ]
