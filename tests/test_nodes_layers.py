@@ -3,8 +3,8 @@
 ``logic`` (ROS-free rules: inputs, watchdog, estimation window, pacing, parameter tables) imports
 no other layer; ``nodes`` (the rclpy nodes, their tables, QoS and DDS profile) only ``logic``;
 ``runner`` (the glove and hand runners' sessions) ``logic`` and ``nodes``; ``testing`` (the kit)
-those three (it holds a plant as the runners do). Read from the sources (no import), so a cycle cannot hide behind import
-order.
+those three (it holds a plant as the runners do). Read from the sources (no import), so a cycle
+cannot hide behind import order.
 """
 
 import ast

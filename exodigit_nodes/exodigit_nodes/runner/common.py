@@ -1,8 +1,8 @@
 """What the glove and hand runners share on their command line and at start.
 
-Both take ``--duration``, ``--ros-params`` and ``--out`` (:func:`add_session_arguments`,
-checked by :func:`check_session_arguments`) and a ``--namespace``
-(:func:`..logic.options.check_namespace`), and both start the same way once their own options are checked (:func:`start_session`): the
+Both take ``--duration``, ``--ros-params`` and ``--out`` (:func:`add_session_arguments`, checked by
+:func:`check_session_arguments`) and a ``--namespace`` (:func:`..logic.options.check_namespace`),
+and both start the same way once their own options are checked (:func:`start_session`): the
 discovery settings, the run directory, then :func:`.session.run_session`.
 """
 

@@ -7,8 +7,9 @@ controller that is its own ROS node. Installed with ``exodigit_nodes``, the pyte
 Part II, "A testing kit for users' own controllers").
 """
 
-from .client import GloveSim, GloveSimError, SimRecord, SimState
+from .client import GloveSim, GloveSimError
 from .processes import DomainLease, claim_domain, ros_environment
+from .records import SimRecord, SimState
 
 __all__ = [
     'DomainLease',

@@ -32,7 +32,7 @@ from ..nodes.messages import (
 )
 from ..nodes.qos import RECORD_QOS, WRITER_QOS
 from ..runner.horizon import Horizon
-from .client import SimState
+from .records import SimState
 
 
 class GloveClient(Node):

@@ -1,0 +1,61 @@
+"""What the testing kit returns: one plant step (:class:`SimState`), a run (:class:`SimRecord`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class SimState:
+    """One plant step as published (SI units; joint order MCP, PIP, DIP).
+
+    Attributes
+    ----------
+    t : float
+        Simulated time of the step, s (the stamp of ``joint_states``).
+    q : ndarray, shape (3,)
+        Joint angles (``joint_states`` position, with the plant's sensor noise), rad.
+    qdot : ndarray, shape (3,)
+        Joint velocities, rad/s.
+    effort : ndarray, shape (3,)
+        Finger joint torque from the exo-digit, N·m.
+    pressure : ndarray, shape (3,)
+        Chamber pressures (``chamber_pressure``), Pa.
+    forces : ndarray, shape (3,)
+        Simulated contact forces (``contact_forces``), N.
+    lengths : ndarray, shape (3,)
+        ℓ_i, the segments' bottom-face arc lengths (``segment_lengths``), m: the rest lengths
+        unless a segment is extensible (docs/spec/model.md §12).
+    estimated_forces : ndarray, shape (3,), or None
+        The estimator's robot-side estimate of this step, N (None without the estimator).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    effort: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    lengths: NDArray[np.float64]
+    estimated_forces: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class SimRecord:
+    """The states of a :meth:`GloveSim.run` and the commands that answered them, as arrays.
+
+    Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
+    plant applies in the next step). Shapes (n,) for ``t`` and (n, 3) for the others; units as
+    in :class:`SimState` (``lengths`` m), ``command`` in Pa.
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    lengths: NDArray[np.float64]
+    command: NDArray[np.float64]
