@@ -13,8 +13,9 @@ import yaml
 from exodigit_model.control import MODES
 from exodigit_nodes.glove import build_parser, check_arguments, glove_session
 from exodigit_nodes.logic.parameters import ParamSpec
-from exodigit_nodes.nodes.catalog import CONFIG_WIDTH, NODES, config_text
-from exodigit_nodes.nodes.catalog import main as write_config_main
+from exodigit_nodes.nodes.catalog import NODES
+from exodigit_nodes.nodes.config_files import CONFIG_WIDTH, config_text
+from exodigit_nodes.nodes.config_files import main as write_config_main
 from exodigit_nodes.runner.run_record import RunRecord
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,7 +23,7 @@ PACKAGE_DIR = ROOT / 'exodigit_nodes'
 CONFIG = PACKAGE_DIR / 'config'
 README = ROOT / 'README.md'
 README_SECTION = '## Nodes, topics and parameters'
-REGENERATE = 'python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config'
+REGENERATE = 'python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config'
 by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
 ROS_PARAMETERS = ('use_sim_time',)
 """Parameters rclpy declares on every node (not in the table)."""
