@@ -33,8 +33,9 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from .control import SafetyLimiter, SafetyLimits
-from .model import GloveModel, as_joint_vector
+from .control import Feedback, Limited, SafetyLimiter, SafetyLimits
+from .control.shapes import check_shape
+from .model import GloveModel, as_joint_rows, as_joint_vector
 from .params import GloveParams, load_params
 from .simulation import NANOSECONDS, GloveSimulation, GloveState, SimulationSettings, step_time_ns
 from .trials.protocols import flex_extend
@@ -373,12 +374,10 @@ class GloveEnv(gymnasium.Env):
         """What the limiter lets through of ``action``, from the last measured state."""
         if self._limiter is None:
             return action
-        last = self.simulation.state
-        try:
-            forces = self.model.estimate_forces(last.q_measured, last.pressure_measured)
-        except ValueError:  # no strain balances (extensible segments): no estimate published
-            forces = None
-        limited = self._limiter.apply(action, 1.0 / self.settings.rate_hz, last.q_measured, forces)
+        feedback = Feedback.of_state(self.simulation.state, self.model)
+        limited = self._limiter.apply(
+            action, 1.0 / self.settings.rate_hz, feedback.angles, feedback.forces
+        )
         self._limited = limited.reasons
         return limited.pressure
 
@@ -391,12 +390,9 @@ class GloveEnv(gymnasium.Env):
 
     def _observe(self, state: GloveState) -> tuple[NDArray[np.float32], bool]:
         """The observation (a new float32 array) and whether clipping to the bounds changed it."""
-        parts = [state.q_measured, state.qdot, state.pressure_measured]
-        if self.observe_target:
-            parts.append(self._next_target)
-        raw = np.concatenate(parts).astype(np.float32)  # beyond float32's range: ±inf, clipped
-        observation = np.clip(raw, self.observation_space.low, self.observation_space.high)
-        return observation, not np.array_equal(raw, observation)
+        target = self._next_target if self.observe_target else None
+        observation, clipped = observe(state, self.observation_space, target)
+        return observation, bool(clipped)
 
     def _info(self, state: GloveState, target: NDArray[np.float64], clipped: bool) -> dict:
         return {
@@ -412,6 +408,91 @@ class GloveEnv(gymnasium.Env):
             'observation_clipped': clipped,
             'noise_seed': self.noise_seed,
         }
+
+
+def observe(
+    state: GloveState, space: spaces.Box, target: NDArray[np.float64] | None
+) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    """:class:`GloveEnv`'s observation of one glove (3,) or of each glove of a batch (N, 3).
+
+    Returns the observations, float32, (d,) or (N, d), clipped to ``space``, and whether the
+    clipping changed them (per glove). ``target``: the next step's target angles (rad, (3,),
+    every glove's), or None when not observed.
+    """
+    parts = [state.q_measured, state.qdot, state.pressure_measured]
+    if target is not None:
+        parts.append(np.broadcast_to(target, np.shape(state.q_measured)))
+    # beyond float32's range: ±inf, clipped
+    raw = np.concatenate(parts, axis=-1).astype(np.float32)
+    observation = np.clip(raw, space.low, space.high)
+    return observation, (raw != observation).any(axis=-1)
+
+
+class PolicyController:
+    """A policy for :class:`GloveEnv` run over a batch of gloves, as a ``BatchController``.
+
+    At each step every glove of the batch is observed as ``env`` observes its glove
+    (:func:`observe`: the same layout, float32 and bounds, and the target of the next step,
+    whose time is the state's next step as in :meth:`GloveEnv.step`), the policy is called once
+    on the (N, d) observations, and its (N, 3) actions pass ``env``'s safety limits from the
+    feedback :meth:`GloveEnv.step` uses (:meth:`~exodigit_model.control.Feedback.of_state` with
+    ``env.model``). So each glove of a noise-free batch is commanded, bit for bit, as a
+    :class:`GloveEnv` is by the same policy (tests/test_control_batch.py).
+    (:class:`~exodigit_model.control.BatchController` is the protocol.)
+
+    Parameters
+    ----------
+    policy : callable
+        ``policy(observations) -> actions``: float32 (N, d) to chamber pressure commands
+        (N, 3), Pa; e.g. ``lambda obs: agent.predict(obs, deterministic=True)[0]``.
+    env : GloveEnv
+        The environment the policy is for: its target, observation space and safety limits
+        (``env.safety``; None: the actions go to the chambers unlimited). Its model estimates
+        the contact forces the limiter checks: in a trial, make it on the nominal glove, the
+        one a controller knows.
+
+    Raises
+    ------
+    ValueError
+        If ``policy`` is not callable.
+    """
+
+    def __init__(self, policy: Callable[[NDArray[np.float32]], ArrayLike], env: GloveEnv) -> None:
+        if not callable(policy):
+            raise ValueError(f'policy = {policy!r}: must be callable')
+        self.policy, self.env = policy, env
+        self._limiter = None if env.safety is None else SafetyLimiter(env.safety)
+        self.last: Limited | None = None
+        """The limiter's last answer (``acted``, (N, 5): the limits that acted per glove);
+        None before the first, or without limits."""
+
+    def reset(self, count: int, rng: np.random.Generator | None = None) -> None:
+        """A new session of ``count`` gloves: the limiter forgets what it sent.
+
+        ``rng`` is not used: a policy that draws random numbers keeps its own generator.
+        """
+        if self._limiter is not None:
+            self._limiter.reset(count)
+        self.last = None
+
+    def command(self, t: float, dt: float, state: GloveState) -> NDArray[np.float64]:
+        """The limited actions of every glove, Pa, (N, 3).
+
+        Raises
+        ------
+        ValueError
+            If the policy's actions are not finite or not one row of three per glove.
+        """
+        env = self.env
+        target = env._target_at(env._time_of(state.step + 1)) if env.observe_target else None
+        observations, _ = observe(state, env.observation_space, target)
+        actions = as_joint_rows('action', self.policy(observations))
+        check_shape('action', actions, np.shape(state.q_measured))
+        if self._limiter is None:
+            return actions
+        feedback = Feedback.of_state(state, env.model)
+        self.last = self._limiter.apply(actions, dt, feedback.angles, feedback.forces)
+        return self.last.pressure
 
 
 def _model(model: GloveModel | None, params: str | os.PathLike | GloveParams | None):

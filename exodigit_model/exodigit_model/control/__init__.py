@@ -3,9 +3,12 @@
 What the ``pressure_command`` node of ``exodigit_nodes`` computes each step (docs/spec/ros.md,
 "Safety behaviour"), for in-process use: :class:`~exodigit_model.gym.GloveEnv` puts the same
 limiter between an agent and the chambers, and a controller can be tried on a simulated patient
-with no ROS at all.
+with no ROS at all. The same classes control one glove (arrays (3,)) or a batch of gloves
+((N, 3), one row each); :class:`BatchController` is the protocol a virtual-patient trial steps,
+and :class:`BuiltInMode` runs a built-in mode behind the limiter as one.
 """
 
+from .batch import BatchController, BuiltInMode
 from .controllers import (
     MODES,
     Command,
@@ -20,10 +23,13 @@ from .controllers import (
     Sine,
     Staircase,
 )
-from .safety import Limited, SafetyLimiter, SafetyLimits
+from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
 
 __all__ = [
+    'LIMIT_KINDS',
     'MODES',
+    'BatchController',
+    'BuiltInMode',
     'Command',
     'CommandLoop',
     'Controller',

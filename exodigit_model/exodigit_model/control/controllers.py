@@ -4,17 +4,30 @@ Each controller gives the desired chamber pressures (Pa, MCP, PIP, DIP) at time 
 the session started) from the latest feedback; the safety limiter (:mod:`.safety`) then bounds
 them, and closed loops are told what was actually sent (:meth:`PIController.commit`) so their
 integrators do not wind up against the limits.
+
+The same objects control one glove, arrays of shape (3,) as the node does, or a batch of N
+gloves, (N, 3), with the same arithmetic (:mod:`.shapes`): a closed loop made with ``count=N``
+keeps an integrator per glove, and an open-loop session, a function of time, gives every glove
+the same pressures.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..model import GloveModel
+from .robot_torque import robot_contact_torque
+from .safety import SafetyLimiter
+from .shapes import check_shape, glove_shape
+
+if TYPE_CHECKING:
+    from ..simulation import GloveState
 
 MODES = {
     'staircase': "steps of staircase_step up to staircase_peak and back, as in the paper's tests",
@@ -32,20 +45,41 @@ class Feedback:
 
     Attributes
     ----------
-    angles : ndarray, shape (3,), optional
+    angles : ndarray, shape (3,) or (N, 3), optional
         Joint angles from ``joint_states``, rad.
-    forces : ndarray, shape (3,), optional
+    forces : ndarray, shape (3,) or (N, 3), optional
         Contact forces from ``estimated_contact_forces``, N.
     """
 
     angles: NDArray[np.float64] | None = None
     forces: NDArray[np.float64] | None = None
 
+    @classmethod
+    def of_state(cls, state: GloveState, estimator: GloveModel | None) -> Feedback:
+        """What ``pressure_command`` hears of a simulated glove (or batch) ``state``.
+
+        The measured joint angles, and with an ``estimator`` the ``estimator`` node's contact
+        forces: the robot-side estimate from the measured angles and pressures
+        (docs/spec/model.md §7), which needs no finger model. No forces where no bottom-face
+        strain balances the segments (extensible segments; the node then publishes none): for
+        a batch, when that happens in any row.
+        """
+        angles, forces = state.q_measured, None
+        if estimator is not None:
+            one = np.ndim(angles) == 1
+            estimate = estimator.estimate_forces if one else estimator.estimate_forces_batch
+            with contextlib.suppress(ValueError):  # no strain balances: no estimate
+                forces = estimate(angles, state.pressure_measured)
+        return cls(angles, forces)
+
 
 class OpenLoop:
     """A pressure schedule in time; feedback is not used."""
 
     closed_loop = False
+
+    def reset(self, count: int | None = None) -> None:
+        """Nothing to reset: a session is a function of time, shared by every glove."""
 
     def commit(self, raw: NDArray[np.float64], applied: NDArray[np.float64]) -> None:
         """Open loop: nothing to update."""
@@ -97,7 +131,7 @@ class Sine(OpenLoop):
 
 
 class Hold(OpenLoop):
-    """Constant pressures, Pa (MCP, PIP, DIP)."""
+    """Constant pressures, Pa (MCP, PIP, DIP): shape (3,), or (N, 3) for each glove its own."""
 
     def __init__(self, pressure: NDArray[np.float64]) -> None:
         self.pressure = np.array(pressure, dtype=float)
@@ -118,18 +152,25 @@ class PIController:
     kp, ki : float
         Proportional and integral gains (units of the output per unit error, and per unit
         error-second).
+    count : int, optional
+        Gloves controlled together, each with its own integrator; None: one glove.
     """
 
-    def __init__(self, kp: float, ki: float) -> None:
+    def __init__(self, kp: float, ki: float, *, count: int | None = None) -> None:
         self.kp, self.ki = kp, ki
-        self.integral = np.zeros(3)
-        self._step = np.zeros(3)
+        self.reset(count)
+
+    def reset(self, count: int | None = None) -> None:
+        """Empty integrators for one glove (``count`` None) or ``count`` gloves."""
+        shape = glove_shape(count)
+        self.integral = np.zeros(shape)
+        self._step = np.zeros(shape)
 
     def output(
         self, feedforward: NDArray[np.float64], error: NDArray[np.float64] | None, dt: float
     ) -> NDArray[np.float64]:
         """The raw output; no error (no feedback yet) gives the feed-forward plus the integral."""
-        self._step = np.zeros(3) if error is None else error * dt
+        self._step = np.zeros(self.integral.shape) if error is None else error * dt
         proportional = 0.0 if error is None else self.kp * error
         return feedforward + proportional + self.ki * (self.integral + self._step)
 
@@ -146,19 +187,24 @@ class PositionController(PIController):
     Parameters
     ----------
     model : GloveModel
-        Model of the glove and finger used for the feed-forward.
+        Model of the glove and finger used for the feed-forward (the nominal one: the
+        controller does not know the patient).
     targets : array_like, shape (3,)
-        Desired joint angles, rad.
+        Desired joint angles, rad, the same for every glove.
     kp : float
         Pa per rad of angle error.
     ki : float
         Pa per rad·s of integrated angle error.
+    count : int, optional
+        Gloves controlled together; None: one glove.
     """
 
     closed_loop = True
 
-    def __init__(self, model: GloveModel, targets, kp: float, ki: float) -> None:
-        super().__init__(kp, ki)
+    def __init__(
+        self, model: GloveModel, targets, kp: float, ki: float, *, count: int | None = None
+    ) -> None:
+        super().__init__(kp, ki, count=count)
         self.model = model
         self.set_targets(targets)
 
@@ -185,30 +231,37 @@ class ForceController(PIController):
     model : GloveModel
         Model of the exo-digit (its finger part is not used).
     targets : array_like, shape (3,)
-        Desired contact forces, N.
+        Desired contact forces, N, the same for every glove.
     kp : float
         Pa per N of force error.
     ki : float
         Pa per N·s of integrated force error.
+    count : int, optional
+        Gloves controlled together; None: one glove.
     """
 
     closed_loop = True
 
-    def __init__(self, model: GloveModel, targets, kp: float, ki: float) -> None:
-        super().__init__(kp, ki)
+    def __init__(
+        self, model: GloveModel, targets, kp: float, ki: float, *, count: int | None = None
+    ) -> None:
+        super().__init__(kp, ki, count=count)
         self.model = model
         self.targets = np.array(targets, dtype=float)
         self._moments = np.asarray(model.constants.pressure_moments)
 
     def feedforward(self, angles: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Pressures giving the target forces at ``angles``, Pa (docs/spec/model.md §7, for p)."""
-        j_robot, _ = self.model.contact_jacobians(angles)
-        torque = j_robot.T @ self.targets - self.model.structural_torque(angles)
+        """Pressures giving the target forces at ``angles``, Pa (docs/spec/model.md §7, for p).
+
+        ``angles`` (rad) of one glove, (3,), or of a batch, (N, 3).
+        """
+        robot = robot_contact_torque(self.model, angles, self.targets)
+        torque = robot - self.model.structural_torque(angles)
         return torque / self._moments
 
     def desired(self, t: float, feedback: Feedback, dt: float) -> NDArray[np.float64]:
         """Feed-forward at the measured angles (zero angles before any) plus PI on force, Pa."""
-        angles = np.zeros(3) if feedback.angles is None else feedback.angles
+        angles = np.zeros(self.integral.shape) if feedback.angles is None else feedback.angles
         error = None if feedback.forces is None else self.targets - feedback.forces
         return self.output(self.feedforward(angles), error, dt)
 
@@ -222,24 +275,29 @@ class Command:
 
     Attributes
     ----------
-    pressure : ndarray, shape (3,)
+    pressure : ndarray, shape (3,) or (N, 3)
         The pressures to send, Pa.
     reasons : dict of str to str
         The safety limits that acted, and why (see :class:`.safety.Limited`).
     missing : bool
-        A closed loop had no fresh feedback and ramps down to zero.
+        A closed loop had no fresh feedback and ramps down to zero (feedback comes for the
+        whole batch or not at all, so this is one answer for every glove).
+    acted : ndarray of bool, shape (5,) or (N, 5)
+        Whether each limit of :data:`.safety.LIMIT_KINDS` acted, per glove.
     """
 
     pressure: NDArray[np.float64]
     reasons: dict[str, str]
     missing: bool
+    acted: NDArray[np.bool_]
 
 
 class CommandLoop:
     """A controller behind the safety limiter: what ``pressure_command`` computes each step.
 
     Plain Python, so a controller can be run against an in-process simulation exactly as the
-    node runs it.
+    node runs it: for one glove, or for a batch when the controller and the limiter are made
+    for it (``count=N``; :class:`.batch.BuiltInMode` does so).
 
     Parameters
     ----------
@@ -249,12 +307,22 @@ class CommandLoop:
         The safety limits every command passes.
     """
 
-    def __init__(self, controller: Controller, limiter) -> None:
+    def __init__(self, controller: Controller, limiter: SafetyLimiter) -> None:
         self.controller, self.limiter = controller, limiter
 
     def command(self, t: float, dt: float, feedback: Feedback) -> Command:
-        """The command at session time ``t`` (s), ``dt`` (s) after the previous one."""
-        controller = self.controller
+        """The command at session time ``t`` (s), ``dt`` (s) after the previous one.
+
+        Raises
+        ------
+        ValueError
+            If the feedback, or a closed loop's integrator, does not have the limiter's shape.
+        """
+        controller, shape = self.controller, self.limiter.shape
+        check_shape('feedback.angles', feedback.angles, shape)
+        check_shape('feedback.forces', feedback.forces, shape)
+        if controller.closed_loop:
+            check_shape('the integrator', controller.integral, shape)
         missing = controller.closed_loop and (
             feedback.angles is None
             or (isinstance(controller, ForceController) and feedback.forces is None)
@@ -267,4 +335,4 @@ class CommandLoop:
         limited = self.limiter.apply(desired, dt, feedback.angles, feedback.forces)
         if not missing:
             controller.commit(desired, limited.pressure)
-        return Command(limited.pressure, limited.reasons, missing)
+        return Command(limited.pressure, limited.reasons, missing, limited.acted)
