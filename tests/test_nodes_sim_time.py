@@ -78,7 +78,7 @@ def glove(shared_glove):
     """The shared glove at rest, the kit's default timeout, no controller of a test before left."""
     shared_glove.timeout = DEFAULT_TIMEOUT
     # A stopped controller leaves the graph a moment later; until then step() refuses to step.
-    assert wait_until(lambda: not shared_glove._node.other_controllers(), 10.0)
+    assert wait_until(lambda: not shared_glove._node.other_controllers(), DEFAULT_TIMEOUT)
     shared_glove.reset()
     return shared_glove
 
