@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from exodigit_model.tools.bag import read_bag
 from exodigit_nodes.glove import DEFAULT_PATIENT, NODES
 from exodigit_nodes.glove import main as glove_main
 from ros_harness import claim_domain, ros_environment, wait_until
@@ -231,6 +232,11 @@ def lockstep_hold(run: Run) -> list[str]:
     ]
 
 
+def lockstep_hold_recorded(run: Run) -> list[str]:
+    """:func:`lockstep_hold` with the session's topics also recorded to a bag."""
+    return [*lockstep_hold(run), '--record']
+
+
 def interrupted_once_identified(run: Run) -> Run:
     """The default session (sine, stroke_moderate) with a bag, started as a shell starts a
     background job (SIGINT ignored); Ctrl-C (kill -INT) once the record has a fit made after
@@ -264,7 +270,7 @@ SCENARIOS = {
     'interrupted_run': interrupted_once_identified,
     # two identical lockstep sessions, for "the same every time"
     'lockstep_run': ends_by_itself(lockstep_hold),
-    'lockstep_rerun': ends_by_itself(lockstep_hold),
+    'lockstep_rerun': ends_by_itself(lockstep_hold_recorded),
     'failing_run': ends_by_itself(plant_fails),
     # the wall clock's duration, over while the nodes still start
     'wall_clock_run': ends_by_itself(lambda run: ['--duration', f'{WALL_DURATION:g}']),
@@ -366,13 +372,29 @@ def test_a_lockstep_session_records_each_step_of_its_simulated_duration_the_same
         # steps 1..N: t_k = k * 10 ms, the first row at 0 (time since the first step)
         steps = np.arange(round(100 * LOCKSTEP_DURATION))
         np.testing.assert_allclose(table['time_s'], 0.01 * steps, atol=1e-9)
-    # run at the same time on a shared machine, in domains of their own: still identical
+    # run at the same time on a shared machine, in domains of their own, one of them
+    # recording a bag: still identical
     for stem, unit in (('p', 'kpa'), ('q', 'deg'), ('f', 'n')):
         np.testing.assert_array_equal(
             joint_columns(tables[0], stem, unit), joint_columns(tables[1], stem, unit)
         )
     pressure = 1e3 * joint_columns(tables[0], 'p', 'kpa')
     assert np.ptp(pressure[:, 0]) > 5e3, 'the session did not move the chambers'
+
+
+def test_a_recorded_lockstep_session_has_every_step_in_its_bag(lockstep_rerun):
+    # At real-time factor 0 the plant outruns a recorder that subscribes late or falls behind:
+    # the runner resumes the plant only once the recorder listens, and every publisher keeps
+    # enough samples for it to catch up.
+    assert lockstep_rerun.returncode == 0, lockstep_rerun.output()
+    bag = read_bag(lockstep_rerun.out / 'bag')
+    table = read_record(lockstep_rerun.out / 'signals.csv')
+    steps = round(100 * LOCKSTEP_DURATION)
+    for topic in ('joint_states', 'chamber_pressure', 'contact_forces'):
+        assert len(bag[topic].values) == steps and bag[topic].skipped == 0, topic
+    np.testing.assert_allclose(
+        np.degrees(bag['joint_states'].values), joint_columns(table, 'q', 'deg'), atol=1e-9
+    )
 
 
 def test_the_nodes_run_the_given_mode_and_model_file(lockstep_run):

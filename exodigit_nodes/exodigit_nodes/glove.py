@@ -244,6 +244,7 @@ def glove_session(args: argparse.Namespace, record: RunRecord) -> Session:
         simulated=args.clock == 'sim',
         duration=args.duration,
         log_dir=record.log_dir,
+        listeners=('recorder',) if args.record else (),
     )
 
 

@@ -81,6 +81,23 @@ class GloveMonitor(Node):
             if subscription.topic_name.rsplit('/', 1)[-1] in topics
         )
 
+    def listened_by(self, nodes, topics) -> bool:
+        """Whether each node of ``nodes`` (names in our namespace) subscribes each of ``topics``.
+
+        Read from the ROS graph: the plant then waits for such a subscriber to be matched before
+        it steps (its ``readers_matched``), so it misses no step.
+        """
+        namespace = self.get_namespace()
+        return all(
+            any(
+                (info.node_name, info.node_namespace) == (node, namespace)
+                for info in self.get_subscriptions_info_by_topic(subscription.topic_name)
+            )
+            for subscription in self._inputs
+            if subscription.topic_name.rsplit('/', 1)[-1] in topics
+            for node in nodes
+        )
+
     def resume_plant(self) -> bool:
         """Ask a plant started paused to run (``set_paused`` false); False if not there yet."""
         if not self._pause_client.service_is_ready():

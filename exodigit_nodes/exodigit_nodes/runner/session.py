@@ -74,6 +74,10 @@ class Session:
         Seconds to run (simulated with ``simulated``); 0 until stopped.
     log_dir : Path
         Where the processes' logs go.
+    listeners : tuple of str
+        Nodes besides the summary that must subscribe every glove's signals before the plants
+        resume (the recorder: in simulated time the plant outruns a late subscriber, which
+        would miss the first steps).
     """
 
     program: str
@@ -86,6 +90,7 @@ class Session:
     simulated: bool
     duration: float
     log_dir: Path
+    listeners: tuple[str, ...] = ()
 
 
 class StopRequest:
@@ -185,7 +190,10 @@ def run_session(session: Session, env: dict) -> int:
         while not stop.requested:
             spin()
             now = time.monotonic()
-            if waiting and all(monitor.connected(SIGNALS) for monitor in monitors):
+            if waiting and all(
+                monitor.connected(SIGNALS) and monitor.listened_by(session.listeners, SIGNALS)
+                for monitor in monitors
+            ):
                 waiting = not (horizon.ready() and monitors[0].resume_plant())
             elif horizon is not None and not waiting:
                 horizon.follow(_joined(signals))
