@@ -357,6 +357,21 @@ def simulation_batch() -> list[np.ndarray]:
 
 
 @case
+def simulation_population() -> list[np.ndarray]:
+    # Extensible segments on three patients: nominal, stroke_moderate, every term of eq 11.1.
+    named = models()
+    fingers = [named[name].params.finger for name in ('default', 'stroke', 'patient')]
+    simulation = GloveSimulation(named['extensible'], NOISY, fingers=fingers)
+    rest = states(simulation, simulation.state)
+    scales = np.array([0.3, 0.7, 1.1])[:, None]
+    history = [
+        simulation.step(scales * c, scales * e)
+        for c, e in zip(commands(BATCH_STEPS), efforts(BATCH_STEPS), strict=True)
+    ]
+    return rest + states(simulation, stacked(history)) + states(simulation, simulation.reset())
+
+
+@case
 def failures() -> list[np.ndarray]:
     named = models()
     default, soft = named['default'], named['soft']

@@ -37,7 +37,7 @@ from .kernels.solves import (
 )
 from .kernels.structural import structural_torques
 from .params import JOINT_NAMES, GloveParams, load_params
-from .patient import law_row
+from .patient import finger_rows
 from .section import SectionQuadrature, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS
 from .structural import torque_tables
@@ -258,12 +258,13 @@ def glove_constants(params: GloveParams) -> GloveConstants:
     segments = params.exo_digit.segments
     rules = [SectionQuadrature.of(segment) for segment in segments]
     material = params.material
+    finger_half_lengths, laws = finger_rows([params.finger])
     constants = GloveConstants(
         arc_lengths=np.array([s.arc_length for s in segments]),
         block_half_lengths=np.array(
             [params.exo_digit.base_block_half_length, *(s.block_half_length for s in segments)]
         ),
-        finger_half_lengths=np.array([j.link_half_length for j in params.finger.joints]),
+        finger_half_lengths=finger_half_lengths[0],
         pressure_moments=np.array([pressure_moment(s) for s in segments]),
         pressure_areas=np.array([pressure_area(s) for s in segments]),
         layer_stiffness=np.array([s.layer_axial_stiffness for s in segments]),
@@ -274,7 +275,7 @@ def glove_constants(params: GloveParams) -> GloveConstants:
         heights=np.stack([rule.heights for rule in rules]),
         weights=np.stack([rule.weights for rule in rules]),
         material=np.array([material.c1, material.c2, material.c3]),
-        laws=np.stack([law_row(joint) for joint in params.finger.joints]),
+        laws=laws[0],
     )
     return constants._replace(table=torque_tables(constants))
 

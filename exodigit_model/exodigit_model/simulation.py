@@ -13,8 +13,9 @@ length Δt = 1/``rate_hz`` from the state at t_{k−1}:
    true state is never noisy).
 
 :class:`GloveSimulation` steps one glove, or ``count`` independent gloves in one vectorised solve
-per step. The ROS plant, the in-process API and the Gymnasium environment all use it, so they
-cannot disagree.
+per step, or a population: one glove per patient, the exo-digit shared and each glove on its own
+finger (``fingers``). The ROS plant, the in-process API and the Gymnasium environment all use
+it, so they cannot disagree.
 
 >>> from exodigit_model import GloveSimulation
 >>> simulation = GloveSimulation(settings=SimulationSettings(pressure_time_constant=0.0))
@@ -26,6 +27,7 @@ cannot disagree.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, fields, replace
 from typing import NamedTuple
 
@@ -33,8 +35,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .chambers import Chambers, ChamberSettings, Saturation
+from .kernels.solves import rest_rows
 from .kernels.stepping import run_glove, step_gloves, step_one
 from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
+from .params import Finger
+from .patient import finger_rows
 from .solver import CONVERGED_STEP
 
 NANOSECONDS = 10**9
@@ -144,7 +149,7 @@ class GloveState(NamedTuple):
     in_valid_range : bool or ndarray of bool
         Whether every fibre's stretch lies in the model's validated range.
     in_range_of_motion : bool or ndarray of bool
-        Whether every joint lies within the finger's range of motion.
+        Whether every joint lies within the finger's range of motion (each glove's own).
     saturated : bool
         Whether the command had to be clipped to [0, max_supply_pressure] in this step.
     """
@@ -171,7 +176,7 @@ class GloveState(NamedTuple):
 
 
 class GloveSimulation:
-    """The glove stepped in time (docs/spec/model.md §13): one glove, or ``count`` in one batch.
+    """The glove stepped in time (docs/spec/model.md §13): one glove, or a batch of them.
 
     Parameters
     ----------
@@ -180,14 +185,30 @@ class GloveSimulation:
     settings : SimulationSettings, optional
         Rate, chamber lag, supply, sensor noise and seed; the ROS plant's defaults when omitted.
     count : int, optional
-        Number of independent gloves stepped together; omitted = one glove, whose arrays have
-        shape (3,) (with ``count`` they have shape (count, 3), also for ``count=1``).
+        Number of independent gloves stepped together, all on the model's finger; omitted = one
+        glove, whose arrays have shape (3,) (with ``count`` they have shape (count, 3), also for
+        ``count=1``).
+    fingers : sequence of Finger, optional
+        A population: one glove per finger, each the model's exo-digit on that finger (the
+        patient of docs/spec/model.md §11, e.g. ``Patients.fingers`` of
+        :mod:`exodigit_model.trials`). Glove i steps as
+        ``GloveSimulation(GloveModel(replace(model.params, finger=fingers[i])))`` would, bit for
+        bit (sensor noise aside, see Notes). ``count`` may be left out; given, it must be
+        ``len(fingers)``.
+
+    Raises
+    ------
+    ValueError
+        For a ``count`` that is not a positive integer, ``fingers`` that is not a non-empty
+        sequence of :class:`~exodigit_model.params.Finger`, or both that disagree.
 
     Notes
     -----
-    Every glove of a batch starts at rest and receives its own row of the command. The noise
-    streams come from ``seed`` (numpy's SeedSequence): angles and pressures draw from two
-    independent streams, in that order, every step.
+    Every glove of a batch starts at rest (vented, on its own finger) and receives its own row
+    of the command. The noise streams come from ``seed`` (numpy's SeedSequence): angles and
+    pressures draw from two independent streams, in that order, every step; a batch draws its
+    noise for all its gloves at once from the two streams of the batch, so a noisy glove of a
+    batch does not equal a single glove of the same seed.
     """
 
     def __init__(
@@ -196,15 +217,23 @@ class GloveSimulation:
         settings: SimulationSettings | None = None,
         *,
         count: int | None = None,
+        fingers: Iterable[Finger] | None = None,
     ) -> None:
         if count is not None and (
             isinstance(count, bool) or not isinstance(count, int) or count < 1
         ):
             raise ValueError(f'count = {count!r}: must be a positive integer (or None)')
         self.model = GloveModel() if model is None else model
+        self.fingers = None if fingers is None else _population(fingers, count)
+        """Each glove's finger when the simulation was given ``fingers``, else None."""
+        if self.fingers is not None:
+            count = len(self.fingers)
         self.settings = SimulationSettings() if settings is None else settings
         self.count = count
         self.shape = (3,) if count is None else (count, 3)
+        self._finger_rows = self._patients()
+        rest = rest_rows(self.model.packed, *self._finger_rows, *VALID_STRETCH)
+        self._rest = rest if count is not None else tuple(_last(value) for value in rest)
         self.period = self.settings.period
         self.chambers = Chambers(self.settings.chambers, self.period, self.shape)
         angle_stream, pressure_stream = np.random.SeedSequence(self.settings.seed).spawn(2)
@@ -269,7 +298,7 @@ class GloveSimulation:
             status, iterations, residual, valid, moving_range, below, above = outcome
         else:
             state, applied, qdot, status, iterations, residual, flags = step_gloves(
-                glove, self._kernel_state, command, effort, *self._stepping
+                glove, *self._finger_rows, self._kernel_state, command, effort, *self._stepping
             )
             self._kernel_state = state
             valid, moving_range = flags[:, 0], flags[:, 1]
@@ -419,23 +448,29 @@ class GloveSimulation:
             return true
         return true + rng.normal(0.0, std, true.shape)
 
+    def _patients(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The kernels' finger constants of every glove: rows of link half lengths and laws."""
+        if self.fingers is not None:
+            return finger_rows(self.fingers)
+        constants, rows = self.model.constants, self.count or 1
+        return (
+            np.tile(constants.finger_half_lengths, (rows, 1)),
+            np.tile(constants.laws, (rows, 1, 1)),
+        )
+
     def _rest_state(self) -> GloveState:
+        """Every glove vented and at rest on its finger, at the current time (no step)."""
         zeros = np.zeros(self.shape)
         self._zeros = zeros
         self._rest_lengths = np.broadcast_to(self.model.constants.arc_lengths, self.shape)
-        rest = self.model.solve(zeros if self.count is None else np.zeros(3))
-        x = self.model.unknowns(rest.q, rest.lengths)
-        x = np.broadcast_to(x, (*self.shape[:-1], x.size)).copy()
+        x, forces, torque, status, _, residual, valid, moving_range = self._rest
         q = x[..., :3]
-        forces = np.broadcast_to(rest.forces, self.shape).copy()
-        torque = np.broadcast_to(rest.finger_torque, self.shape).copy()
         state = (x, q.copy(), zeros, forces, torque)
         if self.count is None:
             self._block = _block_of(state)
         else:
             self._kernel_state = state
         self.chambers.pressure = zeros
-        batch = self.count is not None
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         return GloveState(
             step=self.step_count,
@@ -451,15 +486,11 @@ class GloveSimulation:
             finger_torque=torque,
             lengths=self._lengths(x),
             effort=zeros,
-            converged=np.full(self.count, rest.converged) if batch else rest.converged,
-            iterations=np.zeros(self.count, int) if batch else 0,
-            residual=np.full(self.count, rest.residual) if batch else rest.residual,
-            in_valid_range=np.full(self.count, rest.in_valid_range)
-            if batch
-            else rest.in_valid_range,
-            in_range_of_motion=np.full(self.count, rest.in_range_of_motion)
-            if batch
-            else rest.in_range_of_motion,
+            converged=status <= CONVERGED_STEP,
+            iterations=0 if self.count is None else np.zeros(self.count, int),
+            residual=residual,
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
             saturated=False,
         )
 
@@ -472,6 +503,30 @@ class GloveSimulation:
             self.settings.rate_hz,
             *VALID_STRETCH,
         )
+
+
+def _population(fingers: Iterable[Finger], count: int | None) -> tuple[Finger, ...]:
+    """``fingers`` as a tuple of one or more Fingers agreeing with ``count``, or a ValueError."""
+    try:
+        population = tuple(fingers)
+    except TypeError:
+        population = None
+    if not population:
+        raise ValueError(
+            f'fingers = {fingers!r}: must be a non-empty sequence of Finger, one per glove '
+            '(e.g. Patients.fingers)'
+        )
+    for index, finger in enumerate(population):
+        if not isinstance(finger, Finger):
+            raise ValueError(
+                f'fingers[{index}] = {finger!r}: must be a Finger (exodigit_model.params.Finger)'
+            )
+    if count is not None and count != len(population):
+        raise ValueError(
+            f'count = {count!r}: does not match the {len(population)} fingers (one glove per '
+            'finger; count may be left out)'
+        )
+    return population
 
 
 def _state_of(block: NDArray[np.float64]) -> tuple:

@@ -8,6 +8,11 @@ are named by the ``LAW_*`` indices below (docs/spec/model.md §11).
 From Python the kernels are called with the same constants packed into one array
 (:func:`pack`), which the entry kernels :func:`unpack` into views: numba takes a named tuple of
 fourteen arrays apart at every call from Python (about 3 µs), one array in about 0.3 µs.
+
+A batch of gloves on a population of patients shares the exo-digit's constants and gives each
+glove its own finger: rows of ``finger_half_lengths`` (N, 3) and of ``laws`` (N, 3,
+LAW_COLUMNS), which :func:`with_finger` puts in place of the packed finger's, one glove at a
+time (docs/spec/model.md §13, "A population").
 """
 
 from __future__ import annotations
@@ -177,4 +182,29 @@ def unpack(packed):
         packed[_WEIGHTS:_MATERIAL].reshape((3, QUADRATURE_POINTS)),
         packed[_MATERIAL:_LAWS],
         packed[_LAWS:].reshape((3, LAW_COLUMNS)),
+    )
+
+
+@kernel(inline=True)
+def with_finger(glove, finger_half_lengths, laws):
+    """``glove`` on another finger: its link half lengths (3,), m, and laws (3, LAW_COLUMNS).
+
+    The laws are the constants of the patient's torque τ_H, eqs (11.1)-(11.3); the other
+    fields are ``glove``'s own (views, nothing copied): the exo-digit is the same.
+    """
+    return GloveConstants(
+        glove.arc_lengths,
+        glove.block_half_lengths,
+        finger_half_lengths,
+        glove.pressure_moments,
+        glove.pressure_areas,
+        glove.layer_stiffness,
+        glove.extensible_segments,
+        glove.extensible,
+        glove.strain_per_angle,
+        glove.table,
+        glove.heights,
+        glove.weights,
+        glove.material,
+        laws,
     )

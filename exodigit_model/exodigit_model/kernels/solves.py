@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .constants import LAW_ROM_MAX, LAW_ROM_MIN, unpack
+from .constants import LAW_ROM_MAX, LAW_ROM_MIN, unpack, with_finger
 from .jit import kernel
 from .kinematics import finger_terms, robot_terms
 from .newton import newton
 from .statics import evaluate, finger_load
-from .workspace import workspace
+from .workspace import MAX_UNKNOWNS, workspace
 
 
 @kernel
@@ -88,6 +88,39 @@ def validity_rows(packed, x, low, high):
         valid[r] = stretch_in_range(glove, x[r], low, high)
         moving_range[r] = in_range_of_motion(glove, x[r])
     return valid, moving_range
+
+
+@kernel
+def rest_rows(packed, finger_half_lengths, laws, valid_low, valid_high):
+    """Each glove of a batch at rest, on its own finger: vented, static, no effort.
+
+    Row r solves (11.4) at p = 0 with q̇ = 0 and u = 0 from x = 0, as :func:`solve_state` does
+    from zero, for the exo-digit of ``packed`` on the finger of row r of ``finger_half_lengths``
+    (N, 3), m, and ``laws`` (N, 3, LAW_COLUMNS) (:func:`.constants.with_finger`); a finger
+    whose rest angle is not zero rests bent, pre-loaded (docs/spec/model.md §11).
+
+    Returns x (N, n), f (N, 3), τ_H (N, 3), status (N,), iterations (N,), residual (N,) and the
+    checks of :func:`validity_rows`, in_valid_range and in_range_of_motion (N,).
+    """
+    glove, work = unpack(packed), workspace()
+    rows = laws.shape[0]
+    x = np.zeros((rows, MAX_UNKNOWNS if glove.extensible else 3))
+    forces = np.empty((rows, 3))
+    torque = np.empty((rows, 3))
+    status = np.empty(rows, np.int64)
+    iterations = np.empty(rows, np.int64)
+    residual = np.empty(rows)
+    valid = np.empty(rows, np.bool_)
+    moving_range = np.empty(rows, np.bool_)
+    vented, still = np.zeros(3), np.zeros((3, 3))
+    for r in range(rows):
+        patient = with_finger(glove, finger_half_lengths[r], laws[r])
+        status[r], iterations[r], residual[r] = newton(
+            patient, work, x[r], vented, False, still, 0.0, forces[r], torque[r]
+        )
+        valid[r] = stretch_in_range(patient, x[r], valid_low, valid_high)
+        moving_range[r] = in_range_of_motion(patient, x[r])
+    return x, forces, torque, status, iterations, residual, valid, moving_range
 
 
 @kernel

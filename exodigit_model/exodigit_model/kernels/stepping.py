@@ -9,15 +9,23 @@ A step of length Δt from the state (x, p) under the command u:
    motion goes on: half the Newton steps); a solve that does not converge keeps the last good
    state.
 
-:func:`step_glove` advances one glove in place; :func:`run_glove` takes many steps and records
-them; :func:`step_gloves` advances a batch, one glove after the other.
+:func:`step_into` advances one glove; :func:`step_one` and :func:`run_glove` take one step or
+many (recorded) from Python; :func:`step_gloves` advances a batch, one glove after the other,
+each on its own finger (rows of the finger's constants, :func:`.constants.with_finger`): a
+population of patients, or the same finger N times.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .constants import LAW_DAMPING, LAW_EXTENSOR_SPASTICITY, LAW_SPASTICITY, unpack
+from .constants import (
+    LAW_DAMPING,
+    LAW_EXTENSOR_SPASTICITY,
+    LAW_SPASTICITY,
+    unpack,
+    with_finger,
+)
 from .jit import kernel
 from .newton import CONVERGED_STEP, newton
 from .solves import in_range_of_motion, stretch_in_range
@@ -223,20 +231,42 @@ def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, 
 
 
 @kernel(counted=False)
-def step_rows(glove, work, states, new, commands, efforts, limits, outcomes):
-    """:func:`step_into` for every glove of a batch (its row of each array)."""
+def step_rows(glove, fingers, work, states, new, commands, efforts, limits, outcomes):
+    """:func:`step_into` for every glove of a batch (its row of each array) on its finger.
+
+    ``fingers``: the rows of the gloves' finger constants, link half lengths (N, 3) and laws
+    (N, 3, LAW_COLUMNS) (:func:`.constants.with_finger`).
+    """
+    finger_half_lengths, laws = fingers
     status, iterations, residual, flags = outcomes
     for r in range(commands.shape[0]):
+        patient = with_finger(glove, finger_half_lengths[r], laws[r])
         state = (states[0][r], states[1][r], states[2][r], states[3][r], states[4][r])
         row = (new[0][r], new[1][r], new[2][r], new[3][r], new[4][r], new[5][r], new[6][r])
-        outcome = step_into(glove, work, state, row, commands[r], efforts[r], limits)
+        outcome = step_into(patient, work, state, row, commands[r], efforts[r], limits)
         status[r], iterations[r], residual[r] = outcome[0], outcome[1], outcome[2]
         flags[r, 0], flags[r, 1], flags[r, 2], flags[r, 3] = outcome[3:]
 
 
 @kernel
-def step_gloves(packed, states, commands, efforts, decay, supply, rate, valid_low, valid_high):
+def step_gloves(
+    packed,
+    finger_half_lengths,
+    laws,
+    states,
+    commands,
+    efforts,
+    decay,
+    supply,
+    rate,
+    valid_low,
+    valid_high,
+):
     """:func:`step_into` for every glove of a batch: ``states`` of arrays with a leading N.
+
+    Glove r is the exo-digit of ``packed`` on the finger of row r of ``finger_half_lengths``
+    (N, 3), m, and ``laws`` (N, 3, LAW_COLUMNS) (eqs 11.1-11.3): what one glove of that
+    finger's packed constants gives, bit for bit.
 
     Returns the new states, the clipped commands, q̇ (N, 3), status, iterations, residual (N,)
     and the flags (N, 4) of :func:`run_glove`.
@@ -251,6 +281,7 @@ def step_gloves(packed, states, commands, efforts, decay, supply, rate, valid_lo
         np.empty((rows, 4), np.bool_),
     )
     limits = (decay, supply, rate, valid_low, valid_high)
-    step_rows(glove, work, states, new, commands, efforts, limits, outcomes)
+    fingers = (finger_half_lengths, laws)
+    step_rows(glove, fingers, work, states, new, commands, efforts, limits, outcomes)
     status, iterations, residual, flags = outcomes
     return new[:5], new[5], new[6], status, iterations, residual, flags

@@ -90,7 +90,11 @@ def exercise_geometry(model: GloveModel) -> None:
 
 
 def exercise_simulation(model: GloveModel) -> None:
-    """Steps and runs of one glove and of four (:class:`~exodigit_model.GloveSimulation`)."""
+    """Steps and runs of one glove, of four, and of a population of two patients.
+
+    (:class:`~exodigit_model.GloveSimulation`; the population's fingers: the model's own and
+    the ``stroke_moderate`` preset's.)
+    """
     one = GloveSimulation(model)
     one.step(PRESSURE)
     one.step(PRESSURE, EFFORT)
@@ -101,6 +105,10 @@ def exercise_simulation(model: GloveModel) -> None:
     batch.step(np.tile(PRESSURE, (4, 1)), np.tile(EFFORT, (4, 1)))
     batch.run(np.tile(PRESSURE, (STEPS, 4, 1)))
     batch.run(np.tile(PRESSURE, (STEPS, 4, 1)), np.tile(EFFORT, (STEPS, 4, 1)))
+    fingers = [model.params.finger, load_params(patient_file('stroke_moderate')).finger]
+    population = GloveSimulation(model, fingers=fingers)
+    population.step(np.tile(PRESSURE, (2, 1)), np.tile(EFFORT, (2, 1)))
+    population.reset()
 
 
 CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
