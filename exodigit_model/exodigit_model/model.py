@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .identification import StiffnessFit, fit_stiffness
 from .kernels.constants import DEGREE, PIECES, GloveConstants, pack
-from .kernels.inverse import contact_torques, estimate_rows, hold
+from .kernels.inverse import contact_torques, estimate_rows, hold, robot_contact_torques
 from .kernels.kinematics import chord_terms, finger_points, frames
 from .kernels.linear import transpose_solve
 from .kernels.solves import (
@@ -684,6 +684,19 @@ class GloveModel:
         angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
         _require_shape('forces', rows, 'q', angles.shape)
         torque = contact_torques(self.packed, np.atleast_2d(angles), np.atleast_2d(rows))
+        return torque.reshape(angles.shape)
+
+    def robot_contact_torque(self, q: ArrayLike, forces: ArrayLike) -> NDArray[np.float64]:
+        """(J_R*)ᵀ f: the joint torque contact forces f (N) put on the exo-digit, N·m (eq 34).
+
+        At the segments' rest lengths; ``q`` and ``forces`` of shape (3,), or (N, 3) rows. What
+        the force mode's feed-forward needs (docs/spec/model.md §7, for p).
+        """
+        angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
+        _require_shape('forces', rows, 'q', angles.shape)
+        torque = robot_contact_torques(
+            self.packed, np.atleast_2d(angles), np.ascontiguousarray(np.atleast_2d(rows))
+        )
         return torque.reshape(angles.shape)
 
     def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:

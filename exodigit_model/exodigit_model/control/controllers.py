@@ -22,7 +22,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..model import GloveModel
-from .robot_torque import robot_contact_torque
 from .safety import SafetyLimiter
 from .shapes import check_shape, glove_shape
 
@@ -255,7 +254,9 @@ class ForceController(PIController):
 
         ``angles`` (rad) of one glove, (3,), or of a batch, (N, 3).
         """
-        robot = robot_contact_torque(self.model, angles, self.targets)
+        robot = self.model.robot_contact_torque(
+            angles, np.broadcast_to(self.targets, angles.shape)
+        )
         torque = robot - self.model.structural_torque(angles)
         return torque / self._moments
 

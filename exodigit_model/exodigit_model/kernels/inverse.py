@@ -244,3 +244,17 @@ def contact_torques(packed, angles, forces):
         finger_terms(angles[r], glove.finger_half_lengths, work.j_finger, work.finger_slopes)
         transpose_product(work.j_finger, forces[r], torque[r])
     return torque
+
+
+@kernel
+def robot_contact_torques(packed, angles, forces):
+    """(J_R*)ᵀ f per row of angles and contact forces (N, 3): the exo-digit's joint torque, N·m.
+
+    The robot-side twin of :func:`contact_torques`, at the segments' rest lengths.
+    """
+    glove, work = unpack(packed), workspace()
+    torque = np.empty(angles.shape)
+    for r in range(angles.shape[0]):
+        robot_terms(angles[r], glove.arc_lengths, glove.block_half_lengths, False, work)
+        transpose_product(work.j_robot, forces[r], torque[r])
+    return torque

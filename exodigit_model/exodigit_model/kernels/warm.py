@@ -74,6 +74,8 @@ def exercise_geometry(model: GloveModel) -> None:
     model.finger_torque(q, q, EFFORT)
     model.finger_forces(q)
     model.contact_jacobians(q)
+    model.robot_contact_torque(q, EFFORT)
+    model.robot_contact_torque(rows, np.ones_like(rows))
     model.length_jacobian(q)
     model.residual(q, PRESSURE)
     model.residual_jacobian(q, PRESSURE, q_previous=q, dt=DT)
