@@ -1,0 +1,277 @@
+"""The controller of a trial, made from its :class:`~.spec.ControllerSpec` where a shard runs.
+
+Three kinds (docs/trials.md, "Controllers"):
+
+- ``mode``: a built-in mode of ``pressure_command`` behind its safety limiter
+  (:class:`~exodigit_model.control.BuiltInMode`), with the node's parameter names and defaults
+  (:data:`MODE_PARAMETERS`, :data:`COMMON_PARAMETERS`). The ``position`` mode tracks the
+  protocol's targets, as the node tracks its ``joint_targets`` topic.
+- ``controller``: a user's :class:`~exodigit_model.control.BatchController`, made by the factory
+  ``module:attribute`` as ``factory(protocol=..., model=..., **parameters)``.
+- ``policy``: a Gymnasium policy made by ``factory(env=..., **parameters)`` for a
+  :class:`~exodigit_model.gym.GloveEnv` on the nominal glove whose target is the protocol's, run
+  by :class:`~exodigit_model.gym.PolicyController` (needs the ``gym`` extra).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import partial
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..control import (
+    BatchController,
+    BuiltInMode,
+    ForceController,
+    Hold,
+    PositionController,
+    SafetyLimits,
+    Sine,
+    Staircase,
+)
+from ..model import GloveModel, as_joint_vector
+from ..params import _non_negative, _number, _positive
+
+if TYPE_CHECKING:
+    from ..simulation import GloveState, SimulationSettings
+    from .protocols import SessionProtocol
+    from .spec import ControllerSpec
+
+Check = Callable[[str, Any], Any]
+"""check(name, value) -> the value to use, or a ValueError naming the parameter."""
+
+
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f'{name} = {value!r}: must be true or false')
+    return value
+
+
+def _pressures(name: str, value: Any) -> tuple[float, ...]:
+    pressures = as_joint_vector(name, value)
+    if np.any(pressures < 0.0):
+        raise ValueError(f'{name} = {value!r}: pressures must be >= 0 (Pa)')
+    return tuple(pressures.tolist())
+
+
+def _vector(name: str, value: Any) -> tuple[float, ...]:
+    return tuple(as_joint_vector(name, value).tolist())
+
+
+PASCAL = partial(_non_negative, unit='Pa')
+GAIN = partial(_non_negative, unit='a gain')
+SECONDS = partial(_positive, unit='s')
+
+MODE_PARAMETERS: Mapping[str, Mapping[str, tuple[Any, Check]]] = {
+    'staircase': {
+        'staircase_step': (10e3, partial(_positive, unit='Pa')),
+        'staircase_peak': (50e3, partial(_positive, unit='Pa')),
+        'step_duration': (2.0, SECONDS),
+    },
+    'sine': {
+        'sine_low': (0.0, PASCAL),
+        'sine_high': (40e3, PASCAL),
+        'sine_period': (4.0, SECONDS),
+    },
+    'hold': {'hold_pressure': ((20e3, 20e3, 20e3), _pressures)},
+    'position': {'position_kp': (5e4, GAIN), 'position_ki': (3e5, GAIN)},
+    'force': {
+        'force_targets': ((0.1, 0.1, 0.1), _vector),
+        'force_kp': (5e4, GAIN),
+        'force_ki': (5e5, GAIN),
+    },
+}
+"""Per built-in mode, its parameters: (default, check). Names, units (SI) and defaults are the
+``pressure_command`` node's (docs/spec/ros.md; a test holds them to the node's table)."""
+
+LIMIT_NAMES = {
+    'max_pressure': 'max_pressure',
+    'max_pressure_rate': 'max_pressure_rate',
+    'joint_lower_limits': 'joint_lower',
+    'joint_upper_limits': 'joint_upper',
+    'max_contact_force': 'max_contact_force',
+}
+"""The node's safety parameters and the :class:`SafetyLimits` fields they set."""
+
+_LIMITS = SafetyLimits()
+
+COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
+    **{
+        name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else _number)
+        for name, field_name in LIMIT_NAMES.items()
+    },
+    'estimate_forces': (False, _flag),
+}
+"""Parameters of every mode: the node's safety limits (SafetyLimits checks them together) and
+``estimate_forces``: whether the limiter gets the nominal model's robot-side force estimate
+(the ``estimator`` node's; 2 µs per glove and step), so it backs off above
+``max_contact_force``. Without it the limiter checks the range of motion only, as the node
+without an estimator. The ``force`` mode always estimates (its feedback)."""
+
+
+@dataclass(frozen=True)
+class ModeSettings:
+    """A built-in mode with every parameter checked and its defaults filled in.
+
+    Attributes
+    ----------
+    mode : str
+        The mode, a key of :data:`MODE_PARAMETERS`.
+    values : mapping of str to value
+        The mode's parameters and the common ones, SI.
+    limits : SafetyLimits
+        The limiter's limits.
+    estimate_forces : bool
+        Whether the limiter (and the force mode) gets the force estimate.
+    """
+
+    mode: str
+    values: Mapping[str, Any]
+    limits: SafetyLimits
+    estimate_forces: bool
+
+
+def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
+    """Check a built-in mode's ``parameters`` and fill in the defaults.
+
+    Raises
+    ------
+    ValueError
+        For an unknown mode or parameter (the message lists the known ones), or a value that
+        breaks its rule.
+    """
+    if mode not in MODE_PARAMETERS:
+        raise ValueError(f'mode {mode!r}: unknown (known: {", ".join(MODE_PARAMETERS)})')
+    known = {**MODE_PARAMETERS[mode], **COMMON_PARAMETERS}
+    unknown = sorted(set(parameters) - set(known))
+    if unknown:
+        raise ValueError(
+            f'mode {mode!r}: unknown parameter {unknown[0]!r} (known: {", ".join(known)})'
+        )
+    values = {
+        name: check(name, parameters[name]) if name in parameters else default
+        for name, (default, check) in known.items()
+    }
+    limits = SafetyLimits(**{field: values[name] for name, field in LIMIT_NAMES.items()})
+    return ModeSettings(mode, values, limits, values['estimate_forces'] or mode == 'force')
+
+
+class ProtocolPosition(BuiltInMode):
+    """The ``position`` mode tracking the protocol: its targets are q*(t + Δt) at every step.
+
+    Before each command the targets become the protocol's at the end of the coming step, as
+    the node's targets follow its ``joint_targets`` topic (the feed-forward is recomputed).
+    """
+
+    def __init__(
+        self,
+        controller: PositionController,
+        limits: SafetyLimits,
+        *,
+        estimator: GloveModel | None,
+        protocol: SessionProtocol,
+    ) -> None:
+        super().__init__(controller, limits, estimator=estimator)
+        self.protocol = protocol
+
+    def command(self, t: float, dt: float, state: GloveState) -> NDArray[np.float64]:
+        """Track q*(t + dt), then :meth:`BuiltInMode.command`."""
+        self.loop.controller.set_targets(self.protocol.targets(t + dt))
+        return super().command(t, dt, state)
+
+
+def built_in_mode(
+    settings: ModeSettings, *, protocol: SessionProtocol, model: GloveModel
+) -> BuiltInMode:
+    """The built-in mode of ``settings`` behind its limiter, on the nominal ``model``."""
+    v = settings.values
+    controllers = {
+        'staircase': lambda: Staircase(
+            v['staircase_step'], v['staircase_peak'], v['step_duration']
+        ),
+        'sine': lambda: Sine(v['sine_low'], v['sine_high'], v['sine_period']),
+        'hold': lambda: Hold(np.array(v['hold_pressure'])),
+        'position': lambda: PositionController(
+            model, protocol.targets(0.0), v['position_kp'], v['position_ki']
+        ),
+        'force': lambda: ForceController(model, v['force_targets'], v['force_kp'], v['force_ki']),
+    }
+    controller, estimator = (
+        controllers[settings.mode](),
+        model if settings.estimate_forces else None,
+    )
+    if settings.mode == 'position':
+        return ProtocolPosition(
+            controller, settings.limits, estimator=estimator, protocol=protocol
+        )
+    return BuiltInMode(controller, settings.limits, estimator=estimator)
+
+
+def build_controller(
+    spec: ControllerSpec,
+    *,
+    protocol: SessionProtocol,
+    model: GloveModel,
+    settings: SimulationSettings,
+) -> BatchController:
+    """The trial's controller (not yet reset): a built-in mode, a user's, or a policy's.
+
+    Parameters
+    ----------
+    spec : ControllerSpec
+        Which controller, with its parameters.
+    protocol : SessionProtocol
+        The session: its targets are the position mode's and a policy's.
+    model : GloveModel
+        The nominal glove, the one a controller knows (not the patients').
+    settings : SimulationSettings
+        The simulation's settings (a policy's environment observes with them).
+
+    Raises
+    ------
+    ValueError
+        If a factory raises, or does not return a BatchController (or a callable policy).
+    """
+    parameters = dict(spec.parameters)
+    if spec.kind == 'mode':
+        return built_in_mode(mode_settings(spec.name, parameters), protocol=protocol, model=model)
+    factory = spec.factory()
+    if spec.kind == 'controller':
+        controller = _call(spec, factory, protocol=protocol, model=model, **parameters)
+        if not isinstance(controller, BatchController):
+            raise ValueError(
+                f'{spec.name}: returned {type(controller).__name__}, not a BatchController '
+                '(an object with reset(count, rng) and command(t, dt, state))'
+            )
+        return controller
+    try:
+        from ..gym import GloveEnv, PolicyController
+    except ImportError:
+        raise ValueError('a policy needs Gymnasium: pip install "./exodigit_model[gym]"') from None
+    env = GloveEnv(model, settings=settings, target=protocol.targets)
+    return PolicyController(_call(spec, factory, env=env, **parameters), env)
+
+
+def _call(spec: ControllerSpec, factory: Callable[..., Any], **arguments: Any) -> Any:
+    """``factory(**arguments)``, its failure a ValueError naming the factory."""
+    try:
+        return factory(**arguments)
+    except Exception as error:  # a user's factory may raise anything
+        raise ValueError(f'{spec.name}: failed: {type(error).__name__}: {error}') from error
+
+
+def limiter_acted(controller: BatchController, count: int) -> NDArray[np.bool_] | bool:
+    """Whether the controller's safety limiter changed each glove's last command, (N,).
+
+    A controller reports it as the built-in ones do: ``controller.last.acted``, (N, k) bools
+    (a limit per column). One without it (``last`` missing or None) reports no intervention.
+    """
+    acted = getattr(getattr(controller, 'last', None), 'acted', None)
+    if acted is None:
+        return False
+    acted = np.asarray(acted, dtype=bool)
+    return acted.reshape(count, -1).any(axis=1)
