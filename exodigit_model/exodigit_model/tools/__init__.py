@@ -1,1 +1,1 @@
-"""exodigit command-line research tools (curves, draw, calibrate, plot)."""
+"""exodigit command-line research tools (curves, draw, calibrate, plot, trial)."""

@@ -1,8 +1,9 @@
 """The ``exodigit`` command: research tools around the glove model.
 
-Subcommands ``curves``, ``draw``, ``calibrate`` and ``plot`` (see ``exodigit --help``). Units at
-this interface are kPa, mm and degrees (labelled in every file and figure); everything inside is
-SI. Bad input ends with one line on stderr and a non-zero exit status, never a traceback.
+Subcommands ``curves``, ``draw``, ``calibrate``, ``plot`` and ``trial`` (see
+``exodigit --help``). Units at this interface are kPa, mm and degrees (labelled in every file and
+figure); everything inside is SI. Bad input ends with one line on stderr and a non-zero exit
+status, never a traceback.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import PATIENT_PRESETS, GloveModel, ParameterError, load_params, patient_file
+from . import trial_command
 from ._deps import ToolError, progress
 from .calibration import FIT_MODES
 
@@ -26,6 +28,7 @@ EXAMPLES = {
     'draw': 'exodigit draw --pressure 50 --out glove.png',
     'calibrate': 'exodigit calibrate docs/example_bench.csv --fit both --out my_glove.yaml',
     'plot': 'exodigit plot runs/stairs/bag --out runs/stairs',
+    'trial': trial_command.EXAMPLE,
 }
 
 SUMMARIES = {
@@ -33,6 +36,7 @@ SUMMARIES = {
     'draw': 'draw the finger and the exo-digit at one pressure',
     'calibrate': 'fit the material, finger stiffness and/or layer stiffness to measurements',
     'plot': 'plot a recorded session (rosbag2 bag)',
+    'trial': 'run a controller against a population of virtual patients',
 }
 
 DESCRIPTIONS = {
@@ -46,6 +50,7 @@ DESCRIPTIONS = {
     'parameter file, with standard errors and a measured-against-model plot.',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
     'exodigit_nodes.nodes.recorder (or ros2 bag record).',
+    'trial': trial_command.DESCRIPTION,
 }
 
 
@@ -75,12 +80,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     commands = parser.add_subparsers(dest='command', metavar='SUBCOMMAND', required=True)
 
-    def command(name: str) -> argparse.ArgumentParser:
+    def command(name: str, epilog: str | None = None) -> argparse.ArgumentParser:
         return commands.add_parser(
             name,
             help=SUMMARIES[name],
             description=textwrap.fill(DESCRIPTIONS[name], 79),
-            epilog=f'example:\n  {EXAMPLES[name]}',
+            epilog=epilog or f'example:\n  {EXAMPLES[name]}',
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
 
@@ -133,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     plot = command('plot')
     plot.add_argument('bag', metavar='BAG', help='rosbag2 folder (MCAP) from the recorder')
     plot.add_argument('--out', metavar='DIR', default='.', help='output folder (.)')
+
+    trial_command.add_arguments(command('trial', trial_command.EPILOG))
     return parser
 
 
@@ -249,6 +256,7 @@ COMMANDS = {
     'draw': run_draw,
     'calibrate': run_calibrate,
     'plot': run_plot,
+    'trial': trial_command.run,
 }
 
 
@@ -256,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``exodigit`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        COMMANDS[args.command](args)
+        status = COMMANDS[args.command](args)
     except (ToolError, ParameterError) as error:
         reason = ' '.join(str(error).split())  # one line, whatever the message's source
         print(f'exodigit {args.command}: error: {reason}', file=sys.stderr)
@@ -268,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'exodigit {args.command}: interrupted', file=sys.stderr)
         return 130
-    return 0
+    return status or 0
 
 
 if __name__ == '__main__':
