@@ -136,10 +136,14 @@ def tracking_reward(
 
     ``q`` is the true joint angle after the step (``state.q``, not the noisy measurement: the
     reward scores the finger, not the sensor), q* the target at the same time ``state.t``. The
-    action is not used; a reward with an effort or a rate term can use it.
+    action is not used; a reward with an effort or a rate term can use it. Over a batch
+    (``state.q`` of shape (N, 3), as :class:`~exodigit_model.gym_vector.GloveVectorEnv` calls
+    it) it returns the N rewards, each summed in the order MCP, PIP, DIP as for one glove, so
+    a glove's reward is the same bit for bit either way.
     """
-    error = state.q - target
-    return -float(error @ error)
+    squared = np.square(state.q - target)
+    total = squared[..., 0] + squared[..., 1] + squared[..., 2]
+    return -total if np.ndim(total) else -float(total)
 
 
 class GloveEnv(gymnasium.Env):
@@ -322,8 +326,8 @@ class GloveEnv(gymnasium.Env):
         self._limiter = None if self.safety is None else SafetyLimiter(self.safety)
         self._limited = {}
         state = self.simulation.state
-        target = self._target_at(state.t)
-        self._next_target = self._target_at(self._time_of(state.step + 1))
+        target = self.target_of_step(0)
+        self._next_target = self.target_of_step(1)
         observation, clipped = self._observe(state)
         return observation, self._info(state, target, clipped)
 
@@ -362,7 +366,7 @@ class GloveEnv(gymnasium.Env):
             reward = math.nan
         if not math.isfinite(reward):
             raise ValueError(f'reward returned {reward!r} at t = {state.t} s: must be finite')
-        self._next_target = self._target_at(self._time_of(state.step + 1))
+        self._next_target = self.target_of_step(state.step + 1)
         observation, clipped = self._observe(state)
         terminated = not bool(state.converged)
         truncated = state.step >= self.episode_steps
@@ -381,11 +385,17 @@ class GloveEnv(gymnasium.Env):
         self._limited = limited.reasons
         return limited.pressure
 
-    def _time_of(self, step: int) -> float:
-        """t_k, s, exactly as the stepper reports it."""
-        return step_time_ns(step, self.settings.rate_hz) / NANOSECONDS
+    def target_of_step(self, step: int) -> NDArray[np.float64]:
+        """q*(t_k), rad, (3,): the target at the time of step k of an episode.
 
-    def _target_at(self, t: float) -> NDArray[np.float64]:
+        t_k as the stepper reports it (:func:`~exodigit_model.simulation.step_time_ns`).
+
+        Raises
+        ------
+        ValueError
+            If ``target`` does not return three finite angles.
+        """
+        t = step_time_ns(step, self.settings.rate_hz) / NANOSECONDS
         return as_joint_vector(f'target({t})', self.target(t))
 
     def _observe(self, state: GloveState) -> tuple[NDArray[np.float32], bool]:
@@ -484,7 +494,7 @@ class PolicyController:
             If the policy's actions are not finite or not one row of three per glove.
         """
         env = self.env
-        target = env._target_at(env._time_of(state.step + 1)) if env.observe_target else None
+        target = env.target_of_step(state.step + 1) if env.observe_target else None
         observations, _ = observe(state, env.observation_space, target)
         actions = as_joint_rows('action', self.policy(observations))
         check_shape('action', actions, np.shape(state.q_measured))
