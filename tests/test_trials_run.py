@@ -7,6 +7,7 @@ known-unsafe and a known-gentle controller; user controllers and policies by mod
 refusals.
 """
 
+import doctest
 import pickle
 from dataclasses import replace
 
@@ -28,6 +29,8 @@ from exodigit_model.trials import (
     shard_bounds,
     shard_seeds,
 )
+from exodigit_model.trials import spec as spec_module
+from exodigit_model.trials import trial as trial_module
 from exodigit_model.trials.controllers import COMMON_PARAMETERS, LIMIT_NAMES, MODE_PARAMETERS
 from exodigit_nodes.nodes.catalog import PRESSURE_COMMAND_NODE
 
@@ -226,3 +229,8 @@ def test_a_factory_that_does_not_make_a_controller_is_refused():
         run_shard(spec(controller=controller), 0)
     with pytest.raises(ValueError, match=r"failed: TypeError: .*unexpected keyword argument 'x'"):
         run_shard(spec(controller=replace(controller, parameters={'x': 1})), 0)
+
+
+@pytest.mark.parametrize('module', [spec_module, trial_module], ids=lambda module: module.__name__)
+def test_the_docstring_examples_run(module):
+    assert doctest.testmod(module, raise_on_error=False).failed == 0

@@ -97,5 +97,5 @@ def rom_figure(result: TrialResult, path: Path) -> None:
     ax.set_xticks(positions, JOINT_LABELS)
     ax.set_ylabel('range of motion reached (deg)')
     ax.set_ylim(bottom=0.0)
-    ax.legend(fontsize='small', loc='lower right')
+    ax.legend(fontsize='small', loc='center')
     _save(figure, path)
