@@ -42,7 +42,7 @@ $(VENV)/.installed: $(INSTALL_INPUTS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip setuptools wheel
 	$(BIN)/python -m pip install --quiet -r requirements/ros.txt -r requirements/dev.txt
-	$(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e './exodigit_model[tools,gym]'
+	$(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e './exodigit_model[tools,gym,ray]'
 	if [ -f exodigit_nodes/setup.py ]; then $(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e ./exodigit_nodes; fi
 	touch $@
 
