@@ -9,7 +9,6 @@ file only needs the keys it changes. Any rule broken raises :class:`ParameterErr
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from importlib import resources
@@ -18,52 +17,21 @@ from typing import Any
 
 import yaml
 
+from .checks import (
+    ParameterError,
+    build_checked,
+    check_keys,
+    check_name,
+    check_non_negative,
+    check_number,
+    check_positive,
+    check_three,
+    read_yaml,
+    set_field,
+)
+
 JOINT_NAMES = ('mcp', 'pip', 'dip')
 """The three joints, always in this order (docs/spec/model.md §1)."""
-
-
-class ParameterError(ValueError):
-    """A parameter value or file breaks a rule; the message names key, value and rule."""
-
-
-def _number(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ParameterError(f'{key} = {value!r}: must be a number')
-    value = float(value)
-    if not math.isfinite(value):
-        raise ParameterError(f'{key} = {value!r}: must be finite')
-    return value
-
-
-def _positive(key: str, value: Any, unit: str) -> float:
-    number = _number(key, value)
-    if number <= 0.0:
-        raise ParameterError(f'{key} = {number!r}: must be > 0 ({unit})')
-    return number
-
-
-def _non_negative(key: str, value: Any, unit: str) -> float:
-    number = _number(key, value)
-    if number < 0.0:
-        raise ParameterError(f'{key} = {number!r}: must be >= 0 ({unit})')
-    return number
-
-
-def _name(key: str, value: Any) -> str:
-    if not isinstance(value, str) or not value:
-        raise ParameterError(f'{key} = {value!r}: must be a non-empty string')
-    return value
-
-
-def _three(key: str, items: Any, kind: type) -> tuple:
-    items = tuple(items)
-    if len(items) != 3 or not all(isinstance(item, kind) for item in items):
-        raise ParameterError(f'{key} has {len(items)} entries: must be exactly 3 (MCP, PIP, DIP)')
-    return items
-
-
-def _set(obj: object, key: str, value: object) -> None:
-    object.__setattr__(obj, key, value)
 
 
 @dataclass(frozen=True)
@@ -79,9 +47,9 @@ class Material:
     c3: float = 0.0
 
     def __post_init__(self) -> None:
-        _set(self, 'c1', _positive('c1', self.c1, 'Pa'))
-        _set(self, 'c2', _number('c2', self.c2))
-        _set(self, 'c3', _number('c3', self.c3))
+        set_field(self, 'c1', check_positive('c1', self.c1, 'Pa'))
+        set_field(self, 'c2', check_number('c2', self.c2))
+        set_field(self, 'c3', check_number('c3', self.c3))
 
 
 @dataclass(frozen=True)
@@ -121,13 +89,13 @@ class Segment:
     layer_axial_stiffness: float
 
     def __post_init__(self) -> None:
-        _set(self, 'name', _name('name', self.name))
+        set_field(self, 'name', check_name('name', self.name))
         for field in fields(self)[1:-1]:
-            _set(self, field.name, _positive(field.name, getattr(self, field.name), 'm'))
+            set_field(self, field.name, check_positive(field.name, getattr(self, field.name), 'm'))
         stiffness = self.layer_axial_stiffness
         if stiffness != math.inf:  # .inf is the paper's inextensible layer
-            stiffness = _non_negative('layer_axial_stiffness', stiffness, 'N, or .inf')
-        _set(self, 'layer_axial_stiffness', float(stiffness))
+            stiffness = check_non_negative('layer_axial_stiffness', stiffness, 'N, or .inf')
+        set_field(self, 'layer_axial_stiffness', float(stiffness))
 
     @property
     def extensible(self) -> bool:
@@ -161,12 +129,12 @@ class ExoDigit:
     segments: tuple[Segment, ...]
 
     def __post_init__(self) -> None:
-        _set(
+        set_field(
             self,
             'base_block_half_length',
-            _positive('base_block_half_length', self.base_block_half_length, 'm'),
+            check_positive('base_block_half_length', self.base_block_half_length, 'm'),
         )
-        _set(self, 'segments', _three('segments', self.segments, Segment))
+        set_field(self, 'segments', check_three('segments', self.segments, Segment))
 
 
 @dataclass(frozen=True)
@@ -216,8 +184,12 @@ class FingerJoint:
     spasticity_threshold: float
 
     def __post_init__(self) -> None:
-        _set(self, 'name', _name('name', self.name))
-        _set(self, 'link_half_length', _positive('link_half_length', self.link_half_length, 'm'))
+        set_field(self, 'name', check_name('name', self.name))
+        set_field(
+            self,
+            'link_half_length',
+            check_positive('link_half_length', self.link_half_length, 'm'),
+        )
         for key, unit in (
             ('stiffness', 'N·m/rad'),
             ('rom_torque', 'N·m'),
@@ -225,11 +197,11 @@ class FingerJoint:
             ('spasticity', 'N·m·s/rad'),
             ('extensor_spasticity', 'N·m·s/rad'),
         ):
-            _set(self, key, _non_negative(key, getattr(self, key), unit))
+            set_field(self, key, check_non_negative(key, getattr(self, key), unit))
         for key, unit in (('rom_sharpness', '1/rad'), ('spasticity_threshold', 'rad/s')):
-            _set(self, key, _positive(key, getattr(self, key), unit))
+            set_field(self, key, check_positive(key, getattr(self, key), unit))
         for key in ('rom_min', 'rom_max', 'rest_angle'):
-            _set(self, key, _number(key, getattr(self, key)))
+            set_field(self, key, check_number(key, getattr(self, key)))
         if not self.rom_min < self.rom_max:
             raise ParameterError(
                 f'rom_min = {self.rom_min!r}: must be below rom_max = {self.rom_max!r} (rad)'
@@ -248,7 +220,7 @@ class Finger:
     joints: tuple[FingerJoint, ...]
 
     def __post_init__(self) -> None:
-        _set(self, 'joints', _three('joints', self.joints, FingerJoint))
+        set_field(self, 'joints', check_three('joints', self.joints, FingerJoint))
 
 
 @dataclass(frozen=True)
@@ -267,34 +239,12 @@ class GloveParams:
         return data
 
 
-class _Yaml12Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``1.1e5`` as a float, like YAML 1.2 (docs/spec/model.md §10)."""
-
-
-_Yaml12Loader.add_implicit_resolver(
-    'tag:yaml.org,2002:float',
-    re.compile(r'^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$'),
-    list('-+0123456789.'),
-)
-
-
-def _check_keys(path: str, data: Any, known: Mapping[str, Any]) -> None:
-    if not isinstance(data, Mapping):
-        raise ParameterError(f'{path or "file"} = {data!r}: must be a mapping of keys to values')
-    unknown = sorted(set(data) - set(known), key=str)  # YAML keys need not be strings
-    if unknown:
-        where = f'{path}.' if path else ''
-        raise ParameterError(
-            f'{where}{unknown[0]}: unknown key (known keys: {", ".join(sorted(known))})'
-        )
-
-
 def _merge(path: str, defaults: Any, override: Any) -> Any:
     """Merge ``override`` over ``defaults`` key by key; lists of three merge item by item."""
     if isinstance(defaults, dict):
         if override is None:
             return defaults
-        _check_keys(path, override, defaults)
+        check_keys(path, override, defaults)
         return {
             key: _merge(f'{path}.{key}' if path else key, value, override.get(key))
             for key, value in defaults.items()
@@ -313,13 +263,6 @@ def _merge(path: str, defaults: Any, override: Any) -> Any:
             for i, (item, over) in enumerate(zip(defaults, override, strict=True))
         ]
     return defaults if override is None else override
-
-
-def _build(cls: type, path: str, data: Mapping[str, Any], **nested: Any) -> Any:
-    try:
-        return cls(**{**data, **nested})
-    except ParameterError as error:
-        raise ParameterError(f'{path}.{error}' if path else str(error)) from None
 
 
 def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
@@ -345,28 +288,23 @@ def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
 def _params(merged: Mapping[str, Any]) -> GloveParams:
     exo, finger = merged['exo_digit'], merged['finger']
     segments = tuple(
-        _build(Segment, f'exo_digit.segments[{i}]', s) for i, s in enumerate(exo['segments'])
+        build_checked(Segment, f'exo_digit.segments[{i}]', s)
+        for i, s in enumerate(exo['segments'])
     )
     joints = tuple(
-        _build(FingerJoint, f'finger.joints[{i}]', j) for i, j in enumerate(finger['joints'])
+        build_checked(FingerJoint, f'finger.joints[{i}]', j)
+        for i, j in enumerate(finger['joints'])
     )
     return GloveParams(
-        material=_build(Material, 'material', merged['material']),
-        exo_digit=_build(ExoDigit, 'exo_digit', exo, segments=segments),
-        finger=_build(Finger, 'finger', finger, joints=joints),
+        material=build_checked(Material, 'material', merged['material']),
+        exo_digit=build_checked(ExoDigit, 'exo_digit', exo, segments=segments),
+        finger=build_checked(Finger, 'finger', finger, joints=joints),
     )
-
-
-def _read_yaml(text: str, source: str) -> Any:
-    try:
-        return yaml.load(text, Loader=_Yaml12Loader)
-    except yaml.YAMLError as error:
-        raise ParameterError(f'{source}: not valid YAML ({error})') from None
 
 
 def _default_dict() -> dict[str, Any]:
     text = resources.files(__package__).joinpath('default_params.yaml').read_text('utf-8')
-    return _read_yaml(text, 'default_params.yaml')
+    return read_yaml(text, 'default_params.yaml')
 
 
 PATIENT_PRESETS = ('healthy', 'stroke_mild', 'stroke_moderate', 'stroke_severe')
@@ -430,7 +368,7 @@ def load_params(path: ParamsFiles = None) -> GloveParams:
                 f'{file}: cannot read parameter file ({error.strerror})'
             ) from None
         try:
-            merged = _merge('', merged, _read_yaml(text, str(file)))
+            merged = _merge('', merged, read_yaml(text, str(file)))
         except ParameterError as error:
             raise ParameterError(f'{file}: {error}') from None
     try:

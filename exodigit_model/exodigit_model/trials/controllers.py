@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..checks import check_non_negative, check_number, check_positive
 from ..control import (
     BatchController,
     BuiltInMode,
@@ -34,7 +35,6 @@ from ..control import (
     Staircase,
 )
 from ..model import GloveModel, as_joint_vector
-from ..params import _non_negative, _number, _positive
 
 if TYPE_CHECKING:
     from ..simulation import GloveState, SimulationSettings
@@ -62,14 +62,14 @@ def _vector(name: str, value: Any) -> tuple[float, ...]:
     return tuple(as_joint_vector(name, value).tolist())
 
 
-PASCAL = partial(_non_negative, unit='Pa')
-GAIN = partial(_non_negative, unit='a gain')
-SECONDS = partial(_positive, unit='s')
+PASCAL = partial(check_non_negative, unit='Pa')
+GAIN = partial(check_non_negative, unit='a gain')
+SECONDS = partial(check_positive, unit='s')
 
 MODE_PARAMETERS: Mapping[str, Mapping[str, tuple[Any, Check]]] = {
     'staircase': {
-        'staircase_step': (10e3, partial(_positive, unit='Pa')),
-        'staircase_peak': (50e3, partial(_positive, unit='Pa')),
+        'staircase_step': (10e3, partial(check_positive, unit='Pa')),
+        'staircase_peak': (50e3, partial(check_positive, unit='Pa')),
         'step_duration': (2.0, SECONDS),
     },
     'sine': {
@@ -101,7 +101,7 @@ _LIMITS = SafetyLimits()
 
 COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
     **{
-        name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else _number)
+        name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else check_number)
         for name, field_name in LIMIT_NAMES.items()
     },
     'estimate_forces': (False, _flag),

@@ -22,17 +22,17 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import special
 
-from ..params import ParameterError, _number, _positive, _set
+from ..checks import ParameterError, check_number, check_positive, set_field
 
 
 def _check_bounds(dist: Normal | LogNormal | Uniform, centre: str | None) -> None:
     """Validate ``low < high`` and, unless ``centre`` is None, low <= that attribute <= high."""
-    low = _number('low', dist.low)
-    high = _number('high', dist.high)
+    low = check_number('low', dist.low)
+    high = check_number('high', dist.high)
     if not low < high:
         raise ParameterError(f'low = {low!r}: must be below high = {high!r}')
-    _set(dist, 'low', low)
-    _set(dist, 'high', high)
+    set_field(dist, 'low', low)
+    set_field(dist, 'high', high)
     if centre is not None:
         value = getattr(dist, centre)
         if not low <= value <= high:
@@ -60,7 +60,7 @@ class Fixed:
     value: float
 
     def __post_init__(self) -> None:
-        _set(self, 'value', _number('value', self.value))
+        set_field(self, 'value', check_number('value', self.value))
 
     @property
     def low(self) -> float:
@@ -97,8 +97,8 @@ class Normal:
     high: float
 
     def __post_init__(self) -> None:
-        _set(self, 'mean', _number('mean', self.mean))
-        _set(self, 'sd', _positive('sd', self.sd, 'same unit as the parameter'))
+        set_field(self, 'mean', check_number('mean', self.mean))
+        set_field(self, 'sd', check_positive('sd', self.sd, 'same unit as the parameter'))
         _check_bounds(self, 'mean')
 
     def values(self, latent: NDArray) -> NDArray[np.float64]:
@@ -129,12 +129,14 @@ class LogNormal:
     high: float
 
     def __post_init__(self) -> None:
-        _set(self, 'median', _positive('median', self.median, 'same unit as the parameter'))
-        gsd = _number('gsd', self.gsd)
+        set_field(
+            self, 'median', check_positive('median', self.median, 'same unit as the parameter')
+        )
+        gsd = check_number('gsd', self.gsd)
         if not gsd > 1.0:
             raise ParameterError(f'gsd = {gsd!r}: must be > 1 (a fixed value is a bare number)')
-        _set(self, 'gsd', gsd)
-        _positive('low', self.low, 'a log-normal value is > 0')
+        set_field(self, 'gsd', gsd)
+        check_positive('low', self.low, 'a log-normal value is > 0')
         _check_bounds(self, 'median')
 
     def values(self, latent: NDArray) -> NDArray[np.float64]:

@@ -30,7 +30,8 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..params import JOINT_NAMES, ParameterError, _positive, _set
+from ..checks import ParameterError, check_positive, set_field
+from ..params import JOINT_NAMES
 from .protocols import DEFAULT_RATE, FUNCTIONAL_RANGE
 
 DEFAULT_FORCE_LIMIT = 10.0
@@ -155,8 +156,8 @@ class MetricSettings:
 
     def __post_init__(self) -> None:
         """Refuse a rate or limit that is not > 0, or a functional range that is not one."""
-        _set(self, 'rate_hz', _positive('rate_hz', self.rate_hz, 'Hz'))
-        _set(self, 'force_limit', _positive('force_limit', self.force_limit, 'N'))
+        set_field(self, 'rate_hz', check_positive('rate_hz', self.rate_hz, 'Hz'))
+        set_field(self, 'force_limit', check_positive('force_limit', self.force_limit, 'N'))
         try:
             ends = np.array(self.functional_rom, dtype=float)
         except (TypeError, ValueError):
@@ -171,7 +172,7 @@ class MetricSettings:
             raise ParameterError(
                 f'functional_rom at the {joint}: lower end must be below the upper end'
             )
-        _set(self, 'functional_rom', (tuple(ends[0].tolist()), tuple(ends[1].tolist())))
+        set_field(self, 'functional_rom', (tuple(ends[0].tolist()), tuple(ends[1].tolist())))
 
 
 @dataclass(frozen=True)

@@ -28,19 +28,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..params import (
-    PATIENT_PRESETS,
-    Finger,
-    FingerJoint,
+from ..checks import (
     ParameterError,
-    _build,
-    _check_keys,
-    _name,
-    _number,
-    _read_yaml,
-    _set,
-    params_from_dict,
+    build_checked,
+    check_keys,
+    check_name,
+    check_number,
+    read_yaml,
+    set_field,
 )
+from ..params import PATIENT_PRESETS, Finger, FingerJoint, params_from_dict
 from .distributions import KINDS, Distribution, Fixed
 
 ANATOMY = ('name', 'link_half_length')
@@ -89,17 +86,17 @@ class Correlation:
     severity: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        joints = _number('joints', self.joints)
+        joints = check_number('joints', self.joints)
         if not 0.0 <= joints <= 1.0:
             raise ParameterError(f'joints = {joints!r}: must be within [0, 1]')
-        _check_keys('severity', self.severity, dict.fromkeys(PATIENT_FIELDS))
+        check_keys('severity', self.severity, dict.fromkeys(PATIENT_FIELDS))
         severity = {}
         for key, loading in self.severity.items():
-            severity[key] = _number(f'severity.{key}', loading)
+            severity[key] = check_number(f'severity.{key}', loading)
             if not -1.0 <= severity[key] <= 1.0:
                 raise ParameterError(f'severity.{key} = {loading!r}: must be within [-1, 1]')
-        _set(self, 'joints', joints)
-        _set(self, 'severity', MappingProxyType(severity))
+        set_field(self, 'joints', joints)
+        set_field(self, 'severity', MappingProxyType(severity))
 
     def latent(self, draws: NDArray) -> NDArray[np.float64]:
         """Latent z_f,j, shape (count, fields, 3), from draws (count, DRAWS_PER_PATIENT)."""
@@ -192,7 +189,7 @@ class Population:
     description: str = ''
 
     def __post_init__(self) -> None:
-        _set(self, 'name', _name('name', self.name))
+        set_field(self, 'name', check_name('name', self.name))
         if not isinstance(self.description, str):
             raise ParameterError(f'description = {self.description!r}: must be a string')
         joints = tuple(MappingProxyType(dict(joint)) for joint in self.joints)
@@ -207,7 +204,7 @@ class Population:
                     f'{", ".join(PATIENT_FIELDS)}'
                 )
             _check_corners(i, joint)
-        _set(self, 'joints', joints)
+        set_field(self, 'joints', joints)
 
     def sample(self, count: int, seed: int, *, base: Finger | None = None) -> Patients:
         """Draw ``count`` patients from ``seed``, the same ones bit for bit for the same seed.
@@ -306,20 +303,20 @@ def load_population(source: str | Path) -> Population:
             f'{", ".join(POPULATIONS)})'
         ) from None
     try:
-        return _population(_read_yaml(text, str(path)), path.stem)
+        return _population(read_yaml(text, str(path)), path.stem)
     except ParameterError as error:
         raise ParameterError(f'{path}: {error}') from None
 
 
 def _population(data: Any, stem: str) -> Population:
     """A population from a file's contents; ``name`` defaults to the file's stem."""
-    _check_keys('', data, dict.fromkeys(('name', 'description', 'joints', 'correlation')))
+    check_keys('', data, dict.fromkeys(('name', 'description', 'joints', 'correlation')))
     joints = data.get('joints')
     if not isinstance(joints, list) or len(joints) != 3:
         count = len(joints) if isinstance(joints, list) else repr(joints)
         raise ParameterError(f'joints = {count}: must be a list of exactly 3 (MCP, PIP, DIP)')
     correlation = data.get('correlation', {})
-    _check_keys('correlation', correlation, dict.fromkeys(('joints', 'severity')))
+    check_keys('correlation', correlation, dict.fromkeys(('joints', 'severity')))
     return Population(
         name=data.get('name', stem),
         description=data.get('description', ''),
@@ -327,13 +324,13 @@ def _population(data: Any, stem: str) -> Population:
             _joint(f'joints[{i}]', raw, default)
             for i, (raw, default) in enumerate(zip(joints, _default_finger().joints, strict=True))
         ),
-        correlation=_build(Correlation, 'correlation', correlation),
+        correlation=build_checked(Correlation, 'correlation', correlation),
     )
 
 
 def _joint(path: str, raw: Any, default: FingerJoint) -> dict[str, Distribution]:
     """One joint's distributions; a field left out is fixed at the model's default."""
-    _check_keys(path, raw, dict.fromkeys(PATIENT_FIELDS))
+    check_keys(path, raw, dict.fromkeys(PATIENT_FIELDS))
     return {
         key: _distribution(f'{path}.{key}', raw[key])
         if key in raw
@@ -350,15 +347,15 @@ def _distribution(path: str, raw: Any) -> Distribution:
                 f'{path} = {raw!r}: must be a number (a fixed value) or a distribution '
                 f'(a mapping with kind: {", ".join(KINDS)})'
             )
-        return Fixed(_number(path, raw))
+        return Fixed(check_number(path, raw))
     kind = raw.get('kind')
     if not isinstance(kind, str) or kind not in KINDS:
         raise ParameterError(f'{path}.kind = {kind!r}: must be one of {", ".join(KINDS)}')
     keys = [item.name for item in fields(KINDS[kind])]
-    _check_keys(path, raw, dict.fromkeys(['kind', *keys]))
+    check_keys(path, raw, dict.fromkeys(['kind', *keys]))
     missing = [key for key in keys if key not in raw]
     if missing:
         raise ParameterError(
             f'{path}.{missing[0]}: missing (a {kind} distribution needs {", ".join(keys)})'
         )
-    return _build(KINDS[kind], path, {key: raw[key] for key in keys})
+    return build_checked(KINDS[kind], path, {key: raw[key] for key in keys})

@@ -29,8 +29,8 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..checks import ParameterError, check_non_negative, check_positive, set_field
 from ..model import as_joint_vector
-from ..params import ParameterError, _non_negative, _positive, _set
 from ..simulation import NANOSECONDS, step_time_ns
 
 DEFAULT_DURATION = 60.0
@@ -119,16 +119,16 @@ class SessionProtocol(ABC):
 
     def __post_init__(self) -> None:
         """Refuse a duration or rate that is not > 0, or that makes a fraction of a step."""
-        duration = _positive('duration', self.duration, 's')
-        rate_hz = _positive('rate_hz', self.rate_hz, 'Hz')
+        duration = check_positive('duration', self.duration, 's')
+        rate_hz = check_positive('rate_hz', self.rate_hz, 'Hz')
         steps = duration * rate_hz
         if round(steps) < 1 or not math.isclose(steps, round(steps), rel_tol=1e-9):
             raise ParameterError(
                 f'duration = {duration!r} s at rate_hz = {rate_hz!r} Hz is {steps:g} steps: '
                 'must be a whole number of steps, at least 1'
             )
-        _set(self, 'duration', duration)
-        _set(self, 'rate_hz', rate_hz)
+        set_field(self, 'duration', duration)
+        set_field(self, 'rate_hz', rate_hz)
 
     @property
     def steps(self) -> int:
@@ -187,9 +187,9 @@ class ContinuousPassiveMotion(SessionProtocol):
     def __post_init__(self) -> None:
         """Refuse postures that are not three finite angles or a period that is not > 0."""
         super().__post_init__()
-        _set(self, 'low', _posture('low', self.low))
-        _set(self, 'high', _posture('high', self.high))
-        _set(self, 'period', _positive('period', self.period, 's'))
+        set_field(self, 'low', _posture('low', self.low))
+        set_field(self, 'high', _posture('high', self.high))
+        set_field(self, 'period', check_positive('period', self.period, 's'))
 
     def _targets(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         return flex_extend(t, np.array(self.low), np.array(self.high), self.period)
@@ -223,10 +223,10 @@ class Staircase(SessionProtocol):
     def __post_init__(self) -> None:
         """Refuse a peak that is not three finite angles, stairs < 1 or a hold that is not > 0."""
         super().__post_init__()
-        _set(self, 'peak', _posture('peak', self.peak))
+        set_field(self, 'peak', _posture('peak', self.peak))
         if isinstance(self.stairs, bool) or not isinstance(self.stairs, int) or self.stairs < 1:
             raise ParameterError(f'stairs = {self.stairs!r}: must be a whole number >= 1')
-        _set(self, 'hold', _positive('hold', self.hold, 's'))
+        set_field(self, 'hold', check_positive('hold', self.hold, 's'))
 
     def _targets(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         stair = np.floor(np.round(t / self.hold, STAIR_DIGITS)) % (2 * self.stairs)
@@ -266,12 +266,12 @@ class GraspRelease(SessionProtocol):
     def __post_init__(self) -> None:
         """Refuse postures that are not three finite angles and times out of their range."""
         super().__post_init__()
-        _set(self, 'grasp', _posture('grasp', self.grasp))
-        _set(self, 'rest', _posture('rest', self.rest))
+        set_field(self, 'grasp', _posture('grasp', self.grasp))
+        set_field(self, 'rest', _posture('rest', self.rest))
         for name in ('close_time', 'open_time'):
-            _set(self, name, _positive(name, getattr(self, name), 's'))
+            set_field(self, name, check_positive(name, getattr(self, name), 's'))
         for name in ('hold_time', 'rest_time'):
-            _set(self, name, _non_negative(name, getattr(self, name), 's'))
+            set_field(self, name, check_non_negative(name, getattr(self, name), 's'))
 
     @property
     def cycle(self) -> float:
