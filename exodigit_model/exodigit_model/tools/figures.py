@@ -27,7 +27,8 @@ PAPER_FIG12 = ((0.0, 46.0), (50.0, 62.2))
 """The paper's Fig. 12: the six-ridge (MCP) module's length on the finger, (kPa, mm)."""
 
 
-def _panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
+def figure_panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
+    """A titled figure of ``nrows`` x ``ncols`` panels (inches ``size``); (figure, axes 2-D)."""
     plt = pyplot()
     figure, axes = plt.subplots(nrows, ncols, figsize=size, squeeze=False)
     figure.suptitle(title)
@@ -36,7 +37,8 @@ def _panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
     return figure, axes
 
 
-def _save(figure, path: Path) -> None:
+def save_figure(figure, path: Path) -> None:
+    """Lay ``figure`` out, write it to ``path`` as a PNG and close it."""
     figure.tight_layout()
     figure.savefig(path, dpi=DPI)
     pyplot().close(figure)
@@ -48,7 +50,7 @@ def _find(sweeps: list[Sweep], experiment: str, condition: str) -> Sweep:
 
 def angle_figure(sweeps: list[Sweep], path: Path) -> None:
     """Joint angle against pressure, one panel per joint (Figs 10A-C and 11A-C)."""
-    figure, axes = _panels('Bending angle against pressure: free and on the finger')
+    figure, axes = figure_panels('Bending angle against pressure: free and on the finger')
     for joint, ax in enumerate(axes[0]):
         name = JOINT_NAMES[joint]
         for condition, style in CONDITION_STYLE.items():
@@ -60,12 +62,12 @@ def angle_figure(sweeps: list[Sweep], path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
     axes[0, 0].legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def force_figure(sweeps: list[Sweep], path: Path) -> None:
     """Contact force against pressure, one panel per joint (Figs 9 and 11D-F)."""
-    figure, axes = _panels('Contact force on the finger against pressure')
+    figure, axes = figure_panels('Contact force on the finger against pressure')
     for joint, ax in enumerate(axes[0]):
         alone = _find(sweeps, JOINT_NAMES[joint], 'finger')
         together = _find(sweeps, 'all', 'finger')
@@ -75,7 +77,7 @@ def force_figure(sweeps: list[Sweep], path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'f {JOINT_LABELS[joint]} (N)')
     axes[0, 0].legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
@@ -84,7 +86,7 @@ def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
     Free and on the finger (that module alone) and all chambers on the finger, the rest length
     ``rest_lengths`` (m) dotted, and on the MCP panel the paper's Fig. 12 observation.
     """
-    figure, axes = _panels('Bottom-face arc length against pressure: free and on the finger')
+    figure, axes = figure_panels('Bottom-face arc length against pressure: free and on the finger')
     for joint, ax in enumerate(axes[0]):
         name = JOINT_NAMES[joint]
         for condition, style in CONDITION_STYLE.items():
@@ -100,12 +102,14 @@ def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'l {JOINT_LABELS[joint]} (mm)')
     axes[0, 0].legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def marker_figure(markers: dict, pressure, path: Path) -> None:
     """Paths of markers 3 and 4 as the pressure rises, per module (Fig. 8)."""
-    figure, axes = _panels('Tip markers 3 (circles) and 4 (squares), module frame', size=(12, 4.2))
+    figure, axes = figure_panels(
+        'Tip markers 3 (circles) and 4 (squares), module frame', size=(12, 4.2)
+    )
     for joint, ax in enumerate(axes[0]):
         for condition, style in CONDITION_STYLE.items():
             points = markers[(JOINT_NAMES[joint], condition)] * 1e3
@@ -117,7 +121,7 @@ def marker_figure(markers: dict, pressure, path: Path) -> None:
         ax.set_xlabel('x (mm)')
         ax.set_ylabel('y (mm)')
     axes[0, 0].legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def fit_figure(rows: list, path: Path) -> None:
@@ -126,7 +130,7 @@ def fit_figure(rows: list, path: Path) -> None:
     ``rows`` is a list of figure rows, each a list of panels
     ``(title, unit, measured, before, after)`` with 1-D arrays in display units (NaN = skip).
     """
-    figure, axes = _panels(
+    figure, axes = figure_panels(
         'Calibration: measured against model',
         ncols=max(len(row) for row in rows),
         nrows=len(rows),
@@ -147,7 +151,7 @@ def fit_figure(rows: list, path: Path) -> None:
             ax.set_xlabel(f'measured ({unit})')
             ax.set_ylabel(f'model ({unit})')
     axes[0, 0].legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def timeseries_figure(series: dict, title: str, path: Path) -> None:
@@ -161,7 +165,7 @@ def timeseries_figure(series: dict, title: str, path: Path) -> None:
         ('pressures', 'pressure (kPa)'),
         ('forces', 'contact force (N)'),
     ]
-    figure, axes = _panels(title, ncols=3, nrows=len(rows), size=(13, 9))
+    figure, axes = figure_panels(title, ncols=3, nrows=len(rows), size=(13, 9))
     colors = ('tab:blue', 'tab:orange', 'tab:green')
     for (quantity, ylabel), row in zip(rows, axes, strict=True):
         for joint, ax in enumerate(row):
@@ -174,15 +178,15 @@ def timeseries_figure(series: dict, title: str, path: Path) -> None:
                 ax.legend(fontsize='small')
             else:
                 ax.text(0.5, 0.5, 'not recorded', ha='center', transform=ax.transAxes)
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def curve_figure(pressure_kpa, angle_deg, title: str, path: Path) -> None:
     """Joint angle against chamber pressure per joint, from recorded samples (like Fig. 11A-C)."""
-    figure, axes = _panels(title)
+    figure, axes = figure_panels(title)
     for joint, ax in enumerate(axes[0]):
         ax.plot(pressure_kpa[:, joint], angle_deg[:, joint], '.', markersize=3, color='tab:red')
         ax.set_title(f'{JOINT_LABELS[joint]}')
         ax.set_xlabel('chamber pressure (kPa)')
         ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
-    _save(figure, path)
+    save_figure(figure, path)

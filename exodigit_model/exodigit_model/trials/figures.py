@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..params import JOINT_NAMES
-from ..tools.figures import _panels, _save
+from ..tools.figures import figure_panels, save_figure
 from .trial import PatientRecord, TrialResult
 
 JOINT_LABELS = tuple(name.upper() for name in JOINT_NAMES)
@@ -38,7 +38,7 @@ def _title(result: TrialResult) -> str:
 
 def distribution_figure(result: TrialResult, path: Path) -> None:
     """Histograms over the patients of the main metrics; the force limit marked."""
-    figure, axes = _panels(f'Metric distributions: {_title(result)}', 3, 2, (12.0, 6.5))
+    figure, axes = figure_panels(f'Metric distributions: {_title(result)}', 3, 2, (12.0, 6.5))
     limit = result.metrics.settings.force_limit
     for ax, (column, label, factor) in zip(axes.ravel(), DISTRIBUTIONS, strict=True):
         values = result.metrics.column(column) * factor
@@ -48,12 +48,12 @@ def distribution_figure(result: TrialResult, path: Path) -> None:
             ax.legend(fontsize='small')
         ax.set_xlabel(label)
         ax.set_ylabel('patients')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def time_series_figure(record: PatientRecord, result: TrialResult, path: Path) -> None:
     """One patient's session: angles and targets, pressures and commands, contact forces."""
-    figure, axes = _panels(f'Patient {record.patient}: {_title(result)}', 3, 3, (12.0, 8.0))
+    figure, axes = figure_panels(f'Patient {record.patient}: {_title(result)}', 3, 3, (12.0, 8.0))
     limit = result.metrics.settings.force_limit
     for joint, label in enumerate(JOINT_LABELS):
         top, middle, bottom = axes[:, joint]
@@ -73,12 +73,12 @@ def time_series_figure(record: PatientRecord, result: TrialResult, path: Path) -
         bottom.set_xlabel('time (s)')
     for ax in axes[:, 0]:
         ax.legend(fontsize='small')
-    _save(figure, path)
+    save_figure(figure, path)
 
 
 def rom_figure(result: TrialResult, path: Path) -> None:
     """Range of motion reached per joint (box plots) against the target's and the functional."""
-    figure, axes = _panels(f'Range of motion reached\n{_title(result)}', 1, 1, (8.0, 5.0))
+    figure, axes = figure_panels(f'Range of motion reached\n{_title(result)}', 1, 1, (8.0, 5.0))
     ax = axes[0, 0]
     values = result.metrics.values
     positions = np.arange(1, 4)
@@ -98,4 +98,4 @@ def rom_figure(result: TrialResult, path: Path) -> None:
     ax.set_ylabel('range of motion reached (deg)')
     ax.set_ylim(bottom=0.0)
     ax.legend(fontsize='small', loc='center')
-    _save(figure, path)
+    save_figure(figure, path)
