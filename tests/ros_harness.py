@@ -275,6 +275,11 @@ class RosProbe:
         """Every topic seen on the graph and its types."""
         return dict(self.node.get_topic_names_and_types())
 
+    def subscribers(self, topic: str) -> list[str]:
+        """Fully qualified names of the nodes subscribing ``topic`` (absolute name)."""
+        infos = self.node.get_subscriptions_info_by_topic(topic)
+        return [f'{i.node_namespace.rstrip("/")}/{i.node_name}' for i in infos]
+
     def services(self) -> dict[str, list[str]]:
         """Every service seen on the graph and its types."""
         return dict(self.node.get_service_names_and_types())

@@ -86,6 +86,12 @@ def session(launcher, probe, ros_domain, tmp_path_factory):
     launcher.start('plant', {'pressure_time_constant': 0.0}, namespace=NAMESPACE)
     recorder = start_recorder(bag, ros_domain, workdir)
     states = probe.subscribe(f'{NAMESPACE}/joint_states', JointState)
+    # a recorder that has not subscribed yet misses the first command's steps (a CI run did)
+    listening = f'{NAMESPACE}/recorder'
+    for topic in ('joint_states', 'chamber_pressure', 'contact_forces', 'segment_lengths'):
+        assert wait_until(
+            lambda t=topic: listening in probe.subscribers(f'{NAMESPACE}/{t}'), TIMEOUT
+        )
     command = probe.publisher(f'{NAMESPACE}/pressure_command', Float64MultiArray, wait_for=2)
     model = GloveModel(load_params())
     published = []
