@@ -11,6 +11,12 @@ Run ``python -m exodigit_model.kernels.warm`` first (``make bench`` does), then
 ``.venv/bin/python benchmarks/bench_trial.py`` (the full figure, about two minutes a repeat) or
 ``--patients 1000 --duration 10`` for a quick look. No asserts: figures only (a shared 2-core
 VM: other work runs beside it; compare the CPU time with the wall time).
+
+``--ray`` (the ``ray`` extra) then gives issue 17's Ray figure: the same trial on a local Ray
+instance (``RayEngine``, bound to 127.0.0.1) of 1 worker and of 2 workers, each started and its
+workers warmed up (the package imported, the kernels loaded) before the clock starts; the wall
+time, the speed-up of 2 workers over 1 (target >= 1.6x on two cores), and whether every
+patient's metrics equal the in-process run's bit for bit.
 """
 
 from __future__ import annotations
@@ -18,11 +24,14 @@ from __future__ import annotations
 import argparse
 import gc
 import time
+from dataclasses import replace
 
 import numpy as np
 from exodigit_model.trials import (
+    METRICS,
     ControllerSpec,
     MetricAccumulator,
+    PatientMetrics,
     TrialSpec,
     run_trial,
     shard_patients,
@@ -42,6 +51,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument('--shard-size', type=int, default=1000)
     parser.add_argument('--repeats', type=int, default=2)
     parser.add_argument('--profile', type=int, default=300, metavar='STEPS', help='0: none')
+    parser.add_argument('--ray', action='store_true', help='also on Ray: 1 worker against 2')
     return parser.parse_args()
 
 
@@ -57,7 +67,8 @@ def spec_of(args: argparse.Namespace) -> TrialSpec:
     )
 
 
-def whole_trial(spec: TrialSpec, repeats: int) -> None:
+def whole_trial(spec: TrialSpec, repeats: int) -> PatientMetrics:
+    """The in-process figure; the per-patient metrics of the last run."""
     steps = spec.patients * spec.session().steps
     print(
         f'trial: {spec.patients:,} patients x {spec.session().steps:,} steps = {steps:,} '
@@ -66,12 +77,40 @@ def whole_trial(spec: TrialSpec, repeats: int) -> None:
     for repeat in range(repeats):
         gc.collect()
         wall, cpu = time.perf_counter(), time.process_time()
-        run_trial(spec, progress=False)
+        metrics = run_trial(spec, progress=False).metrics
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         print(
             f'  run {repeat + 1}: wall {wall:7.1f} s, CPU {cpu:7.1f} s: '
             f'{steps / wall:10,.0f} glove-steps/s (wall), {steps / cpu:10,.0f} (CPU)'
         )
+    return metrics
+
+
+def on_ray(spec: TrialSpec, repeats: int, local: PatientMetrics) -> None:
+    """Issue 17's Ray figure: a local instance of 2 workers against one of 1, same trial."""
+    from exodigit_model.trials.ray_engine import RayEngine
+
+    steps = spec.patients * spec.session().steps
+    best = {}
+    for workers in (1, 2):
+        print(f'ray, a local instance of {workers} worker(s), {spec.shards} shards:')
+        with RayEngine(workers=workers) as engine:
+            warm_up = replace(spec, patients=workers, shard_size=1)
+            run_trial(warm_up, engine=engine, progress=False)
+            for repeat in range(repeats):
+                wall = time.perf_counter()
+                metrics = run_trial(spec, engine=engine, progress=False).metrics
+                wall = time.perf_counter() - wall
+                same = all(
+                    np.array_equal(metrics.values[metric.name], local.values[metric.name])
+                    for metric in METRICS
+                )
+                print(
+                    f'  run {repeat + 1}: wall {wall:7.1f} s: {steps / wall:10,.0f} '
+                    f'glove-steps/s; per patient as in process, bit for bit: {same}'
+                )
+                best[workers] = min(best.get(workers, wall), wall)
+    print(f'speed-up of 2 workers over 1 (best runs): {best[1] / best[2]:.2f}x')
 
 
 def profile(spec: TrialSpec, steps: int) -> None:
@@ -126,7 +165,9 @@ def main() -> None:
     spec = spec_of(args)
     if args.profile:
         profile(spec, min(args.profile, spec.session().steps))
-    whole_trial(spec, args.repeats)
+    local = whole_trial(spec, args.repeats)
+    if args.ray:
+        on_ray(spec, args.repeats, local)
 
 
 if __name__ == '__main__':
