@@ -114,8 +114,8 @@ class RayEngine:
             raise ValueError(f'workers = {workers!r}: must be a whole number >= 1 or None')
         self.workers = workers
         self._ray = import_ray(local=address is None)
-        self._connected = not self._ray.is_initialized()
-        if not self._connected:
+        self._owned = not self._ray.is_initialized()
+        if not self._owned:
             if address is not None:
                 raise ValueError(
                     f'address = {address!r}: Ray is already initialized in this process '
@@ -195,8 +195,8 @@ class RayEngine:
 
         A connection the engine found open is left open.
         """
-        if self._connected:
-            self._connected = False
+        if self._owned:
+            self._owned = False
             self._ray.shutdown()
 
     def __enter__(self) -> RayEngine:
