@@ -8,6 +8,7 @@ or the Ray engine, prints each rule's message and the main percentiles, writes t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 
 import yaml
@@ -185,31 +186,43 @@ def trial_spec(args: argparse.Namespace) -> TrialSpec:
 
 
 def engine(args: argparse.Namespace) -> Engine:
-    """The engine of ``--engine`` (the Ray one imported only when asked for)."""
+    """The engine of ``--engine`` (the Ray one imported, and started, only when asked for)."""
     if args.engine == 'local':
         if args.address is not None:
             raise ToolError('--address is for --engine ray')
         return LocalEngine()
+    from ..trials.ray_engine import RayEngine
+
     try:
-        from ..trials.ray_engine import RayEngine
+        return RayEngine(address=args.address)
     except ModuleNotFoundError as error:
         if error.name and error.name.split('.')[0] == 'ray':
             raise ToolError(
                 'ray is not installed; install the extra with: pip install "./exodigit_model[ray]"'
             ) from None
         raise ToolError(f'the ray engine is not available: {error}') from None
-    return RayEngine(address=args.address)
+    except RuntimeError as error:  # it would not listen on loopback alone, or cannot connect
+        raise ToolError(f'--engine ray: {error}') from None
 
 
 def run(args: argparse.Namespace) -> int:
     """``exodigit trial``: 0 when every rule passed, 1 when one failed."""
+    from ..trials.ray_engine import ShardError
+
     try:
         spec = trial_spec(args)
         chosen = engine(args)
-        result = run_trial(
-            spec, rules=args.require, engine=chosen, progress=False if args.no_progress else None
-        )
-    except ValueError as error:
+        try:
+            result = run_trial(
+                spec,
+                rules=args.require,
+                engine=chosen,
+                progress=False if args.no_progress else None,
+            )
+        finally:
+            if isinstance(chosen, contextlib.AbstractContextManager):
+                chosen.__exit__(None, None, None)
+    except (ValueError, ShardError) as error:
         raise ToolError(str(error)) from None
     for line in report_lines(result):
         print(line)
