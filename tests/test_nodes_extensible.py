@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from exodigit_nodes.nodes.markers import ARC_SAMPLES
 from exodigit_nodes.testing import GloveSim
+from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
 from ros_harness import RosProbe, wait_until
 from visualization_msgs.msg import MarkerArray
@@ -75,7 +76,7 @@ def shared_glove(params_file, tmp_path_factory):
 def glove(shared_glove):
     """The shared glove at rest, no controller of an earlier test left on the graph."""
     # A stopped controller leaves the graph a moment later; until then step() refuses to step.
-    assert wait_until(lambda: not shared_glove._node.other_controllers(), 10.0)
+    assert wait_until(lambda: not shared_glove._node.other_controllers(), DEFAULT_TIMEOUT)
     shared_glove.reset()
     return shared_glove
 
@@ -168,7 +169,7 @@ def test_after_a_run_each_step_carries_its_own_estimate(glove, model):
     # The estimator answers a run's states too; its late answers must not be paired with the
     # steps taken after the run (the kit once handed them out as those steps' estimates).
     run_with_controller(glove, 0.3)
-    assert wait_until(lambda: not glove._node.other_controllers(), 10.0)
+    assert wait_until(lambda: not glove._node.other_controllers(), DEFAULT_TIMEOUT)
     glove.reset()
     for command in COMMANDS[:3]:
         state = glove.step(command)

@@ -275,7 +275,7 @@ def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove, probe_for)
     assert probe.get_parameters(plant, ['run_until', 'pause_at']) == [0.0, 0.0]
     # The test steps the glove again, past the end the failed run was to have.
     glove.timeout = DEFAULT_TIMEOUT
-    assert wait_until(lambda: not glove._node.other_controllers(), 10.0)
+    assert wait_until(lambda: not glove._node.other_controllers(), DEFAULT_TIMEOUT)
     state = glove.step(np.zeros(3))
     while state.t < start + 0.6:
         previous, state = state, glove.step(np.zeros(3))
