@@ -10,6 +10,7 @@ and :class:`BuiltInMode` runs a built-in mode behind the limiter as one.
 
 from .batch import BatchController, BuiltInMode
 from .controllers import (
+    MODE_DEFAULTS,
     MODES,
     Command,
     CommandLoop,
@@ -28,6 +29,7 @@ from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
 __all__ = [
     'LIMIT_KINDS',
     'MODES',
+    'MODE_DEFAULTS',
     'BatchController',
     'BuiltInMode',
     'Command',

@@ -37,6 +37,17 @@ MODES = {
 }
 """The sessions of ``pressure_command`` (its ``mode`` parameter), each with what it commands."""
 
+MODE_DEFAULTS = {
+    'staircase': {'staircase_step': 10e3, 'staircase_peak': 50e3, 'step_duration': 2.0},
+    'sine': {'sine_low': 0.0, 'sine_high': 40e3, 'sine_period': 4.0},
+    'hold': {'hold_pressure': (20e3, 20e3, 20e3)},
+    'position': {'position_kp': 5e4, 'position_ki': 3e5},
+    'force': {'force_targets': (0.1, 0.1, 0.1), 'force_kp': 5e4, 'force_ki': 5e5},
+}
+"""Each mode's parameters and their defaults, SI (Pa, s, N; gains Pa/rad, Pa/(rad·s), Pa/N,
+Pa/(N·s)): the ``pressure_command`` node's defaults (its table reads them from here) and a
+trial's (:mod:`exodigit_model.trials.controllers`)."""
+
 
 @dataclass(frozen=True)
 class Feedback:

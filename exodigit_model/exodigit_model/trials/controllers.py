@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from ..checks import check_non_negative, check_number, check_positive
 from ..control import (
+    MODE_DEFAULTS,
     BatchController,
     BuiltInMode,
     ForceController,
@@ -66,27 +67,28 @@ PASCAL = partial(check_non_negative, unit='Pa')
 GAIN = partial(check_non_negative, unit='a gain')
 SECONDS = partial(check_positive, unit='s')
 
+CHECKS: Mapping[str, Check] = {
+    'staircase_step': partial(check_positive, unit='Pa'),
+    'staircase_peak': partial(check_positive, unit='Pa'),
+    'step_duration': SECONDS,
+    'sine_low': PASCAL,
+    'sine_high': PASCAL,
+    'sine_period': SECONDS,
+    'hold_pressure': _pressures,
+    'position_kp': GAIN,
+    'position_ki': GAIN,
+    'force_targets': _vector,
+    'force_kp': GAIN,
+    'force_ki': GAIN,
+}
+"""How a trial checks each mode parameter of :data:`exodigit_model.control.MODE_DEFAULTS`."""
+
 MODE_PARAMETERS: Mapping[str, Mapping[str, tuple[Any, Check]]] = {
-    'staircase': {
-        'staircase_step': (10e3, partial(check_positive, unit='Pa')),
-        'staircase_peak': (50e3, partial(check_positive, unit='Pa')),
-        'step_duration': (2.0, SECONDS),
-    },
-    'sine': {
-        'sine_low': (0.0, PASCAL),
-        'sine_high': (40e3, PASCAL),
-        'sine_period': (4.0, SECONDS),
-    },
-    'hold': {'hold_pressure': ((20e3, 20e3, 20e3), _pressures)},
-    'position': {'position_kp': (5e4, GAIN), 'position_ki': (3e5, GAIN)},
-    'force': {
-        'force_targets': ((0.1, 0.1, 0.1), _vector),
-        'force_kp': (5e4, GAIN),
-        'force_ki': (5e5, GAIN),
-    },
+    mode: {name: (default, CHECKS[name]) for name, default in defaults.items()}
+    for mode, defaults in MODE_DEFAULTS.items()
 }
 """Per built-in mode, its parameters: (default, check). Names, units (SI) and defaults are the
-``pressure_command`` node's (docs/spec/ros.md; a test holds them to the node's table)."""
+``pressure_command`` node's: both read :data:`exodigit_model.control.MODE_DEFAULTS`."""
 
 LIMIT_NAMES = {
     'max_pressure': 'max_pressure',

@@ -18,7 +18,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-from exodigit_model.control import MODES, SafetyLimits
+from exodigit_model.control import MODE_DEFAULTS, MODES, SafetyLimits
 from exodigit_model.joining import STEP_TOLERANCE
 
 from exodigit_model import SimulationSettings
@@ -30,6 +30,8 @@ PACKAGE = 'exodigit_nodes'
 SIM_DEFAULTS = SimulationSettings()
 """The stepper's defaults, which are the plant's."""
 SAFETY = SafetyLimits()
+STAIRCASE, SINE = MODE_DEFAULTS['staircase'], MODE_DEFAULTS['sine']
+POSITION, FORCE = MODE_DEFAULTS['position'], MODE_DEFAULTS['force']
 """The safety limiter's defaults (exodigit_model.control), which are pressure_command's."""
 
 
@@ -274,23 +276,43 @@ PRESSURE_COMMAND_NODE = NodeEntry(
                 '(the plant in lockstep, clock sim)',
                 read_only=True,
             ),
-            ParamSpec('staircase_step', 10e3, 'staircase: pressure step, Pa', low=100.0, high=1e6),
-            ParamSpec('staircase_peak', 50e3, 'staircase: highest level, Pa', low=100.0, high=1e6),
             ParamSpec(
-                'step_duration', 2.0, 'staircase: time on each level, s', low=0.01, high=3600.0
+                'staircase_step',
+                STAIRCASE['staircase_step'],
+                'staircase: pressure step, Pa',
+                low=100.0,
+                high=1e6,
             ),
-            ParamSpec('sine_low', 0.0, 'sine: lowest pressure, Pa', low=0.0, high=1e6),
-            ParamSpec('sine_high', 40e3, 'sine: highest pressure, Pa', low=0.0, high=1e6),
+            ParamSpec(
+                'staircase_peak',
+                STAIRCASE['staircase_peak'],
+                'staircase: highest level, Pa',
+                low=100.0,
+                high=1e6,
+            ),
+            ParamSpec(
+                'step_duration',
+                STAIRCASE['step_duration'],
+                'staircase: time on each level, s',
+                low=0.01,
+                high=3600.0,
+            ),
+            ParamSpec(
+                'sine_low', SINE['sine_low'], 'sine: lowest pressure, Pa', low=0.0, high=1e6
+            ),
+            ParamSpec(
+                'sine_high', SINE['sine_high'], 'sine: highest pressure, Pa', low=0.0, high=1e6
+            ),
             ParamSpec(
                 'sine_period',
-                4.0,
+                SINE['sine_period'],
                 'sine: period of one flex-extend cycle, s',
                 low=0.1,
                 high=3600.0,
             ),
             ParamSpec(
                 'hold_pressure',
-                (20e3, 20e3, 20e3),
+                MODE_DEFAULTS['hold']['hold_pressure'],
                 'hold: chamber pressures, Pa',
                 low=0.0,
                 high=1e6,
@@ -303,20 +325,32 @@ PRESSURE_COMMAND_NODE = NodeEntry(
                 high=3.14,
             ),
             ParamSpec(
-                'position_kp', 5e4, 'position: proportional gain, Pa/rad', low=0.0, high=1e7
+                'position_kp',
+                POSITION['position_kp'],
+                'position: proportional gain, Pa/rad',
+                low=0.0,
+                high=1e7,
             ),
             ParamSpec(
-                'position_ki', 3e5, 'position: integral gain, Pa/(rad·s)', low=0.0, high=1e8
+                'position_ki',
+                POSITION['position_ki'],
+                'position: integral gain, Pa/(rad·s)',
+                low=0.0,
+                high=1e8,
             ),
             ParamSpec(
                 'force_targets',
-                (0.1, 0.1, 0.1),
+                FORCE['force_targets'],
                 'force: desired contact forces, N',
                 low=-100.0,
                 high=100.0,
             ),
-            ParamSpec('force_kp', 5e4, 'force: proportional gain, Pa/N', low=0.0, high=1e7),
-            ParamSpec('force_ki', 5e5, 'force: integral gain, Pa/(N·s)', low=0.0, high=1e8),
+            ParamSpec(
+                'force_kp', FORCE['force_kp'], 'force: proportional gain, Pa/N', low=0.0, high=1e7
+            ),
+            ParamSpec(
+                'force_ki', FORCE['force_ki'], 'force: integral gain, Pa/(N·s)', low=0.0, high=1e8
+            ),
             ParamSpec(
                 'max_pressure',
                 SAFETY.max_pressure,
