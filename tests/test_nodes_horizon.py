@@ -1,9 +1,10 @@
 """How far a runner lets a simulated plant run ahead (exodigit_nodes.runner.horizon), without DDS.
 
 The plant's parameter services are stand-ins that answer when the test says so; what is checked
-is the rule of the module: ``run_until`` stays at most LEAD_STEPS past the newest step received,
-is raised every RAISE_STEPS, never passes the end of the run, and a request whose answer was
-lost is sent again.
+is the rule of the module: ``run_until`` stays at most its lead (LEAD_STEPS for the project's
+publishers, FOREIGN_LEAD_STEPS in the testing kit) past the newest step received, is raised
+every RAISE_STEPS (or FOREIGN_RAISE_STEPS), never passes the end of the run, and a request
+whose answer was lost is sent again.
 """
 
 import itertools
@@ -11,7 +12,14 @@ import itertools
 import pytest
 from exodigit_nodes.nodes.qos import RECORD_QOS, WRITER_QOS
 from exodigit_nodes.runner import horizon
-from exodigit_nodes.runner.horizon import LEAD_STEPS, RAISE_STEPS, Horizon, RepeatedCall
+from exodigit_nodes.runner.horizon import (
+    FOREIGN_LEAD_STEPS,
+    FOREIGN_RAISE_STEPS,
+    LEAD_STEPS,
+    RAISE_STEPS,
+    Horizon,
+    RepeatedCall,
+)
 from rcl_interfaces.msg import ParameterValue
 from rclpy.task import Future
 
@@ -106,28 +114,37 @@ def test_the_lead_is_shorter_than_what_each_publisher_and_each_recording_reader_
     assert WRITER_QOS.depth >= LEAD_STEPS + 1
     assert RECORD_QOS.depth >= LEAD_STEPS + 1
     assert 0 < RAISE_STEPS < LEAD_STEPS
+    # a user's controller in the testing kit may publish with rclpy's usual depth of 10
+    assert FOREIGN_LEAD_STEPS + 1 <= 10
+    assert 0 < FOREIGN_RAISE_STEPS < FOREIGN_LEAD_STEPS
 
 
-@pytest.mark.parametrize('end_steps', [0, 2.5 * LEAD_STEPS])
-def test_the_limit_follows_the_steps_received_and_stops_at_the_end(end_steps):
+@pytest.mark.parametrize(
+    ('lead', 'raise_every'),
+    [(LEAD_STEPS, RAISE_STEPS), (FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS)],
+    ids=['project', 'foreign'],
+)
+@pytest.mark.parametrize('ends', [False, True], ids=['open', 'end'])
+def test_the_limit_follows_the_steps_received_and_stops_at_the_end(ends, lead, raise_every):
+    end_steps = 2.5 * lead if ends else 0
     end = end_steps * PERIOD
     node = StandInNode()
-    hold = Horizon(node, '/glove/plant', period=PERIOD)
+    hold = Horizon(node, '/glove/plant', period=PERIOD, lead=lead, raise_every=raise_every)
     hold.start(end)
     wait_ready(hold)
     setter = node.clients['set_parameters']
-    steps = round(end_steps) if end else 3 * LEAD_STEPS  # the plant pauses at the run's end
+    steps = round(end_steps) if end else 3 * lead  # the plant pauses at the run's end
     for k in range(1, steps + 1):  # it takes a step only while the limit allows it
         received = k * PERIOD
         assert received <= limits(setter)[-1] + 1e-12
         hold.follow(received)
-        assert limits(setter)[-1] - received <= LEAD_STEPS * PERIOD + 1e-12
+        assert limits(setter)[-1] - received <= lead * PERIOD + 1e-12
     sent = limits(setter)
     raises = [round(b / PERIOD) - round(a / PERIOD) for a, b in itertools.pairwise(sent)]
     if end:
         assert sent[-1] == pytest.approx(end) and max(sent) == pytest.approx(end)
         raises = raises[:-1]  # the last raise stops at the end
-    assert raises and set(raises) == {RAISE_STEPS}
+    assert raises and set(raises) == {raise_every}
 
 
 def test_release_sends_no_limit_after_every_raise_on_the_same_client(monkeypatch):

@@ -31,7 +31,7 @@ from ..nodes.messages import (
     set_double_request,
 )
 from ..nodes.qos import RECORD_QOS, WRITER_QOS
-from ..runner.horizon import Horizon
+from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
 
@@ -81,7 +81,14 @@ class GloveClient(Node):
         self.step_client = self.create_client(Trigger, STEP)
         self.pause_client = self.create_client(SetBool, SET_PAUSED)
         self.parameter_client = self.create_client(SetParameters, f'{plant}/set_parameters')
-        self.horizon = Horizon(self, plant, period=1.0 / rate_hz)
+        # the answers come from the user's controller, whose publisher may keep only 10
+        self.horizon = Horizon(
+            self,
+            plant,
+            period=1.0 / rate_hz,
+            lead=FOREIGN_LEAD_STEPS,
+            raise_every=FOREIGN_RAISE_STEPS,
+        )
         """Holds the plant a few steps ahead of the states received in a :meth:`run`."""
         # Created last: Fast DDS announces our readers in creation order on one reliable stream,
         # so once the plant answers this client it has matched every reader of ours before it.
