@@ -23,6 +23,8 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from exodigit_model.simulation import step_time_ns
+from exodigit_nodes.nodes import sim_time
+from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
@@ -427,5 +429,48 @@ def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estima
             time.sleep(0.01)
         assert 'joint_states' in node.subscriptions()
         assert estimator.get_subscription_count() == 1
+    finally:
+        node.close()
+
+
+def service_callback(node: InProcessNode, name: str):
+    """The callback of the node's service ``name`` (relative name)."""
+    return next(s.callback for s in node.node.services if s.service_name.endswith(f'/{name}'))
+
+
+@pytest.mark.parametrize('service', ['step', 'reset'])
+def test_a_service_step_waits_for_new_readers_in_the_loop_not_in_the_callback(probe, service):
+    # The step is taken once the outputs have matched every subscriber the graph knows (here:
+    # not yet, then yes). The callback answers at once instead of sleeping until then, so a
+    # hand's other fingers go on stepping meanwhile.
+    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
+    try:
+        matched = False
+        node.node.readers_matched = lambda: matched
+        answer = service_callback(node, service)(Trigger.Request(), Trigger.Response())
+        assert answer.success
+        assert 'once every new subscriber of the outputs is matched' in answer.message
+        node.fire_timers()
+        assert 'joint_states' not in node.take()
+        matched = True
+        node.fire_timers()
+        assert len(node.take()['joint_states']) == 1
+        node.fire_timers()  # paused: nothing more
+        assert 'joint_states' not in node.take()
+    finally:
+        node.close()
+
+
+def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch):
+    monkeypatch.setattr(sim_time, 'READER_WAIT', 0.0)
+    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
+    try:
+        node.node.readers_matched = lambda: False
+        for _ in range(2):
+            service_callback(node, 'step')(Trigger.Request(), Trigger.Response())
+        node.fire_timers()
+        assert [m.header.stamp.nanosec for m in node.take()['joint_states']] == [
+            step_time_ns(k, RATE) for k in (1, 2)
+        ]
     finally:
         node.close()

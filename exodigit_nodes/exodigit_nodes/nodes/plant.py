@@ -61,7 +61,7 @@ from .messages import (
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
-from .sim_time import SimulatedTime
+from .sim_time import WAITING, SimulatedTime
 
 DIAGNOSTIC_PERIOD = 1.0
 """Time between two /diagnostics reports, s."""
@@ -274,8 +274,10 @@ class Plant(GloveNode):
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
         if self.time is not None:
-            self.time.step_now()
-            response.message += f' (rest state published at t = {self.state.t:.9f} s)'
+            if self.time.request_step():
+                response.message += f' (rest state published at t = {self.state.t:.9f} s)'
+            else:
+                response.message += f' (rest state {WAITING})'
         self.get_logger().info(response.message)
         return response
 

@@ -39,7 +39,12 @@ POLL_LIMITS = (0.5e-3, 0.01)
 FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 READER_WAIT = 2.0
-"""Longest wait of a service-triggered step for new subscribers to be matched, wall s."""
+"""Longest wait of a service-triggered step for new subscribers to be matched, wall s (the
+simulated-time loop waits, not the service callback)."""
+WAITING = (
+    f'published once every new subscriber of the outputs is matched (at most {READER_WAIT:g} s)'
+)
+"""What a service answers about a step it could not take at once."""
 MEASURE_WINDOW = 0.5
 """Shortest wall time over which the real-time factor is measured, s (every member reports
 about once a second; the reports within one window share one measurement)."""
@@ -97,6 +102,8 @@ class SimulatedTime:
         self.timer = None
         self._measure_marks = (time.monotonic(), 0.0)
         self._measured = 0.0
+        self.requested = 0  # steps asked for by a service, waiting for readers to match
+        self.requested_since = 0.0
         owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
         owner.create_service(Trigger, STEP, self.on_step)
 
@@ -150,8 +157,9 @@ class SimulatedTime:
         self.try_step(time.monotonic())
 
     def on_timer(self) -> None:
-        """Take the steps that are due (and watch the lockstep timeout)."""
+        """Take the steps that are due (and watch the lockstep timeout and the reader waits)."""
         wall = time.monotonic()
+        self._take_requested(wall)
         if self.paused or not self.members:
             return
         if self.settings.lockstep and self.awaiting and not self.unlocked:
@@ -192,14 +200,20 @@ class SimulatedTime:
         return response
 
     def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """While paused: one step with the latest commands; answered after it is published."""
+        """While paused: one step with the latest commands; answered after it is published.
+
+        If new subscribers are not yet matched the answer comes first and says so
+        (:meth:`request_step`).
+        """
         if not self.paused:
             response.success = False
             response.message = 'not paused: call set_paused (true) first'
             return response
-        self.step_now()
         response.success = True
-        response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
+        if self.request_step():
+            response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
+        else:
+            response.message = f'step {self._step_number() + self.requested}: {WAITING}'
         return response
 
     # -- stepping --------------------------------------------------------------------------
@@ -224,12 +238,41 @@ class SimulatedTime:
         run_until = self.settings.run_until
         return run_until > 0.0 and self.t + 0.5 * self.period > run_until
 
-    def step_now(self) -> None:
-        """A step asked for by a service (``step``, ``reset``): new subscribers matched first."""
-        deadline = time.monotonic() + READER_WAIT
-        while not all(m.readers_matched() for m in self.members) and time.monotonic() < deadline:
-            time.sleep(1e-3)
-        self.step()
+    def request_step(self) -> bool:
+        """A step asked for by a service (``step``, ``reset``); whether it was taken at once.
+
+        A subscriber created just before the call must get the step: if the outputs have not
+        yet matched every subscriber the graph knows of their topics, the step is left to the
+        loop (:meth:`on_timer`), which takes it once they have, or after ``READER_WAIT`` wall
+        seconds anyway (saying so). The service callback never waits: a hand's other fingers
+        step on meanwhile.
+        """
+        if not self.requested and self._readers_matched():
+            self.step()
+            return True
+        if not self.requested:
+            self.requested_since = time.monotonic()
+        self.requested += 1
+        return False
+
+    def _take_requested(self, wall: float) -> None:
+        """Take the requested steps whose readers are matched or whose wait is over."""
+        if not self.requested:
+            return
+        matched = self._readers_matched()
+        if not matched and wall - self.requested_since < READER_WAIT:
+            return
+        if not matched:
+            self.owner.get_logger().warning(
+                f'subscribers still not matched after {READER_WAIT:g} s: taking the requested '
+                'step anyway (they may miss it)'
+            )
+        for _ in range(self.requested):
+            self.step()
+        self.requested = 0
+
+    def _readers_matched(self) -> bool:
+        return all(member.readers_matched() for member in self.members)
 
     def step(self) -> None:
         """One step of every member: /clock, then each member's outputs stamped with its time."""
