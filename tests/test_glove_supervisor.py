@@ -1,4 +1,5 @@
-"""The supervisor with real child processes (plain Python children, no ROS)."""
+"""The one supervisor (runners and testing kit) with real child processes, and how a process
+is asked to stop and how its end is told (plain Python children, no ROS)."""
 
 import os
 import signal
@@ -6,7 +7,10 @@ import subprocess
 import sys
 import time
 
-from exodigit_nodes.runner.supervisor import Supervisor
+import pytest
+from exodigit_nodes.logic.lifetime import StopRequest, exit_status
+from exodigit_nodes.runner.supervisor import Child, Supervisor
+from exodigit_nodes.testing.processes import NodeProcess
 from ros_harness import wait_until
 
 WAIT = 10.0
@@ -45,6 +49,16 @@ STUBBORN = """
 import signal, time
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 print('ready', flush=True)
+while True:
+    time.sleep(0.01)
+"""
+# Deaf to SIGINT and SIGTERM: only SIGKILL ends it. It starts a grandchild in its group.
+DEAF = """
+import signal, subprocess, sys, time
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+signal.signal(signal.SIGTERM, signal.SIG_IGN)
+grandchild = subprocess.Popen(['sleep', '600'])
+print('ready', grandchild.pid, flush=True)
 while True:
     time.sleep(0.01)
 """
@@ -137,3 +151,70 @@ def test_an_unexpected_exit_is_seen_with_its_code_and_log(tmp_path):
     assert supervisor.running() == ['estimator']
     supervisor.stop(['estimator'], grace=0.5)
     assert supervisor.running() == []
+
+
+def test_a_process_deaf_to_sigint_and_sigterm_is_killed_with_its_group(tmp_path):
+    child = Child('deaf', [sys.executable, '-c', DEAF], os.environ, log=tmp_path / 'deaf.log')
+    assert wait_until(lambda: 'ready' in child.log_path.read_text(), WAIT)
+    grandchild = int(child.log_path.read_text().split()[1])
+    exit_ = child.stop(grace=0.2)
+    assert exit_.returncode == -signal.SIGKILL
+    assert exit_.forced and not exit_.clean
+    assert exit_.describe() == 'deaf was killed by SIGKILL (did not stop on SIGINT)'
+    assert wait_until(lambda: not alive(grandchild), WAIT)  # it went with the group
+    assert child.stop() is exit_  # stopped once; asking again changes nothing
+
+
+def test_a_child_can_keep_stderr_apart_and_run_in_a_directory(tmp_path):
+    code = 'import os, sys; print(os.getcwd()); print("oops", file=sys.stderr)'
+    child = Child(
+        'split',
+        [sys.executable, '-c', code],
+        os.environ,
+        log=tmp_path / 'logs' / 'split.out',
+        errors=tmp_path / 'logs' / 'split.err',
+        cwd=tmp_path,
+    )
+    assert child.wait(WAIT) == 0
+    assert child.exit().clean
+    assert child.log_path.read_text().strip() == str(tmp_path)
+    assert child.errors_path.read_text().strip() == 'oops'
+
+
+def test_the_testing_kit_starts_its_nodes_with_the_runners_supervisor(tmp_path):
+    # A node that cannot start (no such module) ends at once; the kit tells how as a runner does.
+    node = NodeProcess('no_such_node', None, domain_id=1, workdir=tmp_path)
+    assert isinstance(node, Child)
+    assert node.wait(WAIT) == 1
+    assert node.exit().describe() == 'no_such_node exited with code 1'
+    assert 'No module named' in node.stderr()
+
+
+@pytest.mark.parametrize(
+    ('returncode', 'words'),
+    [
+        (0, 'exited with code 0'),
+        (2, 'exited with code 2'),
+        (-9, 'was killed by SIGKILL'),
+        (-2, 'was killed by SIGINT'),
+        (-200, 'was killed by signal 200'),
+    ],
+)
+def test_an_exit_status_is_told_in_words(returncode, words):
+    assert exit_status(returncode) == words
+
+
+@pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+def test_a_stop_signal_sets_the_stop_request_and_nothing_is_raised(signum):
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        stop = StopRequest()
+        assert not stop.requested
+        os.kill(os.getpid(), signum)
+        assert wait_until(lambda: stop.requested, WAIT)
+        assert stop.signal_name == signal.Signals(signum).name
+        stop.ignore()
+        assert signal.getsignal(signum) == signal.SIG_IGN
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)

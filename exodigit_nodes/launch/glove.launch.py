@@ -20,9 +20,9 @@ exodigit_nodes.glove`` starts the same three nodes (README, "Running the glove")
 """
 
 import os
-import signal
 
 from ament_index_python.packages import get_package_share_directory
+from exodigit_nodes.logic.lifetime import exit_status
 from exodigit_nodes.nodes.catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
@@ -60,16 +60,6 @@ class ClockIsSim(EqualsSubstitution):
 def argument_text(value) -> str:
     """A parameter default as a launch argument's default: ``'true'``, ``'1.0'``, ``'sine'``."""
     return str(value).lower() if isinstance(value, bool) else str(value)
-
-
-def exit_status(returncode: int) -> str:
-    """How a process ended, in words: 'exited with code 2', 'was killed by SIGKILL'."""
-    if returncode < 0:
-        try:
-            return f'was killed by {signal.Signals(-returncode).name}'
-        except ValueError:
-            return f'was killed by signal {-returncode}'
-    return f'exited with code {returncode}'
 
 
 def end_the_glove(event, context):

@@ -14,6 +14,7 @@ exodigit_nodes.hand`` reads too. When either process exits the launch ends, and 
 if that process failed.
 """
 
+from exodigit_nodes.logic.lifetime import exit_status
 from exodigit_nodes.nodes.hand_config import hand_options
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
@@ -29,10 +30,8 @@ class HandProcessError(RuntimeError):
 
 def end_the_hand(event, context):
     """On a process's exit, end the launch; fail it (raise) if the process failed."""
-    if event.returncode < 0:
-        raise HandProcessError(f'{event.process_name} was killed by signal {-event.returncode}')
-    if event.returncode > 0:
-        raise HandProcessError(f'{event.process_name} exited with code {event.returncode}')
+    if event.returncode != 0:
+        raise HandProcessError(f'{event.process_name} {exit_status(event.returncode)}')
     if context.is_shutdown:
         return None
     return Shutdown(reason=f'{event.process_name} exited')

@@ -1,4 +1,6 @@
-"""A glove process does not outlive the process that started it (Linux).
+"""How a glove process stops: on request, with its parent, and how its end is told (no ROS).
+
+A glove process does not outlive the process that started it (Linux).
 
 Whoever starts a node (``ros2 launch``, ``ros2 run``, the runners, the testing kit) may die
 without stopping it: killed by SIGKILL, or ``ros2 launch`` sent SIGTERM alone. A node left
@@ -8,6 +10,10 @@ dies (prctl PR_SET_PDEATHSIG); the node handles it as Ctrl-C, sending zero press
 
 The signal comes when the *thread* that started the process ends: a program that starts nodes
 from a worker thread must keep that thread alive while they run.
+
+:class:`StopRequest` is how every node and runner takes SIGINT, SIGTERM and SIGHUP: a flag its loop
+checks. :func:`exit_status` says in words how a child ended, for the runners, the testing kit and
+the launch files alike.
 """
 
 import ctypes
@@ -32,3 +38,58 @@ def stop_with_parent(signum: int = signal.SIGINT, parent: int | None = None) -> 
         parent = os.getppid()
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signum)
     return os.getppid() == parent
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""What asks a glove process to stop: Ctrl-C, ``kill``, and the terminal closing."""
+
+
+class StopRequest:
+    """Turns SIGINT, SIGTERM and SIGHUP into a flag a loop checks (every node, the runners).
+
+    No exception is thrown into whatever the process is doing (rclpy's C code, a half-written
+    record): the loop sees :attr:`requested` and stops on its own. Created installed.
+
+    Attributes
+    ----------
+    requested : bool
+        A stop signal has come.
+    signal_name : str
+        The name of the latest one (``'SIGINT'``), empty before.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        self.signal_name = ''
+        self.install()
+
+    def install(self) -> None:
+        """Handle the stop signals (again: loading rclpy's C extension takes SIGINT over).
+
+        Also when SIGINT was ignored: a shell starts background commands that way.
+        """
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, self)
+
+    def ignore(self) -> None:
+        """Ignore the stop signals from now on (the process is stopping already)."""
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, signal.SIG_IGN)
+
+    def __call__(self, signum: int, _frame) -> None:
+        """The signal handler: ask the loop to stop."""
+        self.requested = True
+        self.signal_name = signal.Signals(signum).name
+
+
+def exit_status(returncode: int) -> str:
+    """How a process ended, in words: ``exited with code 2``, ``was killed by SIGKILL``.
+
+    ``returncode`` as :mod:`subprocess` and ``launch`` give it: negative for death by a signal.
+    """
+    if returncode >= 0:
+        return f'exited with code {returncode}'
+    try:
+        return f'was killed by {signal.Signals(-returncode).name}'
+    except ValueError:  # a number no signal of this system has
+        return f'was killed by signal {-returncode}'

@@ -36,7 +36,7 @@ from rclpy.signals import SignalHandlerOptions
 from exodigit_model import GloveModel, ParameterError, load_params
 
 from ..logic.inputs import InvalidInputError, RejectionTally
-from ..logic.lifetime import stop_with_parent
+from ..logic.lifetime import StopRequest, stop_with_parent
 from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
 from .messages import DIAGNOSTICS, status
@@ -234,17 +234,6 @@ SPIN_PERIOD = 0.05
 """Longest time between two checks for a stop request while spinning, s."""
 
 
-class StopRequest:
-    """Set by SIGINT/SIGTERM; the spin loop checks it (no exception thrown into rclpy's C code)."""
-
-    def __init__(self) -> None:
-        self.requested = False
-
-    def __call__(self, signum, frame) -> None:
-        """Signal handler: ask the spin loop to stop."""
-        self.requested = True
-
-
 def _wants_help(args: list[str]) -> bool:
     ours = args[: args.index('--ros-args')] if '--ros-args' in args else args
     return '-h' in ours or '--help' in ours
@@ -253,8 +242,9 @@ def _wants_help(args: list[str]) -> bool:
 def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     """Start ``node_class``, spin until Ctrl-C / SIGTERM / shutdown, stop cleanly.
 
-    SIGINT and SIGTERM only set a flag that the spin loop checks every ``SPIN_PERIOD``, so no
-    KeyboardInterrupt can land inside rclpy's C code; the node then says its last words
+    SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
+    spin loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C
+    code; the node then says its last words
     (:meth:`GloveNode.on_shutdown`) while its context is still up. Returns the exit status: 0
     after a normal stop, 2 when the configuration is refused (one line on stderr, no traceback).
     """
@@ -306,22 +296,20 @@ def serve(
     duration: float = math.inf,
     refused: tuple[type[Exception], ...] = (ConfigurationError,),
 ) -> int:
-    """Spin the node(s) ``make_nodes`` builds until SIGINT / SIGTERM / shutdown / ``duration`` s.
+    """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
 
-    Nodes whose class allows it (``events_executor``) spin on one EventsExecutor in this
-    thread; the others on one SingleThreadedExecutor, in a second thread when both kinds are
-    there (``hand_nodes --part all``: plants and controllers on the first, estimators on the
-    second). SIGINT and SIGTERM only set a flag that the loop checks every ``SPIN_PERIOD``, so no
-    KeyboardInterrupt can land inside rclpy's C code; ``last_words(node)`` then runs for each
-    node, in the order built, while every node still exists. Returns the exit status: 0 after a
-    normal stop, 2 when the configuration is refused (an exception of ``refused``: one line on
-    stderr, no traceback), 1 when the process that started it is gone already. The process stops
-    as on SIGINT when that process dies (:mod:`.lifetime`): ``ros2 launch`` killed alone does not
-    leave the nodes running.
+    Nodes whose class allows it (``events_executor``) spin on one EventsExecutor in this thread;
+    the others on one SingleThreadedExecutor, in a second thread when both kinds are there
+    (``hand_nodes --part all``: plants and controllers on the first, estimators on the second).
+    SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
+    loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C code;
+    ``last_words(node)`` then runs for each node, in the order built, while every node still
+    exists. Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (an
+    exception of ``refused``: one line on stderr, no traceback), 1 when the process that started it
+    is gone already. The process stops as on SIGINT when that process dies (:mod:`.lifetime`):
+    ``ros2 launch`` killed alone does not leave the nodes running.
     """
     stop = StopRequest()
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
     if not stop_with_parent(signal.SIGINT):
         print(f'{program}: the process that started it is gone; not starting', file=sys.stderr)
         return 1
@@ -354,8 +342,7 @@ def serve(
     except ExternalShutdownException:
         pass
     finally:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        stop.ignore()
         if helper is not None:
             others[0].shutdown()
             helper.join()

@@ -177,8 +177,8 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
 def main(args: list[str] | None = None) -> int:
     """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``).
 
-    SIGINT and SIGTERM only set a flag that the spin loop checks (as every glove node does), so
-    the bag is always closed outside rclpy's C code.
+    SIGINT, SIGTERM and SIGHUP only set a flag that the spin loop checks (as every glove node
+    does), so the bag is always closed outside rclpy's C code.
     """
     argv = sys.argv if args is None else ['recorder', *args]
     try:

@@ -10,13 +10,13 @@ hand runner (:mod:`.hand`, one process for every finger) differ only in their :c
 
 from __future__ import annotations
 
-import signal
 import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..logic.lifetime import StopRequest
 from ..nodes.dds import use_profile
 from .run_record import RunRecord
 from .summary import SIGNALS, GloveSignals, SummaryDisplay
@@ -91,24 +91,6 @@ class Session:
     duration: float
     log_dir: Path
     listeners: tuple[str, ...] = ()
-
-
-class StopRequest:
-    """Turns SIGINT, SIGTERM and SIGHUP into a flag the main loop checks."""
-
-    def __init__(self):
-        self.requested = False
-        self.signal_name = ''
-        self.install()
-
-    def install(self) -> None:
-        """Handle SIGINT, SIGTERM and SIGHUP (terminal closed), also if SIGINT was ignored."""
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, self._handle)
-
-    def _handle(self, signum, _frame) -> None:
-        self.requested = True
-        self.signal_name = signal.Signals(signum).name
 
 
 def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:

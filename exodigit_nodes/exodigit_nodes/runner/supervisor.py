@@ -1,10 +1,17 @@
-"""Start node processes, watch them, and stop them in a given order.
+"""Start child processes, watch them, and stop them in a given order: the one supervisor.
 
-Each node runs as its own OS process in its own session (process group), so a Ctrl-C on the
-terminal reaches only the supervisor, which then stops the nodes one by one with SIGINT (the
-signal rclpy turns into a clean shutdown). Plain Python, no ROS: the glove command uses it, and
-tests can use it for any command line.
+Each child (:class:`Child`) runs in its own session (process group), so a Ctrl-C on the terminal
+reaches only the process that started it, which then stops the children one by one. Stopping
+escalates as ``ros2 launch`` does: SIGINT (the signal rclpy nodes turn into a clean shutdown),
+after ``grace`` seconds SIGTERM, after another ``grace`` SIGKILL; then the child's whole group
+is killed, with anything the child may have started. Each child is sent SIGINT when the process
+that started it dies (:func:`..logic.lifetime.stop_with_parent`). Plain Python, no ROS: the
+glove and hand runners use :class:`Supervisor` (named children, a stop order), the testing kit
+and the tests :class:`Child` through :class:`..testing.processes.NodeProcess`, and tests use
+either for any command line.
 """
+
+from __future__ import annotations
 
 import contextlib
 import os
@@ -15,12 +22,15 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..logic.lifetime import stop_with_parent
+from ..logic.lifetime import exit_status, stop_with_parent
 
-#: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL.
+#: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL (as the
+#: default ``sigterm_timeout`` of ``ros2 launch``).
 STOP_GRACE = 5.0
 #: Seconds between two checks while waiting for processes to exit.
 POLL_INTERVAL = 0.05
+#: The escalation of a stop, in order.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
 
 
 @dataclass(frozen=True)
@@ -30,11 +40,11 @@ class Exit:
     Attributes
     ----------
     name : str
-        Process name given to `Supervisor.start`.
+        Process name.
     returncode : int
         Exit code; negative for death by a signal (``-9`` = SIGKILL), as in `subprocess`.
     forced : bool
-        True when it ignored SIGINT for `STOP_GRACE` seconds and had to be terminated.
+        True when it ignored SIGINT for the grace time and had to be terminated.
     """
 
     name: str
@@ -51,11 +61,8 @@ class Exit:
         return self.returncode in (0, -signal.SIGINT) and not self.forced
 
     def describe(self) -> str:
-        """One human line, e.g. ``plant exited with code 1`` or ``plant killed by SIGKILL``."""
-        if self.returncode < 0:
-            text = f'{self.name} killed by {signal.Signals(-self.returncode).name}'
-        else:
-            text = f'{self.name} exited with code {self.returncode}'
+        """One human line, e.g. ``plant exited with code 1`` or ``plant was killed by SIGKILL``."""
+        text = f'{self.name} {exit_status(self.returncode)}'
         return text + (' (did not stop on SIGINT)' if self.forced else '')
 
 
@@ -68,7 +75,8 @@ def _child_setup(parent: int) -> Callable[[], None]:
 
     The children run in their own sessions, so neither a terminal hang-up nor a killed
     supervisor would otherwise reach them: on Linux they get SIGINT when ``parent`` dies, even by
-    SIGKILL, instead of running on with nobody watching.
+    SIGKILL, instead of running on with nobody watching (or publishing into a ROS domain the
+    next test session may claim).
     """
 
     def hook() -> None:
@@ -79,8 +87,129 @@ def _child_setup(parent: int) -> Callable[[], None]:
     return hook
 
 
+class Child:
+    """One child process in a session of its own, with its output in log files.
+
+    Parameters
+    ----------
+    name : str
+        Its name in messages and :class:`Exit`.
+    argv : sequence of str
+        Command line.
+    env : mapping
+        Its environment.
+    log : pathlib.Path or None
+        Where its stdout goes (and its stderr unless ``errors`` is given); None: the terminal.
+    errors : pathlib.Path or None
+        A separate file for its stderr.
+    cwd : pathlib.Path or None
+        Working directory (default this process's).
+
+    Notes
+    -----
+    Start children before this process starts threads (the pre-exec hook is not thread-safe),
+    or from a thread that outlives them (the parent-death signal follows the starting thread).
+    """
+
+    def __init__(
+        self,
+        name: str,
+        argv: Sequence[str],
+        env: Mapping[str, str],
+        log: Path | None = None,
+        errors: Path | None = None,
+        cwd: Path | None = None,
+    ) -> None:
+        self.name = name
+        self.log_path = log
+        self.errors_path = errors
+        with contextlib.ExitStack() as files:  # the child keeps its own copies
+            out = err = None
+            if log is not None:
+                log.parent.mkdir(parents=True, exist_ok=True)
+                out = files.enter_context(open(log, 'wb'))
+                err = subprocess.STDOUT
+            if errors is not None:
+                errors.parent.mkdir(parents=True, exist_ok=True)
+                err = files.enter_context(open(errors, 'wb'))
+            self.popen = subprocess.Popen(
+                list(argv),
+                cwd=cwd,
+                env=dict(env),
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=err,
+                start_new_session=True,
+                preexec_fn=_child_setup(os.getpid()),
+            )
+        self.pid = self.popen.pid
+        """Its process id, also its process group's."""
+        self._exit: Exit | None = None
+
+    def poll(self) -> int | None:
+        """Its exit code, or None while it runs."""
+        return self.popen.poll()
+
+    def alive(self) -> bool:
+        """Whether it is still running."""
+        return self.poll() is None
+
+    def signal(self, signum: int) -> None:
+        """Send ``signum`` to its process group (nothing once it has been reaped)."""
+        if self.alive():
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.pid, signum)
+
+    def wait(self, timeout: float | None = None) -> int | None:
+        """Its exit code, or None if it still runs after ``timeout`` s (None: wait for ever)."""
+        try:
+            return self.popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def exit(self) -> Exit | None:
+        """How it ended (None while it runs)."""
+        if self._exit is None and self.poll() is not None:
+            self._exit = Exit(self.name, self.popen.returncode)
+        return self._exit
+
+    def stop(self, grace: float = STOP_GRACE, idle: Callable[[], None] | None = None) -> Exit:
+        """Stop it: SIGINT, then SIGTERM and SIGKILL each after ``grace`` s; how it ended.
+
+        ``idle`` is called while waiting (e.g. to keep a ROS monitor spinning so it sees the last
+        messages). A child that ended before is not signalled, and its :class:`Exit` returned.
+        """
+        if self.exit() is not None:
+            return self._exit
+        forced = False
+        for signum in STOP_SIGNALS:
+            if self.poll() is not None:
+                break
+            forced = signum != signal.SIGINT
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.pid, signum)
+            deadline = time.monotonic() + grace
+            while self.poll() is None and time.monotonic() < deadline:
+                if idle is not None:
+                    idle()
+                else:
+                    time.sleep(POLL_INTERVAL)
+        self.popen.wait()
+        # Children the process may have started itself go with its group.
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.pid, signal.SIGKILL)
+        self._exit = Exit(self.name, self.popen.returncode, forced=forced)
+        return self._exit
+
+    def kill(self) -> Exit:
+        """SIGKILL its group at once (fault tests); how it ended."""
+        self.signal(signal.SIGKILL)
+        self.popen.wait()
+        return self.exit()
+
+
 class Supervisor:
-    """A set of named child processes, each in its own session.
+    """A set of named child processes, each a :class:`Child`.
 
     Parameters
     ----------
@@ -89,41 +218,18 @@ class Supervisor:
     log_dir : pathlib.Path or None
         When given, each child's stdout and stderr go to ``log_dir/<name>.log`` instead of the
         terminal (so a live display is not interleaved with node logs).
-
-    Notes
-    -----
-    On Linux each child is sent SIGINT if the supervising process dies. Start the children
-    before this process starts threads (the pre-exec hook is not thread-safe).
     """
 
     def __init__(self, env: Mapping[str, str], log_dir: Path | None = None):
         self._env = dict(env)
         self._log_dir = log_dir
-        self._processes: dict[str, subprocess.Popen] = {}
-        self._exits: dict[str, Exit] = {}
+        self._children: dict[str, Child] = {}
 
     def start(self, name: str, argv: Sequence[str]) -> None:
         """Start ``argv`` as process ``name`` in a new session."""
-        if name in self._processes:
+        if name in self._children:
             raise ValueError(f'a process named {name!r} was already started')
-        log = self.log_path(name)
-        if log is None:
-            self._processes[name] = self._spawn(argv, None)
-            return
-        log.parent.mkdir(parents=True, exist_ok=True)
-        with open(log, 'wb') as output:  # the child keeps its own copy of the descriptor
-            self._processes[name] = self._spawn(argv, output)
-
-    def _spawn(self, argv: Sequence[str], output) -> subprocess.Popen:
-        return subprocess.Popen(
-            list(argv),
-            env=self._env,
-            stdin=subprocess.DEVNULL,
-            stdout=output,
-            stderr=None if output is None else subprocess.STDOUT,
-            start_new_session=True,
-            preexec_fn=_child_setup(os.getpid()),
-        )
+        self._children[name] = Child(name, argv, self._env, log=self.log_path(name))
 
     def log_path(self, name: str) -> Path | None:
         """Where the output of process ``name`` goes (None: the terminal)."""
@@ -131,20 +237,20 @@ class Supervisor:
 
     def pid(self, name: str) -> int:
         """Process id of ``name`` (also its process group id)."""
-        return self._processes[name].pid
+        return self._children[name].pid
 
     @property
     def names(self) -> list[str]:
         """Names of all started processes, in start order."""
-        return list(self._processes)
+        return list(self._children)
 
     def exited(self) -> list[Exit]:
         """Processes that have ended since they were started (without being asked to stop)."""
-        return [self._reap(name) for name in self._processes if self._poll(name) is not None]
+        return [exit_ for child in self._children.values() if (exit_ := child.exit())]
 
     def running(self) -> list[str]:
         """Names of the processes still alive."""
-        return [name for name in self._processes if self._poll(name) is None]
+        return [name for name, child in self._children.items() if child.alive()]
 
     def stop(
         self,
@@ -154,50 +260,12 @@ class Supervisor:
     ) -> list[Exit]:
         """Stop the processes one after the other, in ``order``, then any others left.
 
-        Each gets SIGINT (sent to its whole process group) and ``grace`` seconds to exit, then
-        SIGTERM and, after another ``grace``, SIGKILL. ``idle`` is called while waiting (e.g. to
-        keep a ROS monitor spinning so it sees the last messages).
+        Each gets :meth:`Child.stop` (SIGINT, SIGTERM, SIGKILL, ``grace`` s apart).
 
         Returns
         -------
         list of Exit
             One per process, in stop order.
         """
-        names = list(order) + [name for name in self._processes if name not in order]
-        return [self._stop_one(name, idle, grace) for name in names if name in self._processes]
-
-    def _stop_one(self, name: str, idle: Callable[[], None] | None, grace: float) -> Exit:
-        if name in self._exits:
-            return self._exits[name]  # stopped (or seen dead) before
-        forced = False
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
-            if self._poll(name) is not None:
-                break
-            forced = sig != signal.SIGINT
-            self._signal_group(name, sig)
-            deadline = time.monotonic() + grace
-            while self._poll(name) is None and time.monotonic() < deadline:
-                if idle is not None:
-                    idle()
-                else:
-                    time.sleep(POLL_INTERVAL)
-        self._processes[name].wait()
-        # Children the node may have started itself go with its group.
-        self._signal_group(name, signal.SIGKILL)
-        exit_ = self._reap(name)
-        if forced:
-            exit_ = Exit(name, exit_.returncode, forced=True)
-            self._exits[name] = exit_
-        return exit_
-
-    def _signal_group(self, name: str, sig: signal.Signals) -> None:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(self._processes[name].pid, sig)
-
-    def _poll(self, name: str) -> int | None:
-        return self._processes[name].poll()
-
-    def _reap(self, name: str) -> Exit:
-        if name not in self._exits:
-            self._exits[name] = Exit(name, self._processes[name].returncode)
-        return self._exits[name]
+        names = list(order) + [name for name in self._children if name not in order]
+        return [self._children[name].stop(grace, idle) for name in names if name in self._children]

@@ -421,9 +421,8 @@ class GloveSim:
 
     def _check_alive(self, what: str) -> None:
         for process in self._processes:
-            if not process.alive():
+            if (exit_ := process.exit()) is not None:
                 tail = process.stderr().strip().splitlines()[-5:]
                 raise GloveSimError(
-                    f'{process.module} exited (code {process.process.returncode}) while waiting '
-                    f'for {what}: ' + ' | '.join(tail)
+                    f'{exit_.describe()} while waiting for {what}: ' + ' | '.join(tail)
                 )

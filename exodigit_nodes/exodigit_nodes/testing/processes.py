@@ -5,34 +5,32 @@
   skipping 37, the ``make run`` domain), so parallel test runs never cross-talk.
 * :func:`ros_environment` is the environment of a ROS child process: that domain, and discovery
   kept on this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
-* :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` in its own
-  session, output to log files; it stops with SIGINT then, if needed, SIGKILL, and is sent SIGTERM
-  if the process that started it dies.
+* :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` as the runners
+  start theirs (:class:`..runner.supervisor.Child`: own session, output to log files, SIGINT then
+  SIGTERM then SIGKILL to stop, SIGINT if the process that started it dies).
 """
 
 from __future__ import annotations
 
-import contextlib
 import fcntl
 import os
 import random
-import signal
-import subprocess
 import sys
 import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ..logic.lifetime import stop_with_parent
 from ..nodes.dds import with_profile
+from ..runner.supervisor import STOP_GRACE, Child
 
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
 LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
 """Lock file of a domain id in use."""
 STOP_TIMEOUT = 2.0
-"""How long a node may take to exit after SIGINT, s (docs/spec/ros.md)."""
+"""How long a glove node may take to exit after SIGINT, s: what the tests hold it to (the
+supervisor waits longer, :data:`..runner.supervisor.STOP_GRACE`, before it escalates)."""
 
 
 class DomainLease:
@@ -110,23 +108,17 @@ def ros_args(
 # -- node processes ------------------------------------------------------------------------
 
 
-def _stop_with_parent() -> None:
-    """In the child before exec: SIGTERM it when the test process dies (even by SIGKILL).
-
-    A node left running by a killed test session would otherwise keep publishing into a domain
-    id that the next session may claim.
-    """
-    stop_with_parent(signal.SIGTERM)
-
-
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time process ``pid`` has used so far, s (from /proc)."""
     fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
-class NodeProcess:
+class NodeProcess(Child):
     """One node run as a user would: ``python -m exodigit_nodes.<module> --ros-args ...``.
+
+    A :class:`~exodigit_nodes.runner.supervisor.Child` (own session, stop escalation, SIGINT
+    when this process dies), its stdout and stderr in two files of ``workdir``.
 
     Parameters
     ----------
@@ -160,53 +152,26 @@ class NodeProcess:
         self.module = module
         workdir = Path(workdir)
         label = f'{module}{(namespace or "").replace("/", "_")}-{time.monotonic_ns()}'
-        self.stdout_path = workdir / f'{label}.out'
-        self.stderr_path = workdir / f'{label}.err'
         command = [sys.executable, '-m', f'exodigit_nodes.nodes.{module}', *(arguments or [])]
         command += ros_args(parameters, namespace, name, extra)
-        with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
-            self.process = subprocess.Popen(
-                command,
-                cwd=workdir,
-                env=ros_environment(domain_id),
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=err,
-                start_new_session=True,
-                preexec_fn=_stop_with_parent,
-            )
-        self.pid = self.process.pid
+        super().__init__(
+            module,
+            command,
+            ros_environment(domain_id),
+            log=workdir / f'{label}.out',
+            errors=workdir / f'{label}.err',
+            cwd=workdir,
+        )
+        self.stdout_path = self.log_path
+        self.stderr_path = self.errors_path
 
-    def alive(self) -> bool:
-        """Whether the process is still running."""
-        return self.process.poll() is None
-
-    def signal(self, signum: int) -> None:
-        """Send a signal to the node's process group (if still running)."""
-        if self.alive():
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.pid, signum)
-
-    def wait(self, timeout: float) -> int | None:
-        """Exit status, or None if still running after ``timeout`` s."""
-        try:
-            return self.process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            return None
-
-    def stop(self, timeout: float = STOP_TIMEOUT) -> int:
-        """SIGINT, wait ``timeout`` s, then SIGKILL if needed; returns the exit status."""
-        self.signal(signal.SIGINT)
-        code = self.wait(timeout)
-        if code is None:
-            self.signal(signal.SIGKILL)
-            code = self.process.wait()
-        return code
+    def stop(self, grace: float = STOP_GRACE, idle=None) -> int:
+        """SIGINT, then SIGTERM and SIGKILL each after ``grace`` s; the exit status."""
+        return super().stop(grace, idle).returncode
 
     def kill(self) -> int:
-        """SIGKILL at once (fault tests); returns the exit status."""
-        self.signal(signal.SIGKILL)
-        return self.process.wait()
+        """SIGKILL at once (fault tests); the exit status."""
+        return super().kill().returncode
 
     def stderr(self) -> str:
         """What the node wrote on stderr so far."""
