@@ -2,13 +2,14 @@
 
 Used by every test that needs ROS (tests/conftest.py gives fixtures around it). What it does:
 
-* :func:`claim_domain` picks a ROS_DOMAIN_ID nobody on this machine is using, by holding an
-  exclusive ``fcntl`` lock on ``/tmp/exodigit-domain-<id>.lock`` for the whole test session (ids
-  1-100, skipping the Makefile's 37), so parallel test runs never cross-talk. Discovery stays on
+* :func:`claim_domain` picks a ROS_DOMAIN_ID nobody on this machine is using, held with ROS 2's
+  ``domain_coordinator`` for the whole test session (ids 1-100, skipping the Makefile's 37), so
+  parallel test runs never cross-talk. Discovery stays on
   loopback (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, :func:`ros_environment`).
-* :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` in its own
-  session, in a scratch directory (never the repository root), output to log files; it stops
-  with SIGINT then, if needed, SIGKILL, and reads CPU time and resident memory from /proc.
+* :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` as the runners
+  start their nodes (own session, SIGINT then SIGTERM then SIGKILL to stop), in a scratch
+  directory (never the repository root), output to log files, and reads CPU time and resident
+  memory from /proc.
 * :class:`RosProbe` is an rclpy node in its own context, spun by a background thread: record
   topics (:class:`Inbox`), publish, call services, set and get other nodes' parameters
   (rcl_interfaces SetParameters/GetParameters), list topics. Its context is the only one the
@@ -115,7 +116,7 @@ class NodeLauncher:
         return code, node.stdout(), node.stderr()
 
     def stop_all(self) -> None:
-        """Stop every node still running (SIGINT, then SIGKILL after the stop timeout)."""
+        """Stop every node still running (SIGINT to all, then each escalated if it must be)."""
         for node in self.processes:
             node.signal(signal.SIGINT)
         for node in self.processes:

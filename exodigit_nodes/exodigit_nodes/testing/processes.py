@@ -1,8 +1,8 @@
 """Glove nodes as OS processes in a private ROS domain: what the testing kit and our tests share.
 
-* :func:`claim_domain` picks a ROS_DOMAIN_ID nobody on this machine is using, by holding an
-  exclusive ``fcntl`` lock on ``/tmp/exodigit-domain-<id>.lock`` while it is in use (ids 1-100,
-  skipping 37, the ``make run`` domain), so parallel test runs never cross-talk.
+* :func:`claim_domain` picks a ROS_DOMAIN_ID nobody on this machine is using, held with ROS 2's
+  ``domain_coordinator`` while it is in use (ids 1-100, skipping 37, the ``make run`` domain), so
+  parallel test runs never cross-talk.
 * :func:`ros_environment` is the environment of a ROS child process: that domain, and discovery
   kept on this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
 * :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` as the runners
@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-import fcntl
+import itertools
 import os
 import random
 import sys
@@ -21,46 +21,51 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from domain_coordinator import domain_id
+
 from ..nodes.dds import with_profile
 from ..runner.supervisor import STOP_GRACE, Child
 
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
-LOCK_PATTERN = '/tmp/exodigit-domain-{}.lock'
-"""Lock file of a domain id in use."""
 STOP_TIMEOUT = 2.0
 """How long a glove node may take to exit after SIGINT, s: what the tests hold it to (the
 supervisor waits longer, :data:`..runner.supervisor.STOP_GRACE`, before it escalates)."""
 
 
 class DomainLease:
-    """An exclusive hold on one ROS_DOMAIN_ID for this process; release it when done."""
+    """A ROS_DOMAIN_ID held for this process (domain_coordinator's port); release it when done."""
 
-    def __init__(self, domain_id: int, handle) -> None:
+    def __init__(self, domain_id: int, hold) -> None:
         self.domain_id = domain_id
-        self._handle = handle
+        self._hold = hold
 
     def release(self) -> None:
-        """Give the domain id back."""
-        if self._handle is not None:
-            fcntl.flock(self._handle, fcntl.LOCK_UN)
-            self._handle.close()
-            self._handle = None
+        """Give the domain id back (idempotent)."""
+        if self._hold is not None:
+            hold, self._hold = self._hold, None
+            hold.__exit__(None, None, None)
 
 
 def claim_domain(candidates=DOMAIN_IDS) -> DomainLease:
-    """Lock a domain id nobody else on this machine holds (tried in random order)."""
+    """Hold a domain id of ``candidates`` nobody else on this machine holds (random order).
+
+    :func:`domain_coordinator.domain_id` (ROS 2's own coordinator) holds an id by binding TCP
+    port 32768 + id for as long as the lease lasts: any process on this machine that asks it,
+    ours or another package's test run, gets another id, and the kernel frees the port when this
+    process ends, however it ends. Its own choice counts up from 1, 37 included, so the ids are
+    offered here, shuffled, from ``candidates``.
+    """
     order = list(candidates)
     random.shuffle(order)
-    for domain_id in order:
-        handle = open(LOCK_PATTERN.format(domain_id), 'a')  # noqa: SIM115 (held until release)
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
-            continue
-        return DomainLease(domain_id, handle)
-    raise RuntimeError(f'every test ROS domain id in {order[0]}..{order[-1]} is in use')
+    offers = itertools.cycle(order)
+    hold = domain_id(selector=lambda: next(offers))
+    try:
+        return DomainLease(hold.__enter__(), hold)
+    except RuntimeError:  # all its tries (100) found the id's port taken
+        raise RuntimeError(
+            f'every test ROS domain id in {min(order)}..{max(order)} is in use'
+        ) from None
 
 
 def ros_environment(domain_id: int) -> dict[str, str]:
