@@ -31,6 +31,9 @@ MAX_PRESSURE_RATE = 100e3
 #: "normal" within a fifth of a second of data.
 WINDOW = 100
 IDENTIFICATION_PERIOD = 0.2
+#: Time between two /diagnostics reports of every node, s: a wait for "every node reports"
+#: takes a fifth of a second, not the default second.
+REPORT_PERIOD = 0.2
 #: Relative agreement of the identified stiffness with the model's K_H (noise-free data).
 STIFFNESS_TOLERANCE = 0.02
 #: Agreement of published angles with an independent solve (different warm start), rad.
@@ -47,6 +50,7 @@ PARAMETERS = {
         'pressure_time_constant': 0.02,
         'marker_rate_hz': 0.0,
         'max_supply_pressure': MAX_SUPPLY,
+        'diagnostic_period': REPORT_PERIOD,
     },
     'pressure_command': {
         'mode': 'sine',
@@ -54,10 +58,12 @@ PARAMETERS = {
         'max_pressure': MAX_PRESSURE,
         'max_pressure_rate': MAX_PRESSURE_RATE,
         'rate_hz': RATE,
+        'diagnostic_period': REPORT_PERIOD,
     },
     'estimator': {
         'identification_window': WINDOW,
         'identification_period': IDENTIFICATION_PERIOD,
+        'diagnostic_period': REPORT_PERIOD,
     },
 }
 

@@ -29,6 +29,8 @@ LINEAR_PATIENT = {
     }
 }
 ANGLE_TOLERANCE = 1e-9
+#: The plant's /diagnostics period in these tests, s (the default is 1 s).
+REPORT_PERIOD = 0.1
 #: Identification of a noise-free linear patient: stiffness (relative), rest angle (rad).
 STIFFNESS_RTOL, REST_TOLERANCE = 1e-4, 1e-5
 
@@ -43,7 +45,8 @@ def patient_file(tmp_path_factory):
 @contextlib.contextmanager
 def patient_glove(patient_file, log_dir):
     """A glove simulating the patient file, with the estimator, and a probe in its domain."""
-    with GloveSim(patient_file, estimator=True, log_dir=log_dir) as sim:
+    plant = {'diagnostic_period': REPORT_PERIOD}
+    with GloveSim(patient_file, estimator=True, plant=plant, log_dir=log_dir) as sim:
         probe = RosProbe(sim.domain_id, name='patient_probe')
         try:
             yield sim, probe
@@ -111,7 +114,7 @@ def test_a_bad_effort_is_dropped_and_counted(glove, patient_file):
             int(v) for k, v in report[1].items() if k.startswith('rejected patient_effort')
         )
 
-    assert wait_until(lambda: counted() is not None, 10.0)  # the plant reports once a second
+    assert wait_until(lambda: counted() is not None, 10.0)
     before = counted()
     effort.publish(Float64MultiArray(data=[1.0, float('nan'), 0.0]))
     effort.publish(Float64MultiArray(data=[50.0, 0.0, 0.0]))  # beyond any finger

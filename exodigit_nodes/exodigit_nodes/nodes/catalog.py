@@ -33,6 +33,16 @@ SAFETY = SafetyLimits()
 STAIRCASE, SINE = MODE_DEFAULTS['staircase'], MODE_DEFAULTS['sine']
 POSITION, FORCE = MODE_DEFAULTS['position'], MODE_DEFAULTS['force']
 """The safety limiter's defaults (exodigit_model.control), which are pressure_command's."""
+DIAGNOSTIC_PERIOD = ParamSpec(
+    'diagnostic_period',
+    1.0,
+    'Time between two /diagnostics reports, s (of the node clock; a plant with clock sim '
+    'reports on wall time)',
+    low=0.01,
+    high=3600.0,
+    read_only=True,
+)
+"""Every node's report period: one row, in each node's table."""
 
 
 @dataclass(frozen=True)
@@ -209,6 +219,7 @@ PLANT_NODE = NodeEntry(
                 low=0.0,
                 high=1e9,
             ),
+            DIAGNOSTIC_PERIOD,
         ]
     ),
 )
@@ -250,6 +261,7 @@ ESTIMATOR_NODE = NodeEntry(
                 low=0.05,
                 high=3600.0,
             ),
+            DIAGNOSTIC_PERIOD,
         ]
     ),
 )
@@ -394,6 +406,7 @@ PRESSURE_COMMAND_NODE = NodeEntry(
                 low=0.01,
                 high=60.0,
             ),
+            DIAGNOSTIC_PERIOD,
         ]
     ),
 )

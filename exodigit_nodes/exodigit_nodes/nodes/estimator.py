@@ -44,8 +44,6 @@ from .messages import (
 from .node_base import GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
 
-DIAGNOSTIC_PERIOD = 1.0
-"""Time between two /diagnostics reports, s."""
 MAX_PRESSURE_READING = 10e6
 """Largest |chamber pressure| accepted as a measurement, Pa."""
 
@@ -89,7 +87,7 @@ class Estimator(GloveNode):
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )
-        self.create_timer(DIAGNOSTIC_PERIOD, self.report)
+        self.create_timer(self.values['diagnostic_period'], self.report)
         self.get_logger().info(
             f'estimator: model from {describe_files(self.values["params_file"])}, '
             f'window {self.values["identification_window"]} pairs'

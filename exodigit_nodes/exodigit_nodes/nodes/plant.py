@@ -63,8 +63,6 @@ from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
 from .sim_time import WAITING, SimulatedTime
 
-DIAGNOSTIC_PERIOD = 1.0
-"""Time between two /diagnostics reports, s."""
 LATE_FACTOR = 1.5
 """A wall-clock cycle is late when it starts more than this many periods after the previous."""
 MAX_EFFORT = 10.0
@@ -151,7 +149,9 @@ class Plant(GloveNode):
             self.time.add(self)
         # After the step's timer (fired together, the report shows that step). With clock sim on
         # the wall clock: a paused plant still reports, whatever its use_sim_time.
-        self.create_timer(DIAGNOSTIC_PERIOD, self.report, clock=self.report_clock)
+        self.create_timer(
+            self.values['diagnostic_period'], self.report, clock=self.report_clock
+        )
         if self.lockstep and settings.time.lockstep_timeout > 0.0:
             timeout = f'{settings.time.lockstep_timeout:g} s'
         else:

@@ -59,8 +59,6 @@ from .messages import (
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
 
-DIAGNOSTIC_PERIOD = 1.0
-"""Time between two /diagnostics reports, s."""
 MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
 ZERO_ACK_TIMEOUT = 0.5
@@ -149,7 +147,7 @@ class PressureCommand(GloveNode):
         self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
         if not self.lockstep:
             self.create_timer(self.period, self.tick)
-        self.create_timer(DIAGNOSTIC_PERIOD, self.report)
+        self.create_timer(self.values['diagnostic_period'], self.report)
         pace = 'in lockstep with joint_states' if self.lockstep else f'at {self.period**-1:g} Hz'
         self.get_logger().info(
             f'pressure_command: mode {self.values["mode"]} {pace}, '
