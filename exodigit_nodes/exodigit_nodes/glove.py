@@ -18,13 +18,23 @@ import argparse
 import sys
 from pathlib import Path
 
-from exodigit_model.control import MODES
-from exodigit_model.params import PATIENT_PRESETS
-
 from exodigit_nodes.logic.options import UsageError, check_namespace, with_patient
-from exodigit_nodes.logic.pacing import MAX_REAL_TIME_FACTOR
+from exodigit_nodes.logic.pacing import TimeSettings
 from exodigit_nodes.nodes import catalog
 from exodigit_nodes.nodes.messages import SET_PAUSED
+from exodigit_nodes.nodes.run_options import (
+    BOOLEANS,
+    RunOption,
+    add_options,
+    check_sim_only,
+    namespace_option,
+    parameter_option,
+    patient_option,
+    text,
+    time_options,
+    time_parameters,
+    time_settings,
+)
 from exodigit_nodes.runner.common import (
     add_session_arguments,
     check_session_arguments,
@@ -41,10 +51,8 @@ from exodigit_nodes.runner.session import (
 NODES = tuple(node.executable for node in catalog.NODES)
 #: Stop order: commands first (the node publishes zero pressure as it stops), recorder last.
 STOP_ORDER = (*reversed(NODES), 'recorder')
-#: The runner's defaults of the node parameters it has options for: the nodes' own.
-MODE = catalog.PRESSURE_COMMAND_NODE.table['mode']
-CLOCK = catalog.PLANT_NODE.table['clock']
-REAL_TIME_FACTOR = catalog.PLANT_NODE.table['real_time_factor']
+#: The plant's simulated-time parameters the glove has options for (besides ``--clock``).
+TIME_OPTIONS = ('real_time_factor', 'lockstep')
 #: The finger the default session's plant simulates (the controller assumes the nominal one).
 DEFAULT_PATIENT = 'stroke_moderate'
 EXAMPLES = """examples:
@@ -59,87 +67,63 @@ ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) 
 every node; see the README, "Networking"."""
 
 
+def glove_options() -> tuple[RunOption, ...]:
+    """The glove's own options, in ``--help`` order (:mod:`.nodes.run_options`, as the hand's)."""
+    return (
+        *time_options(TIME_OPTIONS),
+        namespace_option('/glove', 'the glove'),
+        parameter_option('mode'),
+        RunOption(
+            'params_file',
+            '',
+            'model parameter YAML (docs/spec/model.md §10) of the glove, for every node; default '
+            'built-in values',
+            metavar='FILE',
+        ),
+        patient_option(DEFAULT_PATIENT, 'the glove file'),
+        RunOption(
+            'record',
+            'false',
+            'also record every topic to a rosbag2 MCAP bag in the run directory',
+            choices=BOOLEANS,
+            switch=True,
+        ),
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface of ``python -m exodigit_nodes.glove``."""
     parser = argparse.ArgumentParser(
         prog='python -m exodigit_nodes.glove',
         description='Run the simulated soft glove (plant, estimator, pressure_command) with a\n'
-        'live summary; write a run record (CSV and PNG) of the published signals.',
+        'live summary; write a run record (CSV and PNG) of the published signals.\n'
+        'Switches (--lockstep, --record) take true or false; alone they mean true.',
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_session_arguments(parser)
-    parser.add_argument(
-        '--clock',
-        choices=CLOCK.choices,
-        default=CLOCK.default,
-        help=f'wall: the system clock; sim: the plant owns simulated time (/clock) and the other '
-        f'nodes use it (default {CLOCK.default})',
-    )
-    parser.add_argument(
-        '--real-time-factor',
-        type=float,
-        default=REAL_TIME_FACTOR.default,
-        metavar='X',
-        help='with --clock sim: simulated seconds per wall second; 0 = as fast as possible '
-        f'(default {REAL_TIME_FACTOR.default:g})',
-    )
-    parser.add_argument(
-        '--lockstep',
-        action='store_true',
-        help='with --clock sim: one step in flight; the plant waits for pressure_command to '
-        'answer each step (exact and repeatable at any speed)',
-    )
-    parser.add_argument(
-        '--namespace', default='/glove', help='ROS namespace of the glove (default /glove)'
-    )
-    parser.add_argument(
-        '--mode',
-        choices=MODE.choices,
-        default=MODE.default,
-        help=f'pressure_command mode (default {MODE.default}: {MODES[MODE.default]})',
-    )
-    parser.add_argument(
-        '--params-file',
-        metavar='FILE',
-        help='model parameter YAML (docs/spec/model.md §10) of the glove, for every node; default '
-        'built-in values',
-    )
-    parser.add_argument(
-        '--patient',
-        default=DEFAULT_PATIENT,
-        metavar='NAME|FILE',
-        help=f'the finger the plant simulates (docs/spec/model.md §11): a preset '
-        f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal (the glove file alone); '
-        f'the estimator and pressure_command assume the nominal one. Default {DEFAULT_PATIENT}',
-    )
-    parser.add_argument(
-        '--record',
-        action='store_true',
-        help='also record every topic to a rosbag2 MCAP bag in the run directory',
-    )
+    add_options(parser, glove_options())
     return parser
 
 
 def check_arguments(args: argparse.Namespace) -> None:
     """Refuse values that would make a node fail later, with one line naming the value.
 
+    Reads the text options into their values in place (``lockstep``, ``record``: bool;
+    ``real_time_factor``: float), with the hand's checks (:mod:`.nodes.run_options`).
+
     Raises
     ------
     UsageError
-        For a negative or non-finite duration, a malformed namespace, or a parameter file that
-        cannot be read or breaks a rule of the model.
+        For a negative or non-finite duration, a real-time factor out of range, simulated-time
+        options on the wall clock, a malformed namespace, or a parameter file that cannot be
+        read or breaks a rule of the model.
     """
     check_session_arguments(args)
-    if not 0.0 <= args.real_time_factor <= MAX_REAL_TIME_FACTOR:
-        raise UsageError(
-            f'--real-time-factor {args.real_time_factor}: must lie in [0, '
-            f'{MAX_REAL_TIME_FACTOR:g}] (0 = as fast as possible)'
-        )
-    if args.clock != 'sim' and (
-        args.lockstep or args.real_time_factor != REAL_TIME_FACTOR.default
-    ):
-        raise UsageError('--lockstep and --real-time-factor need --clock sim')
+    time = time_settings({name: getattr(args, name) for name in TIME_OPTIONS})
+    check_sim_only(args.clock, time, TIME_OPTIONS)
+    args.real_time_factor, args.lockstep = time.real_time_factor, time.lockstep
+    args.record = args.record == 'true'
     check_namespace(args.namespace, '/glove or /left/index')
     from exodigit_model import ParameterError, load_params
 
@@ -174,7 +158,7 @@ def node_command(node: str, args: argparse.Namespace, record: RunRecord) -> list
 
 def nominal_files(args: argparse.Namespace) -> list[str]:
     """The model files the estimator and the controller assume (the glove, nominal finger)."""
-    return [] if args.params_file is None else [args.params_file]
+    return [args.params_file] if args.params_file else []
 
 
 def plant_files(args: argparse.Namespace) -> list[str]:
@@ -183,22 +167,21 @@ def plant_files(args: argparse.Namespace) -> list[str]:
 
 
 def sim_time_arguments(node: str, args: argparse.Namespace) -> list[str]:
-    """The ``-p`` overrides of one node for simulated time (the plant owns /clock)."""
-    lockstep = 'true' if args.lockstep else 'false'
-    if node == 'plant':
-        # Paused until the summary listens (nothing is missed), and again at the end of the
-        # duration, so that the record ends exactly there however far behind the summary is.
-        return [
-            *('-p', 'clock:=sim'),
-            *('-p', 'start_paused:=true'),
-            *('-p', f'pause_at:={args.duration!r}'),
-            *('-p', f'real_time_factor:={args.real_time_factor!r}'),
-            *('-p', f'lockstep:={lockstep}'),
-        ]
-    overrides = ['-p', 'use_sim_time:=true']
-    if node == 'pressure_command':
-        overrides += ['-p', f'lockstep:={lockstep}']
-    return overrides
+    """The ``-p`` overrides of one node for simulated time (the plant owns /clock).
+
+    The hand's (:func:`.nodes.run_options.time_parameters`), with the plant paused until the
+    summary listens (nothing is missed) and again at the end of the duration, so that the
+    record ends exactly there however far behind the summary is.
+    """
+    time = TimeSettings(
+        real_time_factor=args.real_time_factor,
+        lockstep=args.lockstep,
+        start_paused=True,
+        pause_at=args.duration,
+    )
+    names = (*TIME_OPTIONS, 'start_paused', 'pause_at')
+    values = time_parameters(node, 'sim', time, names)
+    return [word for name, value in values.items() for word in ('-p', f'{name}:={text(value)}')]
 
 
 def main(argv=None) -> int:

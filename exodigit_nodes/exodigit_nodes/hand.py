@@ -16,12 +16,8 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from exodigit_nodes.nodes.hand_config import (
-    HandConfig,
-    HandError,
-    add_hand_arguments,
-    hand_config,
-)
+from exodigit_nodes.logic.options import UsageError
+from exodigit_nodes.nodes.hand_config import HandConfig, add_hand_arguments, hand_config
 from exodigit_nodes.runner.common import (
     add_session_arguments,
     check_session_arguments,
@@ -69,7 +65,7 @@ def session_config(options: argparse.Namespace) -> HandConfig:
         try:
             load_params(config.plant_files(finger))
         except ParameterError as error:
-            raise HandError(f'--patient: {" ".join(str(error).split())}') from None
+            raise UsageError(f'--patient: {" ".join(str(error).split())}') from None
     if config.clock != 'sim':
         return config
     # Paused until the summary listens (nothing is missed), and again at the end of the
@@ -125,7 +121,7 @@ def main(argv=None) -> int:
     options = build_parser().parse_args(argv)
     try:
         config = session_config(options)
-    except ValueError as error:  # HandError, UsageError
+    except ValueError as error:  # UsageError
         print(f'hand: {error}', file=sys.stderr)
         return 2
     banner = (

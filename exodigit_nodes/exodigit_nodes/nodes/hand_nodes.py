@@ -37,8 +37,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
+from ..logic.options import UsageError
 from .catalog import PLANT_NODE
-from .hand_config import PARTS, HandConfig, HandError, add_hand_arguments, hand_config
+from .hand_config import PARTS, HandConfig, add_hand_arguments, hand_config
 from .node_base import freeze_start_up, last_words, serve
 from .plant import Plant
 from .sim_time import SimulatedTime
@@ -107,8 +108,8 @@ def main(args: list[str] | None = None) -> int:
         options = build_parser().parse_args(remove_ros_args(argv)[1:])
         config = hand_config(options)
         if not config.node_entries(options.part):
-            raise HandError(f'--part {options.part} with --estimator false: no node to run')
-    except (HandError, RuntimeError) as error:
+            raise UsageError(f'--part {options.part} with --estimator false: no node to run')
+    except (UsageError, RuntimeError) as error:
         print(f'hand_nodes: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
 

@@ -1,0 +1,177 @@
+"""The options of the glove and hand commands: one table of option kinds, one set of checks.
+
+``python -m exodigit_nodes.glove``, ``python -m exodigit_nodes.hand``, ``hand_nodes`` and
+``launch/hand.launch.py`` build their options from :class:`RunOption` entries made here: the
+namespace, the ``pressure_command`` mode, the patient, and the simulated-time options, which
+are the plant's parameters of the same names (:mod:`.catalog`) with their defaults, descriptions
+and checks. Values stay text on the command line (``--lockstep`` alone means true, as does
+``--lockstep true``; in a launch ``lockstep:=true``); :func:`time_settings` reads and checks
+them, and :func:`check_sim_only` refuses the simulated-time ones with the wall clock. Every
+refusal is a :class:`..logic.options.UsageError` naming the option (no rclpy).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from ..logic.options import UsageError
+from ..logic.pacing import TimeSettings
+from .catalog import PLANT_NODE, PRESSURE_COMMAND_NODE
+
+BOOLEANS = ('true', 'false')
+TIME_OPTIONS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused', 'pause_at')
+"""Plant parameters (:class:`..logic.pacing.TimeSettings` fields) a command may have as options."""
+SIM_ONLY = ('lockstep', 'start_paused', 'real_time_factor')
+"""Time options that mean nothing on the wall clock: a command refuses them without --clock sim
+(in the order its message lists them)."""
+
+
+@dataclass(frozen=True)
+class RunOption:
+    """One option of a command: ``--<name>`` on a command line, ``<name>:=`` in a launch.
+
+    Attributes
+    ----------
+    name : str
+        Launch argument name (underscores); the command-line option has dashes.
+    default : str
+        Default, as text.
+    help : str
+    choices : tuple of str
+        Allowed values (empty: any).
+    switch : bool
+        A true/false option: ``--<name>`` alone means true.
+    metavar : str
+        Placeholder of the value in ``--help`` (default the name in capitals).
+    """
+
+    name: str
+    default: str
+    help: str
+    choices: tuple[str, ...] = ()
+    switch: bool = False
+    metavar: str = ''
+
+    @property
+    def flag(self) -> str:
+        """The command-line option, ``--real-time-factor``."""
+        return flag(self.name)
+
+
+def flag(name: str) -> str:
+    """The command-line option of parameter or option ``name``: ``--real-time-factor``."""
+    return '--' + name.replace('_', '-')
+
+
+def text(value) -> str:
+    """A value as option text: ``true``, ``1.0``, ``sine``."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def parameter_option(name: str, *, note: str = '') -> RunOption:
+    """The option of a plant parameter (``mode``: of pressure_command's), as its table says."""
+    spec = PRESSURE_COMMAND_NODE.table[name] if name == 'mode' else PLANT_NODE.table[name]
+    switch = isinstance(spec.default, bool)
+    return RunOption(
+        name=name,
+        default=text(spec.default),
+        help=spec.description + note,
+        choices=BOOLEANS if switch else tuple(spec.choices),
+        switch=switch,
+    )
+
+
+def namespace_option(default: str, whom: str) -> RunOption:
+    """``--namespace``, absolute, with its ``default``; ``whom`` says what lives there."""
+    return RunOption('namespace', default, f'ROS namespace of {whom}')
+
+
+def patient_option(default: str, whom: str) -> RunOption:
+    """``--patient``: the finger the plants simulate, merged over ``whom``'s model files."""
+    from exodigit_model.params import PATIENT_PRESETS
+
+    return RunOption(
+        'patient',
+        default,
+        f'the finger the plant simulates (docs/spec/model.md §11): a preset '
+        f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal, merged over {whom}; the '
+        'controllers and estimators assume the nominal finger',
+        metavar='NAME|FILE',
+    )
+
+
+def time_options(names: Iterable[str], note: str = '') -> tuple[RunOption, ...]:
+    """``--clock`` and the simulated-time options ``names`` (of :data:`TIME_OPTIONS`)."""
+    return tuple(parameter_option(name, note=note) for name in ('clock', *names))
+
+
+def add_options(parser: argparse.ArgumentParser, options: Iterable[RunOption]) -> None:
+    """Put ``options`` on ``parser`` (values stay text; read them with the checks below)."""
+    for option in options:
+        extra = {'nargs': '?', 'const': 'true'} if option.switch else {}
+        parser.add_argument(
+            option.flag,
+            default=option.default,
+            choices=option.choices or None,
+            help=f'{option.help} (default {option.default})' if option.default else option.help,
+            metavar=None if option.choices else option.metavar or option.name.upper(),
+            **extra,
+        )
+
+
+def checked_parameter(name: str, value: str):
+    """The plant's check of option ``name`` given as ``value`` (UsageError naming the option)."""
+    spec = PLANT_NODE.table[name]
+    try:
+        typed = (value == 'true') if isinstance(spec.default, bool) else type(spec.default)(value)
+        return spec.check(typed)
+    except ValueError as error:
+        raise UsageError(f'{flag(name)} {value}: {" ".join(str(error).split())}') from None
+
+
+def time_settings(values: Mapping[str, str]) -> TimeSettings:
+    """The :class:`TimeSettings` of the time options in ``values`` (name to text), checked.
+
+    Options a command does not have keep the plant's defaults.
+    """
+    return TimeSettings(
+        **{name: checked_parameter(name, values[name]) for name in TIME_OPTIONS if name in values}
+    )
+
+
+def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None:
+    """Refuse a simulated-time setting of ``names`` on the wall clock (UsageError, one line).
+
+    The message lists every such option the command has (``names``), e.g. ``--lockstep and
+    --real-time-factor need --clock sim``.
+    """
+    names = set(names)
+    defaults = TimeSettings()
+    changed = [n for n in SIM_ONLY if n in names and getattr(time, n) != getattr(defaults, n)]
+    if clock != 'sim' and changed:
+        *others, last = [flag(n) for n in SIM_ONLY if n in names]
+        listed = f'{", ".join(others)} and {last}' if others else last
+        raise UsageError(f'{listed} need{"" if others else "s"} --clock sim')
+
+
+def time_parameters(
+    executable: str, clock: str, time: TimeSettings, names: Iterable[str]
+) -> dict[str, object]:
+    """The simulated-time parameters of one glove node: the same for a glove and every finger.
+
+    The plant gets ``clock`` and, with ``clock`` sim, the settings ``names`` of ``time`` (the
+    command's time options, and what its runner sets itself); every other node follows the
+    plant's /clock (``use_sim_time``), and ``pressure_command`` answers each step in lockstep.
+    """
+    sim = clock == 'sim'
+    if executable == PLANT_NODE.executable:
+        values: dict[str, object] = {'clock': clock}
+        if sim:
+            values.update({name: getattr(time, name) for name in TIME_OPTIONS if name in names})
+        return values
+    values = {'use_sim_time': sim}
+    if executable == PRESSURE_COMMAND_NODE.executable:
+        values['lockstep'] = sim and time.lockstep
+    return values
