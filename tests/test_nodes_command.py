@@ -31,6 +31,8 @@ MAX_PRESSURE = 60e3  # Pa, the node's default
 OVERSHOOT = 0.01
 PLANT = {'pressure_time_constant': 0.05}
 TARGETS = [0.1, 0.1, 0.1]  # rad, the controller's joint_targets at start
+#: The controller at start: position mode, reporting 10 times a second (the tests wait for it).
+CONTROLLER = {'mode': 'position', 'joint_targets': TARGETS, 'diagnostic_period': 0.1}
 #: The controller's parameters that tests change (put back in this order: targets within limits).
 CHANGED = ['mode', 'joint_targets', 'force_targets']
 
@@ -55,9 +57,7 @@ def start_loop(launcher, probe, namespace, estimator=True):
     }
     nodes = {
         'plant': launcher.start('plant', PLANT, namespace=namespace),
-        'pressure_command': launcher.start(
-            'pressure_command', {'mode': 'position', 'joint_targets': TARGETS}, namespace=namespace
-        ),
+        'pressure_command': launcher.start('pressure_command', CONTROLLER, namespace=namespace),
     }
     if estimator:
         nodes['estimator'] = launcher.start('estimator', {}, namespace=namespace)

@@ -312,6 +312,7 @@ def test_a_killed_controller_vents_after_the_timeout_and_a_new_one_locks_step_ag
             'lockstep_timeout': 0.3,
             'real_time_factor': 0.0,
             'pressure_time_constant': 0.0,
+            'diagnostic_period': 0.1,  # the waits for a report below: a tenth of a second each
         }
         processes.append(launcher.start('plant', plant, namespace=ns))
         controller_parameters = {
