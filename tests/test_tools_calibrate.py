@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from exodigit_model.tools import calibration
+from exodigit_model.tools import calibration, figures
 from exodigit_model.tools._deps import ToolError
 from exodigit_model.tools.cli import main
 
@@ -108,6 +108,19 @@ def check_round_trip(stdout, out, truth, names):
         assert abs(value - true_value) <= STANDARD_ERRORS * error, (name, value, error)
 
 
+@pytest.fixture
+def figures_drawn(monkeypatch):
+    """The fit plots the command would write, recorded instead of drawn: (rows, path) each.
+
+    Drawing one takes matplotlib about a second; test_stiffness_round_trip and
+    test_layer_round_trip write theirs (angle and force rows; and length rows), the other round
+    trips only check that the command asked for it, next to its --out file.
+    """
+    calls = []
+    monkeypatch.setattr(figures, 'fit_figure', lambda rows, path: calls.append((rows, path)))
+    return calls
+
+
 def test_stiffness_round_trip(tmp_path, capsys):
     truth = true_params()
     params_file = tmp_path / 'material.yaml'
@@ -145,11 +158,12 @@ def test_stiffness_fit_is_the_models_linear_identification(tmp_path):
     np.testing.assert_array_equal(result.standard_error, direct.standard_error)
 
 
-def test_material_round_trip(tmp_path, capsys):
+def test_material_round_trip(tmp_path, capsys, figures_drawn):
     truth = true_params(k=(0.04, 0.03, 0.015))  # the default stiffness, a different material
     data = write_csv(tmp_path / 'bench.csv', synthetic_rows(truth, 24))
     out = tmp_path / 'material.yaml'
     assert main(['calibrate', str(data), '--fit', 'material', '--out', str(out)]) == 0
+    assert [path for _, path in figures_drawn] == [tmp_path / 'material_fit.png']
     stdout = capsys.readouterr().out
     check_round_trip(stdout, out, [135.0, 12.0, 2.0], ['c1', 'c2', 'c3'])
     before = float(stdout.split('angle RMSE: ')[1].split()[0])
@@ -157,11 +171,12 @@ def test_material_round_trip(tmp_path, capsys):
     assert after < before and after < 2 * ANGLE_NOISE_DEG
 
 
-def test_both_round_trip(tmp_path, capsys):
+def test_both_round_trip(tmp_path, capsys, figures_drawn):
     truth = true_params()
     data = write_csv(tmp_path / 'bench.csv', synthetic_rows(truth, 24))
     out = tmp_path / 'both.yaml'
     assert main(['calibrate', str(data), '--fit', 'both', '--out', str(out)]) == 0
+    assert [path for _, path in figures_drawn] == [tmp_path / 'both_fit.png']
     stdout = capsys.readouterr().out
     names = ['c1', 'c2', 'c3', *(f'k_{n}' for n in JOINT_NAMES)]
     check_round_trip(stdout, out, [135.0, 12.0, 2.0, 0.055, 0.022, 0.012], names)
@@ -254,20 +269,21 @@ def test_layer_round_trip(tmp_path, capsys):
     assert (tmp_path / 'layer_fit.png').is_file()
 
 
-def test_layer_and_material_round_trip(tmp_path, capsys):
+def test_layer_and_material_round_trip(tmp_path, capsys, figures_drawn):
     """Yeoh C1..C3 and the MCP layer together; only the MCP length is measured."""
     truth = true_params(k=(0.04, 0.03, 0.015), layers=(30.0, math.inf, math.inf))
     rows = with_lengths(truth, synthetic_rows(truth, 18), measured=(0,))
     code, out = run_calibrate(tmp_path, rows, 'layer+material')
     stdout = capsys.readouterr().out
     assert code == 0
+    assert [path for _, path in figures_drawn] == [tmp_path / 'layer+material_fit.png']
     check_round_trip(stdout, out, [135.0, 12.0, 2.0, 30.0], ['c1', 'c2', 'c3', 'EL_mcp'])
     segments = load_params(out).exo_digit.segments
     assert [s.layer_axial_stiffness for s in segments[1:]] == [math.inf, math.inf]
     assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
 
 
-def test_layer_and_scale_round_trip(tmp_path, capsys):
+def test_layer_and_scale_round_trip(tmp_path, capsys, figures_drawn):
     """One factor on the Yeoh coefficients and the MCP layer, from MCP-only samples."""
     truth = true_params(
         c=(0.5 * 1.1e5, 0.5 * 2e4, 0.0), k=(0.04, 0.03, 0.015), layers=(15.0, math.inf, math.inf)
@@ -284,6 +300,7 @@ def test_layer_and_scale_round_trip(tmp_path, capsys):
     code, out = run_calibrate(tmp_path, rows, 'layer+scale')
     stdout = capsys.readouterr().out
     assert code == 0
+    assert [path for _, path in figures_drawn] == [tmp_path / 'layer+scale_fit.png']
     value, error = reported(stdout, 'scale')
     assert abs(value - 0.5) <= STANDARD_ERRORS * error
     value, error = reported(stdout, 'EL_mcp')
@@ -350,7 +367,7 @@ def test_unmeasured_cells_are_skipped_and_empty_rows_refused(tmp_path, capsys):
     assert err.endswith('line 4: nothing measured (no angle, force or length)')
 
 
-def test_the_fig12_worked_example_is_what_the_docs_show(tmp_path, capsys):
+def test_the_fig12_worked_example_is_what_the_docs_show(tmp_path, capsys, figures_drawn):
     """docs/extensible.md: its command writes its YAML, and the glove meets Fig. 12."""
     docs = Path(__file__).resolve().parents[1] / 'docs'
     out = tmp_path / 'fig12.yaml'
