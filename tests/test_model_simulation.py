@@ -79,7 +79,15 @@ def test_chamber_settings_refuse_bad_values_naming_them(field, value):
 # -- one glove -----------------------------------------------------------------------------
 
 
+#: The reference residual of eq 36 (adaptive quadrature, about 15 ms) is evaluated at the first
+#: step and every this many after it; everything else is checked at every step.
+RESIDUAL_EVERY = 5
+
+
 def test_each_step_solves_eq_36_at_the_lagged_pressure_and_reports_it():
+    """Every step: the lagged pressure, qdot, time, flags and sensors; at the first step and
+    every RESIDUAL_EVERY-th (31 of the 150, warm starts from rising and falling pressure), the
+    reference residual of eq 36 at the reported state."""
     settings = SimulationSettings(rate_hz=100.0, pressure_time_constant=0.05)
     simulation = GloveSimulation(MODEL, settings)
     commands = sine_commands(150)
@@ -90,8 +98,9 @@ def test_each_step_solves_eq_36_at_the_lagged_pressure_and_reports_it():
         state = simulation.step(command)
         expected_pressure = command + (expected_pressure - command) * decay
         np.testing.assert_allclose(state.pressure, expected_pressure, rtol=EXACT, atol=1e-9)
-        residual = coupled_residual(PARAMS, state.q, state.pressure)
-        assert np.abs(residual).max() < RESIDUAL_TOLERANCE
+        if k == 1 or k % RESIDUAL_EVERY == 0:
+            residual = coupled_residual(PARAMS, state.q, state.pressure)
+            assert np.abs(residual).max() < RESIDUAL_TOLERANCE, k
         np.testing.assert_allclose(state.qdot, (state.q - previous) / 0.01, rtol=EXACT)
         assert state.time_ns == round(k * 1e9 / 100.0) and state.step == k
         assert state.converged and state.in_valid_range
