@@ -76,37 +76,33 @@ def cache_files(root: Path) -> list[Path]:
 
 @pytest.mark.parametrize(('value', 'compiled'), [('0', False), ('1', True), ('false', True)])
 def test_only_exodigit_jit_0_turns_the_compiler_off(tmp_path, value, compiled):
+    """EXODIGIT_JIT=0, and only it, makes ``kernel`` the identity; then the plain path raises
+    on a division by zero where the compiled one gives inf (one interpreter per value)."""
     result = run_python(
         tmp_path,
         """
         from exodigit_model.kernels import jit
+        from throwaway_kernels import inverse
 
         def f(x):
             return x
         print(jit.JIT, jit.kernel(f) is f)
+        try:
+            print(inverse(0.0))
+        except ZeroDivisionError:
+            print('ZeroDivisionError')
         """,
         EXODIGIT_JIT=value,
         NUMBA_CACHE_DIR=str(tmp_path / 'cache'),
     )
-    assert result.stdout.split() == [str(compiled), str(not compiled)]
-
-
-def test_the_plain_path_raises_on_a_division_by_zero_where_the_compiled_one_gives_inf(tmp_path):
-    code = """
-    from throwaway_kernels import inverse
-    try:
-        print(inverse(0.0))
-    except ZeroDivisionError:
-        print('ZeroDivisionError')
-    """
-    cache = str(tmp_path / 'cache')
-    plain = run_python(tmp_path, code, EXODIGIT_JIT='0', NUMBA_CACHE_DIR=cache)
-    compiled = run_python(tmp_path, code, EXODIGIT_JIT='1', NUMBA_CACHE_DIR=cache)
-    assert plain.stdout.strip() == 'ZeroDivisionError'
-    assert compiled.stdout.strip() == 'inf'
+    division = 'inf' if compiled else 'ZeroDivisionError'
+    assert result.stdout.split() == [str(compiled), str(not compiled), division]
 
 
 def test_kernels_are_cached_under_the_digest_of_the_kernel_sources_and_loaded_again(tmp_path):
+    """The first interpreter compiles and caches under exodigit-<digest>, the second loads it
+    from there; in the second, a user's own ``numba.njit(cache=True)`` function caches where it
+    would have without us (numba.config.CACHE_DIR unchanged, no exodigit- directory)."""
     cache = tmp_path / 'cache'
     code = """
     from throwaway_kernels import twice_plus_one
@@ -119,8 +115,26 @@ def test_kernels_are_cached_under_the_digest_of_the_kernel_sources_and_loaded_ag
     assert {path.suffix for path in files} == {'.nbi', '.nbc'}
     assert all(path.is_relative_to(ours) for path in files), files
     assert 'cannot be cached' not in first.stderr
-    second = run_python(tmp_path, code, NUMBA_CACHE_DIR=str(cache))
-    assert second.stdout.split() == ['7.0', '1']  # loaded from the cache, not compiled
+    second = run_python(
+        tmp_path,
+        """
+        import numba
+        before = numba.config.CACHE_DIR
+        from throwaway_kernels import twice_plus_one
+        from user_functions import user_function
+        print(twice_plus_one(3.0), sum(twice_plus_one.stats.cache_hits.values()))
+        print(numba.config.CACHE_DIR == before, user_function(3.0))
+        print(twice_plus_one.stats.cache_path)
+        print(user_function.stats.cache_path)
+        """,
+        NUMBA_CACHE_DIR=str(cache),
+    )
+    value, hits, unchanged, user_value, path, theirs = second.stdout.split()
+    assert (value, hits) == ('7.0', '1')  # loaded from the cache, not compiled
+    assert (unchanged, user_value) == ('True', '2.0')
+    assert Path(path).parent == ours
+    assert Path(theirs).parent == cache
+    assert not Path(theirs).name.startswith('exodigit-')
 
 
 def test_an_unwritable_numba_cache_dir_compiles_in_memory_with_one_warning(tmp_path):
@@ -163,28 +177,6 @@ def test_kernels_numba_refuses_to_cache_compile_in_memory_with_one_warning(tmp_p
     assert len(warnings) == 1, result.stderr
     assert 'cannot cache function' in warnings[0]
     assert cache_files(tmp_path) == []
-
-
-def test_the_users_own_numba_functions_cache_where_they_would_have(tmp_path):
-    cache = tmp_path / 'cache'
-    result = run_python(
-        tmp_path,
-        """
-        import numba
-        before = numba.config.CACHE_DIR
-        from throwaway_kernels import twice_plus_one
-        from user_functions import user_function
-        print(numba.config.CACHE_DIR == before, user_function(3.0))
-        print(twice_plus_one.stats.cache_path)
-        print(user_function.stats.cache_path)
-        """,
-        NUMBA_CACHE_DIR=str(cache),
-    )
-    unchanged, value, ours, theirs = result.stdout.split()
-    assert (unchanged, value) == ('True', '2.0')
-    assert Path(ours).parent == cache / f'exodigit-{jit.source_digest()}'
-    assert Path(theirs).parent == cache
-    assert not Path(theirs).name.startswith('exodigit-')
 
 
 def test_without_numba_cache_dir_the_package_pycache_comes_first_then_the_user_cache(
