@@ -37,6 +37,7 @@ EPILOG = f"""examples:
   exodigit trial --patients 200 --mode sine --param sine_high=50e3 --set period=8 --duration 30
   exodigit trial --controller my_controllers.py:make --param gain=2 --out my_trial
   exodigit trial --patients 10000 --engine ray --address auto --no-figures --out big
+  python -m exodigit_nodes.trial --ros-controller 'ros2 run my_pkg my_node' --patients 20
 
 controllers:
   --mode NAME        a built-in mode of pressure_command behind its safety limiter; --param
@@ -49,6 +50,8 @@ controllers:
                      state) -> (N, 3) Pa).
   --policy M:A       a factory called as A(env=GloveEnv, **params) returning policy(obs) ->
                      actions, run through PolicyController (needs the gym extra).
+  a ROS node         python -m exodigit_nodes.trial --ros-controller CMD (these options, one
+                     glove per patient through the testing kit of exodigit_nodes)
 
 rules (--require, repeatable): METRIC[.JOINT] OP THRESHOLD for SHARE%, e.g.
   'peak_force_n <= 5 for 99%'   'rom_fraction >= 0.8 for 95%'   'time_over_force_s <= 0 for 100%'
@@ -63,8 +66,15 @@ DESCRIPTION = (
 )
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``exodigit trial``."""
+def add_arguments(
+    parser: argparse.ArgumentParser, *, in_process: bool = True
+) -> dict[str, argparse._ArgumentGroup]:
+    """The options of ``exodigit trial``; the groups, by name, for a caller to add to.
+
+    ``in_process=False`` leaves out the in-process controllers (``--mode``, ``--controller``,
+    ``--policy``) and engines (``--engine``, ``--address``, ``--shard-size``): what
+    ``python -m exodigit_nodes.trial`` (a ROS node as the controller) takes.
+    """
     who = parser.add_argument_group('patients and session')
     who.add_argument(
         '--population',
@@ -91,17 +101,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '--params-file', metavar='FILE', help='glove parameter YAML; the defaults when omitted'
     )
 
-    control = parser.add_argument_group('controller (one of; default --mode sine)')
-    which = control.add_mutually_exclusive_group()
-    which.add_argument('--mode', choices=tuple(MODES), help='a built-in mode')
-    which.add_argument('--controller', metavar='MODULE:ATTR', help="a user's controller factory")
-    which.add_argument('--policy', metavar='MODULE:ATTR', help='a Gymnasium policy factory')
+    control = parser.add_argument_group(
+        'controller (one of; default --mode sine)' if in_process else 'controller'
+    )
+    if in_process:
+        which = control.add_mutually_exclusive_group()
+        which.add_argument('--mode', choices=tuple(MODES), help='a built-in mode')
+        which.add_argument(
+            '--controller', metavar='MODULE:ATTR', help="a user's controller factory"
+        )
+        which.add_argument('--policy', metavar='MODULE:ATTR', help='a Gymnasium policy factory')
     control.add_argument(
         '--param',
         action='append',
         default=[],
         metavar='KEY=VALUE',
-        help="a controller parameter (the mode's or the factory's keyword); repeatable",
+        help="a controller parameter (the mode's or the factory's keyword)"
+        if in_process
+        else 'a ROS parameter of the node (-p KEY:=VALUE; YAML values, e.g. mode=position, '
+        'rate_hz=100.0)',
     )
 
     judge = parser.add_argument_group('judging and output')
@@ -117,16 +135,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     judge.add_argument('--no-figures', action='store_true', help='CSV and JSON only')
 
     run = parser.add_argument_group('running')
-    run.add_argument('--engine', choices=('local', 'ray'), default='local', help='(local)')
-    run.add_argument('--address', metavar='ADDR', help='Ray cluster address (ray engine)')
-    run.add_argument(
-        '--shard-size',
-        type=int,
-        default=DEFAULT_SHARD_SIZE,
-        metavar='N',
-        help=f'patients per batch ({DEFAULT_SHARD_SIZE:,})',
-    )
+    if in_process:
+        run.add_argument('--engine', choices=('local', 'ray'), default='local', help='(local)')
+        run.add_argument('--address', metavar='ADDR', help='Ray cluster address (ray engine)')
+        run.add_argument(
+            '--shard-size',
+            type=int,
+            default=DEFAULT_SHARD_SIZE,
+            metavar='N',
+            help=f'patients per batch ({DEFAULT_SHARD_SIZE:,})',
+        )
     run.add_argument('--no-progress', action='store_true', help='no progress bar')
+    return {'patients': who, 'controller': control, 'judging': judge, 'running': run}
 
 
 def parse_assignments(option: str, items: list[str]) -> dict[str, object]:
@@ -158,19 +178,20 @@ def _numbers(value: object) -> object:
     return value
 
 
-def trial_spec(args: argparse.Namespace) -> TrialSpec:
-    """The spec the command line describes."""
+def trial_spec(args: argparse.Namespace, controller: ControllerSpec | None = None) -> TrialSpec:
+    """The spec the command line describes (with ``controller`` instead of its own, if given)."""
     protocol = parse_assignments('--set', args.set)
     for option, key in (('duration', 'duration'), ('rate', 'rate_hz')):
         if getattr(args, option) is not None:
             protocol[key] = getattr(args, option)
-    parameters = parse_assignments('--param', args.param)
-    if args.controller is not None:
-        controller = ControllerSpec('controller', args.controller, parameters)
-    elif args.policy is not None:
-        controller = ControllerSpec('policy', args.policy, parameters)
-    else:
-        controller = ControllerSpec('mode', args.mode or 'sine', parameters)
+    if controller is None:
+        parameters = parse_assignments('--param', args.param)
+        if args.controller is not None:
+            controller = ControllerSpec('controller', args.controller, parameters)
+        elif args.policy is not None:
+            controller = ControllerSpec('policy', args.policy, parameters)
+        else:
+            controller = ControllerSpec('mode', args.mode or 'sine', parameters)
     extra = {} if args.force_limit is None else {'force_limit': args.force_limit}
     return TrialSpec(
         population=args.population,
@@ -180,7 +201,7 @@ def trial_spec(args: argparse.Namespace) -> TrialSpec:
         protocol_parameters=protocol,
         controller=controller,
         params_file=args.params_file,
-        shard_size=args.shard_size,
+        shard_size=getattr(args, 'shard_size', DEFAULT_SHARD_SIZE),
         **extra,
     )
 

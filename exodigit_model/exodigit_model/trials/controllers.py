@@ -1,6 +1,6 @@
 """The controller of a trial, made from its :class:`~.spec.ControllerSpec` where a shard runs.
 
-Three kinds (docs/trials.md, "Controllers"):
+Three kinds run in process (docs/trials.md, "Controllers"):
 
 - ``mode``: a built-in mode of ``pressure_command`` behind its safety limiter
   (:class:`~exodigit_model.control.BuiltInMode`), with the node's parameter names and defaults
@@ -11,6 +11,10 @@ Three kinds (docs/trials.md, "Controllers"):
 - ``policy``: a Gymnasium policy made by ``factory(env=..., **parameters)`` for a
   :class:`~exodigit_model.gym.GloveEnv` on the nominal glove whose target is the protocol's, run
   by :class:`~exodigit_model.gym.PolicyController` (needs the ``gym`` extra).
+
+A fourth, ``ros`` (a ROS node's command line), runs through the testing kit of
+``exodigit_nodes`` (``KitEngine``, docs/trials.md, "A ROS node as the controller");
+:func:`build_controller` refuses it.
 """
 
 from __future__ import annotations
@@ -236,9 +240,16 @@ def build_controller(
     Raises
     ------
     ValueError
-        If a factory raises, or does not return a BatchController (or a callable policy).
+        If a factory raises, or does not return a BatchController (or a callable policy), or
+        for a ``ros`` controller (it runs through exodigit_nodes' KitEngine).
     """
     parameters = dict(spec.parameters)
+    if spec.kind == 'ros':
+        raise ValueError(
+            f'{spec.name!r} is a ROS node: it runs through the testing kit of exodigit_nodes '
+            '(exodigit_nodes.testing.trial_engine.KitEngine, python -m exodigit_nodes.trial), '
+            'not in process'
+        )
     if spec.kind == 'mode':
         return built_in_mode(mode_settings(spec.name, parameters), protocol=protocol, model=model)
     factory = spec.factory()

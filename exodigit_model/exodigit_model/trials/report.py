@@ -30,7 +30,7 @@ import numpy as np
 from ..params import JOINT_NAMES
 from .metrics import column_names
 from .populations import PATIENT_FIELDS
-from .trial import TrialResult, record_patient
+from .trial import PatientRecord, TrialResult, record_patient
 
 FILES = ('patients.csv', 'summary.json')
 """The report's data files."""
@@ -44,7 +44,13 @@ def parameter_columns() -> tuple[str, ...]:
     return tuple(f'{key}.{joint}' for key in PATIENT_FIELDS for joint in JOINT_NAMES)
 
 
-def write_report(result: TrialResult, out: str | Path, *, figures: bool = True) -> list[Path]:
+def write_report(
+    result: TrialResult,
+    out: str | Path,
+    *,
+    figures: bool = True,
+    record: PatientRecord | None = None,
+) -> list[Path]:
     """Write the report of ``result`` into the folder ``out`` (made if missing).
 
     Parameters
@@ -55,7 +61,12 @@ def write_report(result: TrialResult, out: str | Path, *, figures: bool = True) 
         A folder that does not exist yet or is empty: a report never mixes with another's
         files.
     figures : bool
-        Whether to draw the figures (needs matplotlib; the worst patient's shard is run again).
+        Whether to draw the figures (needs matplotlib; the worst patient's shard is run again
+        unless ``record`` is given).
+    record : PatientRecord, optional
+        The session of the patient the report shows (``result.worst_patient()``), where the
+        engine kept it: a ROS node controller's trial cannot be run again in process
+        (``KitEngine.records`` of exodigit_nodes).
 
     Returns
     -------
@@ -65,12 +76,15 @@ def write_report(result: TrialResult, out: str | Path, *, figures: bool = True) 
     Raises
     ------
     ValueError
-        If ``out`` is a file or a folder that is not empty.
+        If ``out`` is a file or a folder that is not empty, or ``record`` is another
+        patient's.
     """
     folder = Path(out)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise ValueError(f'{folder}: exists and is not an empty folder (a report needs a new one)')
     worst = result.worst_patient()
+    if record is not None and record.patient != worst:
+        raise ValueError(f'record: patient {record.patient}, but the report shows patient {worst}')
     if figures:
         from ..tools._deps import pyplot
 
@@ -82,7 +96,9 @@ def write_report(result: TrialResult, out: str | Path, *, figures: bool = True) 
         from .figures import distribution_figure, rom_figure, time_series_figure
 
         distribution_figure(result, folder / FIGURES[0])
-        time_series_figure(record_patient(result.spec, worst), result, folder / FIGURES[1])
+        if record is None:
+            record = record_patient(result.spec, worst)
+        time_series_figure(record, result, folder / FIGURES[1])
         rom_figure(result, folder / FIGURES[2])
         written += [folder / name for name in FIGURES]
     return written

@@ -18,6 +18,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import math
+import shlex
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -33,6 +34,7 @@ CONTROLLER_KINDS = {
     'mode': 'a built-in mode of pressure_command behind its safety limiter',
     'controller': "a user's BatchController: 'module:attribute' naming its factory",
     'policy': "a Gymnasium policy: 'module:attribute' naming its factory, run by PolicyController",
+    'ros': "a ROS node: its command line, run through exodigit_nodes' testing kit (KitEngine)",
 }
 """The kinds of controller a trial can step, each with what its ``name`` is."""
 
@@ -109,20 +111,28 @@ class ControllerSpec:
     Attributes
     ----------
     kind : str
-        One of :data:`CONTROLLER_KINDS`: ``mode``, ``controller`` or ``policy``.
+        One of :data:`CONTROLLER_KINDS`: ``mode``, ``controller``, ``policy`` or ``ros``.
     name : str
         A mode of :data:`~.controllers.MODE_PARAMETERS` (``staircase``, ``sine``, ``hold``,
-        ``position``, ``force``), or ``module:attribute`` naming the factory of a user's
-        controller or policy (``module`` may be a ``.py`` file's path).
+        ``position``, ``force``), ``module:attribute`` naming the factory of a user's
+        controller or policy (``module`` may be a ``.py`` file's path), or the command line
+        of a ROS node (``ros``, split as a shell does, e.g. ``'ros2 run my_pkg my_node'``).
     parameters : mapping of str to value, or sorted pairs
-        A mode's parameters over its defaults (``pressure_command``'s names, SI), or the
-        keyword arguments of the factory. Kept as sorted pairs.
+        A mode's parameters over its defaults (``pressure_command``'s names, SI), the keyword
+        arguments of the factory, or the ROS node's parameters (``-p name:=value``). Kept as
+        sorted pairs.
 
     Raises
     ------
     ValueError
-        For an unknown kind or mode, a mode parameter unknown or out of its range, or a
-        factory that cannot be imported or is not callable.
+        For an unknown kind or mode, a mode parameter unknown or out of its range, a
+        factory that cannot be imported or is not callable, or an empty or unbalanced
+        command line.
+
+    Notes
+    -----
+    Only ``exodigit_nodes.testing.trial_engine.KitEngine`` runs a ``ros`` controller (the
+    in-process engines step the others and refuse it); this package never imports ROS.
     """
 
     kind: str = 'mode'
@@ -144,8 +154,20 @@ class ControllerSpec:
             from .controllers import mode_settings
 
             mode_settings(self.name, dict(self.parameters))
+        elif self.kind == 'ros':
+            self.command()
         else:
             self.factory()
+
+    def command(self) -> list[str]:
+        """The argv of a ROS node controller (kind ``ros``): ``name`` split as a shell does."""
+        try:
+            argv = shlex.split(self.name)
+        except ValueError as error:
+            raise ValueError(f'ROS controller command {self.name!r}: {error}') from None
+        if not argv:
+            raise ValueError('ROS controller command: empty; give the command that starts it')
+        return argv
 
     def factory(self) -> Callable[..., Any]:
         """The user's factory named by ``name`` (kinds ``controller`` and ``policy``)."""
