@@ -1,0 +1,362 @@
+"""A user's controller node that tracks targets: the kit starts it and steps it target by target.
+
+:class:`TargetGloveSim` is a :class:`~.client.GloveSim` that also starts your controller's
+command in the glove's domain and namespace (:meth:`~TargetGloveSim.start_controller`) and runs
+it against a sequence of joint targets (:meth:`~TargetGloveSim.run_targets`), one per step,
+published on the glove's ``joint_targets`` topic (std_msgs/Float64MultiArray, rad), which the
+``pressure_command`` node's ``position`` mode follows. The virtual patient trials of a ROS node
+controller (:mod:`.trial_engine`) run every patient this way.
+
+What the kit guarantees (docs/trials.md, "A ROS node as the controller"). Before the run: your
+node answers a ``get_parameters`` request (so its executor spins) and, unless ``follows`` is
+False, its ``joint_targets`` subscription is matched. Then, step k:
+
+1. the kit has heard your answer to state k − 1 (so you are done with target k − 1);
+2. it publishes target k and waits until every matched ``joint_targets`` subscriber has
+   acknowledged it (reliable QoS: it is in your node's reader);
+3. only then does it let the plant take the step (``run_until`` one step ahead) and publish
+   state k, which your node answers.
+
+So target k is in your node before state k is even computed. A node that handles its messages
+in the order they arrived (rclpy's ``EventsExecutor``, as ``pressure_command``) therefore always
+answers state k holding target k. With rclpy's ``SingleThreadedExecutor`` the same holds unless
+the node is still busy (descheduled) when state k arrives too: that executor then takes the
+messages waiting together in the order the node created its subscriptions, so create the
+``joint_targets`` subscription before the ``joint_states`` one. The kit cannot see what your
+node did with a target; it records what it sent. Every step waits for the kit, so a run is
+slower than :meth:`~.client.GloveSim.run` (about 5 ms a step on the development VM: the
+acknowledgement, a parameter call to the plant, the state and your answer).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import shlex
+import signal
+import subprocess
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from rcl_interfaces.srv import GetParameters
+from rclpy.duration import Duration
+from std_msgs.msg import Float64MultiArray
+
+from ..logic.lifetime import stop_with_parent
+from ..nodes.dds import PROFILE, PROFILE_VARIABLE
+from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message, set_double_request
+from ..nodes.qos import WRITER_QOS
+from ..runner.horizon import RepeatedCall
+from .client import POLL, GloveSim, GloveSimError
+from .processes import ros_args
+from .records import SimState
+
+KIT_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
+<!-- The Fast DDS profile of the kit and your controller in TargetGloveSim.run_targets
+     (exodigit_nodes/testing/target_run.py): the project's (exodigit_nodes/nodes/fastdds.xml) with
+     acknowledgements that come at once. The kit waits for your node to acknowledge each target;
+     a reader acknowledges only when the writer's heartbeat asks, which with the project's 50 ms
+     heartbeat made that wait 46 ms of every step's 65 ms (200 steps, measured). -->
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <data_writer profile_name="exodigit_kit_writer" is_default_profile="true">
+      <qos>
+        <reliability>
+          <max_blocking_time><sec>1</sec><nanosec>0</nanosec></max_blocking_time>
+        </reliability>
+      </qos>
+      <!-- sent only while a sample is not yet acknowledged -->
+      <times><heartbeatPeriod><sec>0</sec><nanosec>1000000</nanosec></heartbeatPeriod></times>
+    </data_writer>
+    <data_reader profile_name="exodigit_kit_reader" is_default_profile="true">
+      <!-- answer a heartbeat at once, not after Fast DDS's default 5 ms -->
+      <times><heartbeatResponseDelay><sec>0</sec><nanosec>0</nanosec></heartbeatResponseDelay></times>
+    </data_reader>
+  </profiles>
+</dds>
+"""
+"""Fast DDS profile of the kit's process and your controller's during a target run."""
+CONTROLLER_STOP = 5.0
+"""How long your controller may take to exit after SIGINT before SIGKILL, s."""
+RUN_UNTIL = 'run_until'
+
+
+def kit_profile(environ: Mapping[str, str]) -> dict[str, str]:
+    """``environ`` naming :data:`KIT_PROFILE` where it names the project's profile or none.
+
+    A profile of your own (``FASTRTPS_DEFAULT_PROFILES_FILE``) is kept: the run is then as
+    exact, but each target waits for your profile's heartbeat (the project's: up to 50 ms).
+    """
+    env = dict(environ)
+    if env.get(PROFILE_VARIABLE, str(PROFILE)) == str(PROFILE):
+        digest = hashlib.sha256(KIT_PROFILE.encode()).hexdigest()[:12]
+        path = Path(tempfile.gettempdir()) / f'exodigit-kit-fastdds-{digest}.xml'
+        if not path.exists():
+            scratch = path.with_suffix(f'.{os.getpid()}')
+            scratch.write_text(KIT_PROFILE)
+            scratch.replace(path)  # whole, also when two processes write it at once
+        env[PROFILE_VARIABLE] = str(path)
+    return env
+
+
+@dataclass(frozen=True)
+class TargetRecord:
+    """A :meth:`TargetGloveSim.run_targets`: row k is step k + 1 of the run (SI, MCP/PIP/DIP).
+
+    Attributes
+    ----------
+    initial : SimState
+        The state the run started from (the rest state after the plant's ``reset``), which
+        your controller answered first.
+    t : ndarray, shape (n,)
+        Simulated time at the end of each step, s (the plant's stamps).
+    q, qdot, pressure, forces, lengths : ndarray, shape (n, 3)
+        The state at the end of each step, as published (rad, rad/s, Pa, N, m).
+    command : ndarray, shape (n, 3)
+        The command that drove each step: your answer to the state before, Pa.
+    target : ndarray, shape (n, 3)
+        The target the kit had delivered when your controller answered the state before (the
+        target of the step), rad.
+    """
+
+    initial: SimState
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qdot: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    forces: NDArray[np.float64]
+    lengths: NDArray[np.float64]
+    command: NDArray[np.float64]
+    target: NDArray[np.float64]
+
+
+class ControllerProcess:
+    """Your controller's command, started in the glove's domain and namespace.
+
+    ``command`` gets ``--ros-args -r __ns:=<namespace> -p use_sim_time:=true`` and the
+    ``-p`` overrides of ``parameters`` appended; it runs in this process's working directory,
+    its output in ``controller.out``/``.err`` of ``log_dir``, and is sent SIGTERM if the process
+    that started it dies.
+    """
+
+    def __init__(
+        self,
+        command: Sequence[str],
+        parameters: Mapping[str, Any],
+        *,
+        env: Mapping[str, str],
+        namespace: str,
+        log_dir: Path,
+    ) -> None:
+        self.command = [*command, *ros_args({'use_sim_time': True, **parameters}, namespace)]
+        self.stdout_path = Path(log_dir) / 'controller.out'
+        self.stderr_path = Path(log_dir) / 'controller.err'
+        with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
+            try:
+                self.process = subprocess.Popen(
+                    self.command,
+                    env=dict(env),
+                    stdin=subprocess.DEVNULL,
+                    stdout=out,
+                    stderr=err,
+                    start_new_session=True,
+                    preexec_fn=lambda: stop_with_parent(signal.SIGTERM),
+                )
+            except OSError as error:
+                raise GloveSimError(
+                    f'cannot start your controller {shlex.join(command)}: {error.strerror}'
+                ) from None
+
+    def alive(self) -> bool:
+        """Whether it still runs."""
+        return self.process.poll() is None
+
+    def stop(self, grace: float = CONTROLLER_STOP) -> int:
+        """SIGINT to its process group, SIGKILL after ``grace`` s; the exit status."""
+        for signum, wait in ((signal.SIGINT, grace), (signal.SIGKILL, None)):
+            if not self.alive():
+                break
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, signum)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.process.wait(wait)
+        return self.process.wait()
+
+    def failure(self, what: str) -> GloveSimError:
+        """The error to raise when it has exited while the kit waited for ``what``."""
+        code = self.process.returncode
+        ended = f'exited with code {code}' if code >= 0 else f'was killed by signal {-code}'
+        tail = self.stderr_path.read_text(errors='replace').strip().splitlines()[-5:]
+        return GloveSimError(
+            f'your controller {ended} while waiting for {what}'
+            + (': ' + ' | '.join(tail) if tail else ' (nothing on stderr)')
+            + f'; its output is in {self.stdout_path.parent}'
+        )
+
+
+class TargetGloveSim(GloveSim):
+    """A :class:`~.client.GloveSim` that starts your controller node and feeds it targets.
+
+    Takes :class:`~.client.GloveSim`'s arguments. :meth:`close` stops your controller first
+    (it may send a last command), then the glove.
+    """
+
+    _controller: ControllerProcess | None = None
+    _targets = None
+
+    def start_controller(
+        self, command: Sequence[str], parameters: Mapping[str, Any] | None = None
+    ) -> ControllerProcess:
+        """Start ``command`` (argv) as your controller, in this glove's domain and namespace.
+
+        Its exit is then noticed by every wait of the kit (a :class:`GloveSimError` with the
+        exit status and its last lines of stderr).
+        """
+        if self._controller is not None:
+            raise GloveSimError('a controller was started already')
+        if not command:
+            raise ValueError('command: empty; give the argv of your controller')
+        self._controller = ControllerProcess(
+            command,
+            parameters or {},
+            env=kit_profile(self.env),
+            namespace=self.namespace,
+            log_dir=self.log_dir,
+        )
+        return self._controller
+
+    def close(self) -> None:
+        """Stop your controller, then everything :class:`GloveSim` started (idempotent)."""
+        if self._controller is not None:
+            self._controller.stop()
+        super().close()
+
+    def _connect(self, estimator: bool) -> None:
+        """:meth:`GloveSim._connect` with :data:`KIT_PROFILE` for this process's participant.
+
+        Fast DDS reads the profile once, when a process makes its first participant: a process
+        that made one before keeps the profile it read (slower targets, same results).
+        """
+        before = os.environ.get(PROFILE_VARIABLE)
+        os.environ[PROFILE_VARIABLE] = kit_profile(os.environ)[PROFILE_VARIABLE]
+        try:
+            super()._connect(estimator)
+        finally:
+            if before is None:
+                del os.environ[PROFILE_VARIABLE]
+            else:
+                os.environ[PROFILE_VARIABLE] = before
+
+    def _check_alive(self, what: str) -> None:
+        super()._check_alive(what)
+        if self._controller is not None and not self._controller.alive():
+            raise self._controller.failure(what)
+
+    def run_targets(self, targets: ArrayLike, *, follows: bool = True) -> TargetRecord:
+        """Rest the glove, then step it once per row of ``targets`` with your controller.
+
+        Row k (rad, MCP/PIP/DIP) is delivered on ``joint_targets`` before the state your
+        controller answers with the command that drives step k + 1 (see the module's text for
+        what is guaranteed). Your controller must publish ``pressure_command`` (start it with
+        :meth:`start_controller`; this waits for it) and answer every ``joint_states`` with
+        one command. With ``follows`` (default) the run also waits until its ``joint_targets``
+        subscription is matched; ``follows=False`` for a controller that does not subscribe
+        (an open-loop one): the targets are still sent and recorded.
+
+        Returns
+        -------
+        TargetRecord
+            The ``len(targets)`` steps.
+
+        Raises
+        ------
+        ValueError
+            If ``targets`` is not an (n, 3) array of finite angles, n >= 1.
+        GloveSimError
+            If your controller exits, or it or the plant does not go on within ``timeout``.
+        """
+        targets = np.array(targets, dtype=float)
+        if targets.ndim != 2 or targets.shape[1:] != (3,) or len(targets) < 1:
+            raise ValueError(f'targets: shape {targets.shape}, expected (n, 3) with n >= 1')
+        if not np.isfinite(targets).all():
+            raise ValueError('targets: must be finite angles, rad')
+        node = self._node
+        controllers = self._wait(node.other_controllers, 'your controller to publish')
+        self._set_paused(True)
+        self._wait(
+            lambda: set(controllers) <= self._plant_controllers(),
+            f'the plant to match {", ".join(controllers)}',
+        )
+        # A node publishes (and its reader acknowledges) before its executor spins; an
+        # executor that starts with a target and a state waiting may take the state first (a
+        # run here answered state 0 with the node's default target). A node that answers a
+        # request spins: ask each its parameters (rclpy and rclcpp nodes serve them).
+        for name in controllers:
+            client = node.create_client(GetParameters, f'{name}/get_parameters')
+            call = RepeatedCall(client, GetParameters.Request(names=['use_sim_time']))
+            self._wait(lambda call=call: call.answer(), f'{name} to spin (get_parameters)')
+            node.destroy_client(client)
+        if self._targets is None:
+            self._targets = node.create_publisher(Float64MultiArray, JOINT_TARGETS, WRITER_QOS)
+        publisher, message = self._targets, joint_vector_message()
+        # Seeing the controller's publisher says nothing of its subscriptions: DDS announces
+        # readers and writers on separate streams (a run here found the graph without the
+        # joint_targets reader, and target 0 unheard). So a controller that follows targets
+        # must be matched, and every other subscriber the graph shows too.
+        wanted = f'your controller to subscribe {JOINT_TARGETS}' + (
+            ' (follows=False for a controller that does not)' if follows else ''
+        )
+        self._wait(
+            lambda: (
+                publisher.get_subscription_count()
+                >= max(int(follows), node.count_subscribers(publisher.topic_name))
+            ),
+            wanted,
+        )
+
+        def deliver(k: int) -> None:
+            publisher.publish(fill(message, targets[k]))
+            self._wait(
+                lambda: publisher.wait_for_all_acked(Duration(seconds=POLL)),
+                f'your controller to acknowledge target {k}',
+            )
+
+        deliver(0)
+        initial = self.reset()  # the rest state, answered with target 0
+        period_ns = round(1e9 / self.rate_hz)
+        states: list[SimState] = []
+        try:
+            for k in range(len(targets)):
+                self._wait(lambda k=k: node.command_count() > k, f'your answer to step {k}')
+                if k + 1 < len(targets):
+                    deliver(k + 1)
+                latest = states[-1] if states else initial
+                until = (node.time_ns(latest.t) + period_ns) * 1e-9
+                self._call(node.parameter_client, set_double_request(RUN_UNTIL, until), RUN_UNTIL)
+                self._set_paused(False)
+                states.append(self._next_state(with_estimate=False))
+        finally:
+            with contextlib.suppress(GloveSimError):  # the error that ended the run comes first
+                self._set_paused(True)
+                self._call(node.parameter_client, set_double_request(RUN_UNTIL, 0.0), RUN_UNTIL)
+        commands = node.take_commands(len(targets))
+        node.clear_commands()
+        self.state = states[-1]
+        self._external_synced = True
+        return TargetRecord(
+            initial=initial,
+            t=np.array([s.t for s in states]),
+            q=np.array([s.q for s in states]),
+            qdot=np.array([s.qdot for s in states]),
+            pressure=np.array([s.pressure for s in states]),
+            forces=np.array([s.forces for s in states]),
+            lengths=np.array([s.lengths for s in states]),
+            command=np.array(commands),
+            target=targets,
+        )

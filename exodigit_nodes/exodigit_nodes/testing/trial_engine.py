@@ -1,0 +1,463 @@
+"""Virtual patient trials of a user's ROS node controller, one kit glove per patient.
+
+docs/trials.md, "A ROS node as the controller". :class:`KitEngine` is an engine of
+:func:`exodigit_model.trials.run_trial` (``map(spec, indices, on_done)``) for a trial whose
+controller is a ROS node (``ControllerSpec('ros', command_line, ros_parameters)``, made by
+:func:`ros_controller`). Each patient of a shard gets a glove of its own
+(:class:`~.target_run.TargetGloveSim`: a plant in lockstep simulated time, in a private domain and
+namespace) whose plant simulates that patient (the trial's glove with the patient's finger, the
+trial's chamber and sensor settings, at the protocol's rate); the kit starts the controller's
+command there with ``use_sim_time``, delivers the protocol's targets on ``joint_targets`` step by
+step, and the recorded states go into the same :class:`~exodigit_model.trials.MetricAccumulator`
+as an in-process trial's. So the metrics, summary, rules and report are the same; what a ROS node
+cannot report is stated in :func:`patient_metrics`.
+
+Up to ``parallel`` gloves run at once, each in its own ROS domain and driven by a worker process
+of its own (``python -m exodigit_nodes.testing.trial_engine``, jobs and results pickled over its
+standard input and output): a fresh process reads the kit's Fast DDS profile
+(:data:`.target_run.KIT_PROFILE`), and no interpreter lock is shared. The workers are plain
+subprocesses, not :mod:`multiprocessing`'s, so a script that runs a trial needs no
+``if __name__ == '__main__'`` guard.
+
+>>> import sys
+>>> from exodigit_model.trials import TrialSpec, run_trial
+>>> spec = TrialSpec(patients=4, protocol='grasp', protocol_parameters={'duration': 5.0},
+...                  controller=ros_controller(
+...                      [sys.executable, '-m', 'exodigit_nodes.nodes.pressure_command'],
+...                      mode='position', lockstep=True))
+>>> with KitEngine(parallel=2) as engine:                      # doctest: +SKIP
+...     result = run_trial(spec, engine=engine)
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import shlex
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from exodigit_model.params import dump_params
+from exodigit_model.trials import ControllerSpec, MetricAccumulator, PatientMetrics, TrialSpec
+from exodigit_model.trials.trial import OnDone, PatientRecord, shard_bounds, shard_patients
+
+from ..logic.lifetime import stop_with_parent
+from .client import DEFAULT_TIMEOUT, GloveSimError
+from .target_run import TargetGloveSim, TargetRecord
+
+DEFAULT_PARALLEL = 2
+"""Gloves at once by default: each takes its plant's, its controller's and its driver's share of
+a core (benchmarks/bench_trial_ros.py)."""
+SEED_LIMIT = 2**31
+"""The plant's ``seed`` is below this."""
+WORKER_STOP = 10.0
+"""How long a worker may take to stop its glove and exit, at each step of its stop, s."""
+
+
+def ros_controller(command: str | Sequence[str], **parameters: Any) -> ControllerSpec:
+    """The :class:`ControllerSpec` of a ROS node controller.
+
+    Parameters
+    ----------
+    command : str or sequence of str
+        The command that starts the node: a command line (split as a shell does) or its argv,
+        e.g. ``['ros2', 'run', 'my_pkg', 'my_node']`` or ``[sys.executable, 'my_node.py']``.
+    **parameters
+        The node's ROS parameters, given as ``-p name:=value``.
+    """
+    line = command if isinstance(command, str) else shlex.join(command)
+    return ControllerSpec('ros', line, parameters)
+
+
+def plant_parameters(spec: TrialSpec, patient: int) -> dict[str, Any]:
+    """The plant parameters of ``patient``'s glove: the trial's settings, the patient's seed.
+
+    The sensor-noise seed is the patient's own (from ``SeedSequence([seed, patient])``): a
+    plant draws its noise alone, so it cannot repeat an in-process batch's draws.
+    """
+    settings = spec.simulation_settings(0)
+    noise = np.random.SeedSequence([spec.seed, patient]).generate_state(1, np.uint64)[0]
+    return {
+        'rate_hz': float(settings.rate_hz),
+        'pressure_time_constant': float(settings.pressure_time_constant),
+        'max_supply_pressure': float(settings.max_supply_pressure),
+        'angle_noise_std': float(settings.angle_noise_std),
+        'pressure_noise_std': float(settings.pressure_noise_std),
+        'seed': int(noise % SEED_LIMIT),
+    }
+
+
+@dataclass(frozen=True)
+class PatientJob:
+    """What a worker needs to run one patient's glove (picklable)."""
+
+    patient: int
+    params_file: str
+    plant: Mapping[str, Any]
+    command: tuple[str, ...]
+    parameters: Mapping[str, Any]
+    targets: np.ndarray
+    follows: bool
+    timeout: float
+    log_dir: str
+
+
+@dataclass(frozen=True)
+class PatientRun:
+    """One patient's glove run, in the manner of a solver's result.
+
+    Attributes
+    ----------
+    patient : int
+        The patient's index in the trial.
+    status : int
+        0: the session ran; 1: it failed (the message says why: the controller exited, or it
+        or the plant did not go on within the timeout).
+    message : str
+        One line.
+    record : TargetRecord or None
+        The session (None when it failed).
+    wall_s : float
+        Wall time from the glove's start to its stop, s.
+    """
+
+    patient: int
+    status: int
+    message: str
+    record: TargetRecord | None = field(default=None, repr=False)
+    wall_s: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """Whether the session ran."""
+        return self.status == 0
+
+
+def run_patient(job: PatientJob) -> PatientRun:
+    """Start a glove of ``job``'s patient and the controller, run the targets, stop both.
+
+    Never raises for a failing controller or glove: that is ``status`` 1 with the reason.
+    """
+    started = time.monotonic()
+    try:
+        with TargetGloveSim(
+            job.params_file, plant=job.plant, timeout=job.timeout, log_dir=job.log_dir
+        ) as glove:
+            glove.start_controller(job.command, job.parameters)
+            record = glove.run_targets(job.targets, follows=job.follows)
+    except (GloveSimError, ValueError) as error:
+        wall = time.monotonic() - started
+        return PatientRun(job.patient, 1, f'patient {job.patient}: {error}', None, wall)
+    wall = time.monotonic() - started
+    steps = len(record.t)
+    message = f'patient {job.patient}: {steps} steps in {wall:.1f} s'
+    return PatientRun(job.patient, 0, message, record, wall)
+
+
+class Worker:
+    """A worker process that runs :func:`run_patient` for the jobs it is sent, one at a time."""
+
+    def __init__(self) -> None:
+        self.process = subprocess.Popen(
+            [sys.executable, '-m', __name__],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            start_new_session=True,  # Ctrl-C reaches the engine, which stops the workers
+            preexec_fn=lambda: stop_with_parent(signal.SIGTERM),
+        )
+
+    def run(self, job: PatientJob) -> PatientRun:
+        """``run_patient(job)`` in the worker; a worker that dies is ``status`` 1."""
+        started = time.monotonic()
+        try:
+            pickle.dump(job, self.process.stdin)
+            self.process.stdin.flush()
+            return pickle.load(self.process.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError):
+            code = self.process.wait()
+            return PatientRun(
+                job.patient,
+                1,
+                f"patient {job.patient}: the kit's worker process ended (code {code}); node "
+                f'logs in {job.log_dir}',
+                None,
+                time.monotonic() - started,
+            )
+
+    def close(self, *, at_once: bool = False) -> None:
+        """End the worker: no more jobs, then SIGINT (it stops its glove), then SIGKILL.
+
+        Without more jobs it exits after the current one; SIGINT comes after
+        :data:`WORKER_STOP`, or at once with ``at_once``.
+        """
+        with contextlib.suppress(OSError):
+            self.process.stdin.close()
+        if not at_once and self._ended():
+            return
+        for signum in (signal.SIGINT, signal.SIGKILL):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, signum)
+            if self._ended():
+                return
+
+    def _ended(self) -> bool:
+        try:
+            self.process.wait(WORKER_STOP)
+        except subprocess.TimeoutExpired:
+            return False
+        return True
+
+
+def worker_main() -> None:
+    """A worker: read pickled :class:`PatientJob`s on stdin, write :class:`PatientRun`s.
+
+    Standard output is the results' channel only: what anything else prints goes to stderr.
+    """
+    results = os.fdopen(os.dup(1), 'wb')
+    os.dup2(2, 1)
+    jobs = sys.stdin.buffer
+    try:
+        while True:
+            try:
+                job = pickle.load(jobs)
+            except EOFError:
+                return
+            pickle.dump(run_patient(job), results)
+            results.flush()
+    except KeyboardInterrupt:  # the engine stops us (its glove is closed on the way out)
+        return
+
+
+class PatientError(RuntimeError):
+    """A patient's glove run failed; the trial stops (the message is the run's).
+
+    Attributes
+    ----------
+    run : PatientRun
+        The failed run (``status`` 1, ``message``).
+    """
+
+    def __init__(self, run: PatientRun) -> None:
+        self.run = run
+        super().__init__(run.message)
+
+
+def patient_metrics(spec: TrialSpec, record: TargetRecord) -> PatientMetrics:
+    """One patient's metrics from a kit run, through the trial's :class:`MetricAccumulator`.
+
+    Each step counts with the published angles (true ones without the plant's angle noise),
+    the target the kit delivered for it, the contact forces and the chamber pressures. A ROS
+    node does not say when a safety limiter of its own changed its command, and the plant's
+    outputs do not say when a solve did not converge, so ``limiter_steps`` and
+    ``solver_warning_steps`` are 0.
+    """
+    metrics = MetricAccumulator(1, spec.metric_settings())
+    steps = len(record.t)
+    no = np.zeros((steps, 1), dtype=bool)
+    metrics.update(
+        q=record.q[:, np.newaxis],
+        target=record.target[:, np.newaxis],
+        forces=record.forces[:, np.newaxis],
+        pressure=record.pressure[:, np.newaxis],
+        limited=no,
+        solver_warning=no,
+    )
+    return metrics.result()
+
+
+def patient_record(spec: TrialSpec, patient: int, record: TargetRecord) -> PatientRecord:
+    """A kit run as the in-process :class:`PatientRecord` (times from the session's start)."""
+    return PatientRecord(
+        patient,
+        spec.session().times(),
+        record.q,
+        record.target,
+        record.pressure,
+        record.command,
+        record.forces,
+        np.zeros(len(record.t), dtype=bool),
+    )
+
+
+class KitEngine:
+    """Runs a trial of a ROS node controller on the testing kit (module docstring).
+
+    Parameters
+    ----------
+    parallel : int
+        Gloves at once (>= 1), each with a worker process of its own.
+    timeout : float
+        Longest wall-clock wait for any answer of a glove or the controller, s.
+    follows_targets : bool
+        Whether the controller subscribes ``joint_targets`` (the protocol's targets): each
+        glove then waits for that subscription before the session. False for one that does not
+        (open loop); the targets are sent and scored all the same.
+    log_dir : str or Path, optional
+        Keep each glove's node output in ``log_dir/patient_<i>/`` (the plant's, the
+        controller's ``controller.out``/``.err``, the patient's parameter file); a temporary
+        folder, removed after each :meth:`map`, when omitted.
+    keep_records : bool
+        Keep every patient's session in :attr:`records` (about 0.15 kB a step).
+    on_patient : callable, optional
+        ``on_patient(run)`` with each :class:`PatientRun` as it finishes (progress).
+
+    Attributes
+    ----------
+    records : dict of int to PatientRecord
+        The sessions of the last :meth:`map`'s patients (with ``keep_records``), e.g. for
+        ``write_report(result, out, record=engine.records[result.worst_patient()])``.
+    runs : list of PatientRun
+        Every patient's run of the last :meth:`map`, in the order they finished.
+    """
+
+    def __init__(
+        self,
+        parallel: int = DEFAULT_PARALLEL,
+        *,
+        timeout: float = DEFAULT_TIMEOUT,
+        follows_targets: bool = True,
+        log_dir: str | Path | None = None,
+        keep_records: bool = True,
+        on_patient: Callable[[PatientRun], None] | None = None,
+    ) -> None:
+        if isinstance(parallel, bool) or not isinstance(parallel, int) or parallel < 1:
+            raise ValueError(f'parallel = {parallel!r}: must be a whole number >= 1')
+        if not timeout > 0.0:
+            raise ValueError(f'timeout = {timeout!r}: must be > 0 s')
+        self.parallel = parallel
+        self.timeout = float(timeout)
+        self.follows_targets = follows_targets
+        self.log_dir = None if log_dir is None else Path(log_dir)
+        self.keep_records = keep_records
+        self.on_patient = on_patient
+        self.records: dict[int, PatientRecord] = {}
+        self.runs: list[PatientRun] = []
+
+    def __enter__(self) -> KitEngine:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        """Nothing stays open between maps; here for symmetry with the Ray engine."""
+
+    def map(
+        self, spec: TrialSpec, indices: Sequence[int], on_done: OnDone
+    ) -> list[PatientMetrics]:
+        """Every patient of the shards ``indices`` on a glove of its own; metrics per shard.
+
+        Raises
+        ------
+        ValueError
+            If the spec's controller is not a ROS node.
+        PatientError
+            When a patient's run fails (the gloves in flight are stopped, none starts).
+        """
+        if spec.controller.kind != 'ros':
+            raise ValueError(
+                f'controller {spec.controller}: KitEngine runs a ROS node controller (kind '
+                "'ros'); run the others with the local or Ray engine"
+            )
+        self.records, self.runs = {}, []
+        bounds = shard_bounds(spec)
+        workers: list[Worker] = []
+        local = threading.local()
+        lock = threading.Lock()
+
+        def run(job: PatientJob) -> PatientRun:  # in a pool thread, on that thread's worker
+            if not hasattr(local, 'worker'):
+                local.worker = Worker()
+                with lock:
+                    workers.append(local.worker)
+            return local.worker.run(job)
+
+        with tempfile.TemporaryDirectory(prefix='exodigit_kit_trial_') as scratch:
+            root = Path(scratch) if self.log_dir is None else self.log_dir
+            jobs = {index: self._jobs(spec, index, root) for index in indices}
+            parts: dict[int, dict[int, PatientMetrics]] = {index: {} for index in indices}
+            results: dict[int, PatientMetrics] = {}
+            total = sum(len(shard) for shard in jobs.values())
+            pool = ThreadPoolExecutor(min(self.parallel, total), thread_name_prefix='kit')
+            pending: dict[Future, int] = {
+                pool.submit(run, job): index for index, shard in jobs.items() for job in shard
+            }
+            try:
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        index = pending.pop(future)
+                        run_ = future.result()
+                        self.runs.append(run_)
+                        if self.on_patient is not None:
+                            self.on_patient(run_)
+                        if not run_.success:
+                            raise PatientError(run_)
+                        parts[index][run_.patient] = patient_metrics(spec, run_.record)
+                        if self.keep_records:
+                            self.records[run_.patient] = patient_record(
+                                spec, run_.patient, run_.record
+                            )
+                        if len(parts[index]) == len(jobs[index]):
+                            start, stop = bounds[index]
+                            results[index] = PatientMetrics.concatenate(
+                                [parts[index][i] for i in range(start, stop)]
+                            )
+                            on_done(index, results[index])
+            except BaseException:  # a failed patient, Ctrl-C: stop the gloves in flight
+                for future in pending:
+                    future.cancel()
+                for worker in list(workers):
+                    worker.close(at_once=True)
+                raise
+            finally:
+                pool.shutdown(wait=True)
+                for worker in workers:
+                    worker.close()
+        return [results[index] for index in indices]
+
+    def _jobs(self, spec: TrialSpec, index: int, root: Path) -> list[PatientJob]:
+        """Shard ``index``'s patients as jobs, each with its parameter file written."""
+        patients = shard_patients(spec, index)
+        start = shard_bounds(spec)[index][0]
+        glove = spec.glove_params()
+        protocol = spec.session()
+        targets = protocol.targets(protocol.times())
+        command = tuple(spec.controller.command())
+        parameters = dict(spec.controller.parameters)
+        jobs = []
+        for offset, finger in enumerate(patients.fingers):
+            patient = start + offset
+            folder = root / f'patient_{patient}'
+            folder.mkdir(parents=True, exist_ok=True)
+            params_file = folder / 'patient.yaml'
+            dump_params(replace(glove, finger=finger), params_file)
+            jobs.append(
+                PatientJob(
+                    patient,
+                    str(params_file),
+                    plant_parameters(spec, patient),
+                    command,
+                    parameters,
+                    targets,
+                    self.follows_targets,
+                    self.timeout,
+                    str(folder),
+                )
+            )
+        return jobs
+
+
+if __name__ == '__main__':
+    # the module by its name, so that what a worker pickles unpickles in the engine
+    from exodigit_nodes.testing.trial_engine import worker_main as main
+
+    main()

@@ -1,0 +1,145 @@
+"""``python -m exodigit_nodes.trial``: a virtual patient trial of a ROS node controller.
+
+``exodigit trial`` (exodigit_model, which never imports ROS) with a ROS node as the controller:
+the same options (:func:`exodigit_model.tools.trial_command.add_arguments`) except the
+in-process controllers and engines, plus ``--ros-controller CMD``, ``--parallel``, ``--timeout``
+and ``--node-logs``. Every patient runs on a glove of the testing kit, one at a time per
+``--parallel`` (:class:`~exodigit_nodes.testing.trial_engine.KitEngine`); the printout, the
+report (``--out``) and the exit status are the other command's (docs/trials.md, "A ROS node as
+the controller").
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from exodigit_model.checks import ParameterError
+from exodigit_model.tools import trial_command
+from exodigit_model.tools._deps import ToolError
+from exodigit_model.trials import ControllerSpec, run_trial
+
+from .testing.client import DEFAULT_TIMEOUT
+from .testing.trial_engine import DEFAULT_PARALLEL, KitEngine, PatientError, PatientRun
+
+PROG = 'python -m exodigit_nodes.trial'
+EXIT_USAGE = 2
+
+EPILOG = f"""examples:
+  {PROG} --ros-controller 'ros2 run my_pkg my_node' --patients 20 --protocol grasp \\
+      --require 'peak_force_n <= 5 for 99%' --out trial
+  {PROG} --ros-controller '{sys.executable} -m exodigit_nodes.nodes.pressure_command' \\
+      --param mode=position --param lockstep=true --patients 4 --duration 10
+
+the controller: the kit starts CMD for every patient in the glove's domain and namespace, with
+--ros-args -r __ns:=<namespace> -p use_sim_time:=true and every --param appended. It must answer
+each joint_states with one pressure_command (the lockstep protocol; pressure_command does with
+lockstep=true) and may follow the protocol's targets on joint_targets (rad), each delivered
+before the state it is for. Slower than an in-process trial: one glove per patient (a few
+seconds to start), a few milliseconds per step.
+
+exit status: 0 every rule passed, 1 a rule failed, 2 bad input or a patient's run failed (one
+line on stderr)."""
+
+DESCRIPTION = (
+    'Run a ROS node controller against a population of virtual patients through a session '
+    'protocol: one simulated glove per patient in lockstep simulated time (the testing kit), '
+    'several at once, each in its own ROS domain; the metrics, rules and report of exodigit '
+    'trial (docs/trials.md).'
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command's options: the trial's, and the ROS node's."""
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    groups = trial_command.add_arguments(parser, in_process=False)
+    groups['controller'].add_argument(
+        '--ros-controller',
+        required=True,
+        metavar='CMD',
+        help="the command that starts the node, e.g. 'ros2 run my_pkg my_node' (split as a "
+        'shell does)',
+    )
+    groups['controller'].add_argument(
+        '--no-targets',
+        action='store_true',
+        help='the node does not subscribe joint_targets (open loop): do not wait for it',
+    )
+    groups['running'].add_argument(
+        '--parallel',
+        type=int,
+        default=DEFAULT_PARALLEL,
+        metavar='N',
+        help=f'gloves at once, each in its own ROS domain ({DEFAULT_PARALLEL})',
+    )
+    groups['running'].add_argument(
+        '--timeout',
+        type=float,
+        default=DEFAULT_TIMEOUT,
+        metavar='S',
+        help=f'longest wait for an answer of the glove or the node, wall s ({DEFAULT_TIMEOUT:g})',
+    )
+    groups['running'].add_argument(
+        '--node-logs',
+        metavar='DIR',
+        help="keep every patient's node output in DIR/patient_<i>/ (default: discarded)",
+    )
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    """The trial: 0 when every rule passed, 1 when one failed (ToolError for bad input)."""
+
+    def progress(run: PatientRun) -> None:
+        done = len(engine.runs)
+        print(f'{run.message} ({done}/{args.patients})', file=sys.stderr, flush=True)
+
+    try:
+        parameters = trial_command.parse_assignments('--param', args.param)
+        spec = trial_command.trial_spec(
+            args, ControllerSpec('ros', args.ros_controller, parameters)
+        )
+        engine = KitEngine(
+            args.parallel,
+            timeout=args.timeout,
+            follows_targets=not args.no_targets,
+            log_dir=args.node_logs,
+            on_patient=None if args.no_progress else progress,
+        )
+        result = run_trial(spec, rules=args.require, engine=engine, progress=False)
+    except (ValueError, PatientError) as error:
+        raise ToolError(str(error)) from None
+    for line in trial_command.report_lines(result):
+        print(line)
+    if args.out is not None:
+        from exodigit_model.trials.report import write_report
+
+        worst = engine.records.get(result.worst_patient())
+        try:
+            written = write_report(result, args.out, figures=not args.no_figures, record=worst)
+        except ValueError as error:
+            raise ToolError(f'--out {error}') from None
+        print(f'wrote {args.out}/: {", ".join(path.name for path in written)}')
+    return result.status
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return run(args)
+    except (ToolError, ParameterError) as error:
+        print(f'{PROG}: error: {" ".join(str(error).split())}', file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f'{PROG}: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""Virtual patient trials of a ROS node controller through the testing kit (docs/trials.md).
+
+The "user's" node is the built-in ``pressure_command`` in ``position`` mode with
+``lockstep:=true``; the in-process trial's ``position`` mode is the same controller code
+(exodigit_model.control), so the two trials must agree on every metric a ROS node can report.
+They are not bit for bit the same: the node's time step is the difference of two plant stamps,
+which differs from the in-process 1/rate_hz in the last bits (its rate-limited first commands
+came out 2e-13 Pa apart, the metrics 1e-16 rad and 5e-15 N), hence ROUNDING.
+"""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from exodigit_model.trials import ControllerSpec, TrialSpec, run_trial
+from exodigit_model.trials.report import write_report
+from exodigit_nodes.testing.trial_engine import KitEngine, PatientError, ros_controller
+
+from exodigit_nodes import trial as trial_command
+
+ROUNDING = 1e-9
+"""Relative (and absolute, in the metric's unit) agreement of the kit's metrics with the
+in-process trial's: six orders above the rounding measured, far below what one step's stale
+target would change (about 1e-4 rad of tracking RMSE)."""
+NOT_REPORTED = ('limiter_steps', 'solver_warning_steps')
+"""What a ROS node and the plant's topics do not say: 0 in a kit trial."""
+NODE = [sys.executable, '-m', 'exodigit_nodes.nodes.pressure_command']
+
+
+def trial(controller: ControllerSpec, patients: int = 2) -> TrialSpec:
+    return TrialSpec(
+        patients=patients,
+        seed=4,
+        protocol='grasp',
+        protocol_parameters={
+            'duration': 1.0,
+            'close_time': 0.5,
+            'hold_time': 0.2,
+            'open_time': 0.3,
+        },
+        controller=controller,
+    )
+
+
+@pytest.fixture(scope='module')
+def kit_trial():
+    spec = trial(ros_controller(NODE, mode='position', lockstep=True))
+    with KitEngine(parallel=2) as engine:
+        result = run_trial(spec, engine=engine)
+    return spec, engine, result
+
+
+def test_the_node_gives_the_in_process_metrics(kit_trial):
+    _, engine, result = kit_trial
+    reference = run_trial(trial(ControllerSpec('mode', 'position')))
+    kit, local = result.metrics.columns(), reference.metrics.columns()
+    assert list(kit) == list(local)  # the same columns, in the same order
+    for column in NOT_REPORTED:
+        assert (kit[column] == 0).all()
+    assert local['limiter_steps'].max() > 0  # the rate limit acted: the node's is not seen
+    for column in set(kit) - set(NOT_REPORTED):
+        np.testing.assert_allclose(
+            kit[column], local[column], rtol=ROUNDING, atol=ROUNDING, err_msg=column
+        )
+    assert (kit['rom_rad.pip'] > 0.05).all()  # the finger moved
+    assert result.status == 0 and result.message.startswith('passed: 2 patients')
+    assert [run.status for run in engine.runs] == [0, 0]
+
+
+def test_the_targets_sent_are_the_protocols_and_in_the_records(kit_trial):
+    spec, engine, result = kit_trial
+    protocol = spec.session()
+    targets = protocol.targets(protocol.times())
+    assert sorted(engine.records) == [0, 1]
+    for patient, record in engine.records.items():
+        assert record.patient == patient
+        np.testing.assert_array_equal(record.target, targets)
+        np.testing.assert_array_equal(record.t, protocol.times())
+        assert record.q.shape == record.command.shape == (protocol.steps, 3)
+    # the target's range is what the metrics saw: exactly the targets sent
+    sent = targets.max(axis=0) - targets.min(axis=0)
+    np.testing.assert_array_equal(result.metrics.values['target_rom_rad'], np.tile(sent, (2, 1)))
+
+
+def test_the_report_is_the_in_process_one(kit_trial, tmp_path):
+    _, engine, result = kit_trial
+    worst = result.worst_patient()
+    written = write_report(result, tmp_path / 'report', record=engine.records[worst])
+    assert sorted(path.name for path in written) == sorted(
+        ['patients.csv', 'summary.json', 'distributions.png', 'worst_patient.png', 'rom.png']
+    )
+    summary = json.loads((tmp_path / 'report' / 'summary.json').read_text())
+    assert summary['spec']['controller']['kind'] == 'ros'
+    assert summary['spec']['controller']['parameters'] == {'lockstep': True, 'mode': 'position'}
+    assert summary['worst_patient'] == worst
+
+
+def test_a_controller_that_exits_at_once_fails_its_run_not_hangs():
+    spec = trial(ros_controller([sys.executable, '-c', 'raise SystemExit(3)']), patients=1)
+    engine = KitEngine(parallel=1, timeout=20.0, follows_targets=False)
+    with pytest.raises(PatientError) as failure:
+        run_trial(spec, engine=engine)
+    (run,) = engine.runs
+    assert failure.value.run is run
+    assert run.status == 1 and not run.success and run.record is None
+    assert run.message.startswith('patient 0: your controller exited with code 3 while waiting')
+
+
+def test_the_engines_refuse_each_others_controllers():
+    ros = trial(ros_controller(NODE), patients=1)
+    with pytest.raises(ValueError, match='is a ROS node: it runs through the testing kit'):
+        run_trial(ros)
+    with pytest.raises(ValueError, match="KitEngine runs a ROS node controller \\(kind 'ros'\\)"):
+        run_trial(trial(ControllerSpec('mode', 'position'), 1), engine=KitEngine())
+    for parallel in (0, 1.5, True):
+        with pytest.raises(ValueError, match='parallel'):
+            KitEngine(parallel)
+    with pytest.raises(ValueError, match='ROS controller command: empty'):
+        ros_controller([])
+
+
+def test_the_command_takes_the_trial_options_and_refuses_in_process_ones(capsys):
+    with pytest.raises(SystemExit):
+        trial_command.main(['--help'])
+    text = capsys.readouterr().out
+    for option in ('--ros-controller CMD', '--parallel N', '--population', '--require RULE'):
+        assert option in text
+    assert '--mode' not in text and '--engine' not in text
+    assert trial_command.main(['--ros-controller', 'x', '--parallel', '0']) == 2
+    assert 'parallel = 0' in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        trial_command.main(['--ros-controller', 'x', '--mode', 'sine'])
