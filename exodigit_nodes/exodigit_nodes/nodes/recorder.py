@@ -1,10 +1,12 @@
-"""Record every topic of one glove to a rosbag2 bag in MCAP storage (no ROS install needed).
+"""Record every topic of a glove or a hand to a rosbag2 bag in MCAP storage (no ROS install).
 
 Usage::
 
     python -m exodigit_nodes.nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
+    python -m exodigit_nodes.nodes.recorder --output DIR --gloves a,b --ros-args -r __ns:=/hand
 
-Subscribes, in its namespace, to every glove topic of docs/spec/ros.md (``chamber_pressure``,
+Subscribes, in its namespace (with ``--gloves``, in each of those sub-namespaces: one recorder
+for a whole hand), to every glove topic of docs/spec/ros.md (``chamber_pressure``,
 ``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
 ``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
 ``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to
@@ -116,51 +118,90 @@ class BagWriter:
         self._writer.close()
 
 
-class Recorder(Node):
-    """Subscribes to the glove topics (raw CDR) and hands each message to a :class:`BagWriter`."""
+SHARED = (messages.DIAGNOSTICS, messages.CLOCK)
+"""Topics of the whole domain, not of a glove: every bag gets them."""
 
-    def __init__(self, output: Path) -> None:
+
+class Recorder(Node):
+    """Subscribes to the glove topics (raw CDR) and hands each message to its :class:`BagWriter`.
+
+    ``gloves``: sub-namespaces of its namespace whose topics it records, each to a bag of its own,
+    ``output/<glove>`` (a hand's fingers; ``exodigit plot`` reads one glove a bag); the default
+    ``('',)``: the namespace itself, to ``output``. /diagnostics and /clock go to every bag.
+    """
+
+    def __init__(self, output: Path, gloves: tuple[str, ...] = ('',)) -> None:
         super().__init__('recorder')
-        resolved = {}
-        for topic, message_class in TOPICS.items():
+        if gloves != ('',):
+            if '' in gloves or len(set(gloves)) != len(gloves):
+                raise RecorderError(f'--gloves {",".join(gloves)}: give distinct names')
+            if output.exists():
+                raise RecorderError(
+                    f'--output {output}: exists already; the bags need a new folder'
+                )
+            output.mkdir(parents=True)
+        routes: dict[str, tuple[type, list[str]]] = {}  # relative topic: type, its gloves' bags
+        for glove in gloves:  # a glove's chamber_pressure before its joint_states (TOPICS)
+            for topic, message_class in TOPICS.items():
+                name = f'{glove}/{topic}' if glove and topic not in SHARED else topic
+                routes.setdefault(name, (message_class, []))[1].append(glove)
+        self._names = {}
+        for name, (message_class, _) in routes.items():
             subscription = self.create_subscription(
                 message_class,
-                topic,
-                self._callback_for(topic),
+                name,
+                self._callback_for(name),
                 RECORD_QOS,
                 raw=True,
             )
-            resolved[topic] = subscription.topic_name
-        self._names = resolved
-        self.bag = BagWriter(output, {resolved[t]: type_name(c) for t, c in TOPICS.items()})
+            self._names[name] = subscription.topic_name
+        self._routes = {name: bags for name, (_, bags) in routes.items()}
+        self.bags = {
+            glove: BagWriter(
+                output / glove if glove else output,
+                {self._names[n]: type_name(c) for n, (c, bags) in routes.items() if glove in bags},
+            )
+            for glove in gloves
+        }
         self.get_logger().info(
-            f'recording {len(TOPICS)} topics to {output} (rosbag2, MCAP): '
-            + ', '.join(resolved.values())
+            f'recording {len(routes)} topics to {output} (rosbag2, MCAP): '
+            + ', '.join(self._names.values())
         )
 
     def _callback_for(self, topic: str):
         def record(data: bytes) -> None:
-            self.bag.write(self._names[topic], self.get_clock().now().nanoseconds, data)
+            stamp = self.get_clock().now().nanoseconds
+            for glove in self._routes[topic]:
+                self.bags[glove].write(self._names[topic], stamp, data)
 
         return record
 
     def close(self) -> None:
-        """Close the bag and log what it holds."""
-        self.bag.close()
-        counts = ', '.join(f'{topic} {count}' for topic, count in self.bag.counts.items())
-        self.get_logger().info(f'closed {self.bag.path}: {counts} messages')
+        """Close the bags and log what each holds."""
+        for bag in self.bags.values():
+            bag.close()
+            counts = ', '.join(f'{topic} {count}' for topic, count in bag.counts.items())
+            self.get_logger().info(f'closed {bag.path}: {counts} messages')
 
 
 def parse_arguments(argv: list[str]) -> argparse.Namespace:
     """The recorder's own options (``--ros-args`` removed first)."""
     parser = argparse.ArgumentParser(
         prog='python -m exodigit_nodes.nodes.recorder',
-        description='Record every glove topic of the namespace to a rosbag2 MCAP bag.',
+        description='Record every glove topic of the namespace (or of --gloves in it) to a '
+        'rosbag2 MCAP bag.',
         epilog='example:\n  python -m exodigit_nodes.nodes.recorder --output runs/bag '
         '--duration 20 --ros-args -r __ns:=/glove',
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument('--output', required=True, metavar='DIR', help='bag folder to create')
+    parser.add_argument(
+        '--gloves',
+        default='',
+        metavar='A,B',
+        help="comma-separated sub-namespaces of gloves to record (a hand's fingers), each to "
+        'a bag DIR/<glove>; default the namespace itself, to DIR',
+    )
     parser.add_argument(
         '--duration',
         type=float,
@@ -194,7 +235,7 @@ def main(args: list[str] | None = None) -> int:
     return serve(
         'recorder',
         argv,
-        lambda: Recorder(Path(options.output)),
+        lambda: Recorder(Path(options.output), tuple(options.gloves.split(','))),
         last_words,
         duration=options.duration if options.duration > 0 else math.inf,
         refused=(ConfigurationError, RecorderError),
