@@ -1,7 +1,8 @@
 # exodigit: the two commands a user needs.
 #   make run [DURATION=20] [RECORD=1] [HAND=1]
 #                            the simulated glove, headless, with a live summary (Ctrl-C to stop);
-#                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag;
+#                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag
+#                            (with HAND=1 one per finger);
 #                            HAND=1 runs a whole hand instead (five gloves, two processes)
 #   make test                lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
@@ -54,7 +55,7 @@ $(VENV)/.warm: $(VENV)/.installed $(WARM_INPUTS)
 
 run: warm
 ifdef HAND
-	$(BIN)/python -m exodigit_nodes.hand --duration $(DURATION)
+	$(BIN)/python -m exodigit_nodes.hand --duration $(DURATION) $(if $(RECORD),--record)
 else
 	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE) \
 		$(if $(RECORD),--record)

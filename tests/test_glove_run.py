@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from exodigit_model.tools.bag import read_bag
-from exodigit_nodes.glove import DEFAULT_PATIENT, NODES
 from exodigit_nodes.glove import main as glove_main
+from exodigit_nodes.nodes.catalog import NODES as NODE_ENTRIES
+from exodigit_nodes.nodes.hand_config import DEFAULT_PATIENTS
 from ros_harness import claim_domain, ros_environment, wait_until
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
@@ -31,6 +32,8 @@ from rosbags.typesys import Stores, get_typestore
 from exodigit_model import GloveModel, load_params, patient_file
 
 GLOVE = [sys.executable, '-m', 'exodigit_nodes.glove']
+NODES = tuple(entry.executable for entry in NODE_ENTRIES)
+DEFAULT_PATIENT = DEFAULT_PATIENTS['glove']
 JOINTS = ('mcp', 'pip', 'dip')
 #: Angles in the record against GloveModel.solve of the recorded chamber pressures, rad.
 ANGLE_TOLERANCE = 1e-6

@@ -4,7 +4,8 @@ One session, read by the tests that need a running hand: two fingers in lockstep
 second. Every finger's record has exactly one row per step and its angles are what that finger's
 own model file gives for the recorded pressures (an independent solve, not the node's code path
 over DDS); the estimators run in the hand's second process and, with the controllers in ``force``
-mode, their estimates reach the records; at the stop every command node sends zero pressure.
+mode, their estimates reach the records; each finger has a bag of every step (``--record``); at
+the stop every command node sends zero pressure.
 Refusals of bad input are ``main`` calls in this process, and one run of the command for its exit
 status."""
 
@@ -14,6 +15,7 @@ import sys
 
 import numpy as np
 import pytest
+from exodigit_model.tools.bag import read_bag
 from exodigit_nodes.hand import main as hand_main
 from exodigit_nodes.nodes.hand_config import hand_config_dir
 from ros_harness import ros_environment
@@ -57,7 +59,7 @@ def run_hand(ros_domain, tmp_path, *arguments, timeout=TIMEOUT):
 
 @pytest.fixture(scope='module')
 def session(ros_domain, tmp_path_factory):
-    """One lockstep session of two fingers for DURATION simulated seconds, run to its end.
+    """One recorded lockstep session of two fingers for DURATION simulated seconds, run to its end.
 
     In ``force`` mode each controller's answer waits for its step's estimate, so the estimators
     are in lockstep too (in the other modes they are not: at real-time factor 0 the plants can
@@ -68,6 +70,7 @@ def session(ros_domain, tmp_path_factory):
         ros_domain,
         workdir,
         *('--fingers', ','.join(FINGERS), '--clock', 'sim', '--lockstep', '--mode', 'force'),
+        '--record',
         *('--real-time-factor', '0', '--duration', f'{DURATION:g}', '--out', str(workdir / 'run')),
     )
     return result, workdir / 'run'
@@ -112,6 +115,21 @@ def test_the_hand_stops_cleanly_with_zero_pressure_sent_and_the_estimates_record
         assert f'.{finger}.estimator]' not in log
         table = read_record(out / finger / 'signals.csv')
         assert np.isfinite(columns(table, 'f_est', 'n')).all(axis=1).any(), finger
+
+
+def test_record_gives_each_finger_a_bag_of_every_step(session):
+    # One recorder, a bag per finger; the runner resumes the hand only once it listens.
+    result, out = session
+    assert result.returncode == 0, result.stderr
+    steps = round(DURATION * RATE)
+    for finger in FINGERS:
+        bag = read_bag(out / 'bag' / finger)
+        for topic in ('joint_states', 'chamber_pressure', 'contact_forces'):
+            assert len(bag[topic].values) == steps and bag[topic].skipped == 0, (finger, topic)
+        table = read_record(out / finger / 'signals.csv')
+        np.testing.assert_allclose(
+            np.degrees(bag['joint_states'].values), columns(table, 'q', 'deg'), atol=1e-9
+        )
 
 
 def test_a_refused_hand_command_exits_2_with_one_line_on_stderr(ros_domain, tmp_path):

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 import yaml
 from exodigit_model.control import MODES
-from exodigit_nodes.glove import build_parser, check_arguments, glove_session
+from exodigit_nodes.glove import GLOVE
 from exodigit_nodes.logic.parameters import ParamSpec
 from exodigit_nodes.nodes.catalog import NODES
 from exodigit_nodes.nodes.config_files import CONFIG_WIDTH, config_text
 from exodigit_nodes.nodes.config_files import main as write_config_main
-from exodigit_nodes.runner.run_record import RunRecord
+from exodigit_nodes.runner import hand_runner
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = ROOT / 'exodigit_nodes'
@@ -98,13 +98,11 @@ def test_a_rule_given_by_position_is_refused():
 
 def session_of(arguments: list[str], run_dir):
     """The glove runner's session for these command-line arguments (started: nothing)."""
-    args = build_parser().parse_args(arguments)
-    check_arguments(args)
-    record = RunRecord(run_dir)
-    try:
-        return glove_session(args, record)
-    finally:
-        record.close()
+    options = hand_runner.build_parser(GLOVE).parse_args(arguments)
+    session = hand_runner.session(hand_runner.run_config(GLOVE, options), run_dir)
+    for glove in session.gloves:
+        glove.record.close()
+    return session
 
 
 def overrides(command: list[str]) -> dict:

@@ -4,18 +4,26 @@ import pytest
 from exodigit_nodes.logic.options import UsageError
 from exodigit_nodes.logic.pacing import TimeSettings
 from exodigit_nodes.nodes.catalog import PLANT_NODE
-from exodigit_nodes.nodes.hand_config import TIME_PARAMETERS, hand_config
+from exodigit_nodes.nodes.hand_config import GLOVE_TIME_OPTIONS, hand_config
 from exodigit_nodes.nodes.run_options import (
+    TIME_OPTIONS,
     check_sim_only,
     time_parameters,
     time_settings,
 )
+from exodigit_nodes.runner.hand_runner import run_config
 
 from exodigit_nodes import glove, hand
 
 
 def parsed(command, *arguments):
     return command.build_parser().parse_args(list(arguments))
+
+
+def configured(command, *arguments):
+    """The run ``python -m exodigit_nodes.<command> <arguments>`` would start."""
+    runner = glove.GLOVE if command is glove else hand.HAND
+    return run_config(runner, parsed(command, *arguments))
 
 
 @pytest.mark.parametrize('command', [glove, hand])
@@ -28,21 +36,22 @@ def test_both_commands_take_the_plants_time_options_with_its_defaults(command):
     assert parsed(command, '--lockstep', 'false').lockstep == 'false'
 
 
-def test_the_glove_reads_its_switches_into_booleans():
-    options = parsed(glove, '--clock', 'sim', '--lockstep', 'false', '--record', 'false')
-    glove.check_arguments(options)
-    assert options.lockstep is False and options.record is False
-    options = parsed(glove, '--clock', 'sim', '--lockstep', '--record', '--real-time-factor', '0')
-    glove.check_arguments(options)
-    assert options.lockstep is True and options.record is True
-    assert options.real_time_factor == 0.0
+@pytest.mark.parametrize('command', [glove, hand])
+def test_both_commands_read_their_switches_into_booleans(command):
+    config = configured(command, '--clock', 'sim', '--lockstep', 'false', '--record', 'false')
+    assert config.hand.time.lockstep is False and config.record is False
+    config = configured(
+        command, '--clock', 'sim', '--lockstep', '--record', '--real-time-factor', '0'
+    )
+    assert config.hand.time.lockstep is True and config.record is True
+    assert config.hand.time.real_time_factor == 0.0
 
 
 @pytest.mark.parametrize(
     ('names', 'message'),
     [
-        (glove.TIME_OPTIONS, '--lockstep and --real-time-factor need --clock sim'),
-        (TIME_PARAMETERS, '--lockstep, --start-paused and --real-time-factor need --clock sim'),
+        (GLOVE_TIME_OPTIONS, '--lockstep and --real-time-factor need --clock sim'),
+        (TIME_OPTIONS, '--lockstep, --start-paused and --real-time-factor need --clock sim'),
         (('lockstep',), '--lockstep needs --clock sim'),
     ],
 )
@@ -77,30 +86,25 @@ def test_time_values_read_as_the_plant_reads_them():
 @pytest.mark.parametrize('command', [glove, hand])
 def test_both_commands_check_the_namespace_alike(command):
     with pytest.raises(UsageError, match="--namespace 'x': must be absolute"):
-        if command is glove:
-            glove.check_arguments(parsed(glove, '--namespace', 'x'))
-        else:
-            hand_config(parsed(hand, '--namespace', 'x'))
+        configured(command, '--namespace', 'x')
 
 
 def test_a_glove_and_a_finger_get_the_same_simulated_time_parameters():
-    time = TimeSettings(real_time_factor=0.0, lockstep=True)
-    finger = hand_config(
-        parsed(
-            hand, '--clock', 'sim', '--lockstep', '--real-time-factor', '0', '--fingers', 'ring'
-        )
-    )
+    time = ('--clock', 'sim', '--lockstep', '--real-time-factor', '0')
+    lone = hand_config(parsed(glove, *time))
+    finger = hand_config(parsed(hand, *time, '--fingers', 'ring'))
     for executable in ('plant', 'estimator', 'pressure_command'):
-        given = finger.parameters(executable, 'ring')
-        shared = time_parameters(executable, 'sim', time, glove.TIME_OPTIONS)
-        assert {name: given[name] for name in shared} == shared
-    # the plant gets only the settings named, and nothing of them on the wall clock
-    assert time_parameters('plant', 'sim', time, ('lockstep',)) == {
-        'clock': 'sim',
-        'lockstep': True,
-    }
-    assert time_parameters('plant', 'wall', time, TIME_PARAMETERS) == {'clock': 'wall'}
-    assert time_parameters('pressure_command', 'wall', time, TIME_PARAMETERS) == {
+        shared = time_parameters(
+            executable, 'sim', TimeSettings(real_time_factor=0.0, lockstep=True)
+        )
+        for config in (lone, finger):
+            (one,) = config.gloves()
+            given = config.parameters(executable, one)
+            assert {name: given[name] for name in shared} == shared, executable
+    # nothing of the simulated time on the wall clock
+    time = TimeSettings(real_time_factor=0.0, lockstep=True)
+    assert time_parameters('plant', 'wall', time) == {'clock': 'wall'}
+    assert time_parameters('pressure_command', 'wall', time) == {
         'use_sim_time': False,
         'lockstep': False,
     }

@@ -10,7 +10,7 @@ import types
 from pathlib import Path
 
 import pytest
-from exodigit_nodes.nodes.hand_config import hand_config, hand_options
+from exodigit_nodes.nodes.hand_config import command_options, hand_config
 from exodigit_nodes.nodes.hand_nodes import build_parser
 from test_packaging_launch import Recorded, console_scripts
 
@@ -90,7 +90,7 @@ def test_a_failed_process_of_either_part_ends_the_launch(entities, api):
 def test_the_launch_arguments_are_the_hand_options(entities, api):
     declared = {e.args[0]: e.kwargs for e in entities if isinstance(e, api.DeclareLaunchArgument)}
     assert {name: kwargs['default_value'] for name, kwargs in declared.items()} == {
-        option.name: option.default for option in hand_options()
+        option.name: option.default for option in command_options('hand_nodes')
     }
 
 
@@ -107,7 +107,7 @@ def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api
     parsed = build_parser().parse_args(command_line(entities, api, part, **arguments))
     assert parsed.part == part
     config = hand_config(parsed)
-    options = {o.name: o.default for o in hand_options()} | arguments
+    options = {o.name: o.default for o in command_options('hand_nodes')} | arguments
     assert config.fingers == tuple(options['fingers'].split(','))
     assert config.namespace == options['namespace']
     assert config.mode == options['mode']

@@ -4,7 +4,6 @@ the simulated-time arguments to the nodes the venv runner passes them to, takes 
 defaults from the node table, and ends the whole launch when any node exits (failing it when the
 node failed)."""
 
-import argparse
 import ast
 import fnmatch
 import py_compile
@@ -16,8 +15,10 @@ from pathlib import Path
 import pytest
 import yaml
 from exodigit_model.control import MODES
-from exodigit_nodes.glove import sim_time_arguments
+from exodigit_nodes.glove import GLOVE
 from exodigit_nodes.nodes.catalog import NODES
+from exodigit_nodes.nodes.run_options import TIME_OPTIONS
+from exodigit_nodes.runner import hand_runner
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'
 LAUNCH_FILE = PACKAGE_DIR / 'launch' / 'glove.launch.py'
@@ -270,23 +271,40 @@ def test_by_default_every_node_runs_on_the_wall_clock(entities, launch_api):
     assert parameters['pressure_command']['lockstep'] is False
 
 
+def runner_overrides(arguments: list[str]) -> dict[str, dict]:
+    """The ``-p`` values ``python -m exodigit_nodes.glove <arguments>`` gives each node process,
+    read as YAML (as ROS reads them)."""
+    options = hand_runner.build_parser(GLOVE).parse_args(arguments)
+    processes = hand_runner.node_processes(hand_runner.run_config(GLOVE, options))
+    result = {}
+    for executable, command in processes.items():
+        given = [command[i + 1] for i, word in enumerate(command) if word == '-p']
+        result[executable] = {
+            name: yaml.safe_load(value) for name, value in (p.split(':=', 1) for p in given)
+        }
+    return result
+
+
 def test_clock_sim_reaches_the_nodes_the_runner_gives_it_to(entities, launch_api):
-    """The same overrides as ``python -m exodigit_nodes.glove --clock sim
-    --real-time-factor 0 --lockstep`` (glove.sim_time_arguments), but its summary's pauses."""
+    """The same simulated-time values as ``python -m exodigit_nodes.glove --clock sim
+    --real-time-factor 0 --lockstep`` gives its node processes, but its summary's pauses; what
+    the launch does not set, the node's config file gives at its table's default."""
     launched = node_parameters(
         entities, launch_api, clock='sim', lockstep='true', real_time_factor='0.0'
     )
-    runner_args = argparse.Namespace(
-        clock='sim', lockstep=True, real_time_factor=0.0, duration=0.0
-    )
+    given = runner_overrides(['--clock', 'sim', '--real-time-factor', '0', '--lockstep'])
+    assert set(given) == NODE_EXECUTABLES
+    time_names = (SIM_TIME_ARGUMENTS | set(TIME_OPTIONS)) - RUNNER_ONLY
+    tables = {entry.executable: entry.table for entry in NODES}
     for executable in NODE_EXECUTABLES:
-        options = sim_time_arguments(executable, runner_args)
-        assert options[::2] == ['-p'] * (len(options) // 2)
-        runner = dict(option.split(':=', 1) for option in options[1::2])
-        runner = {k: yaml.safe_load(v) for k, v in runner.items() if k not in RUNNER_ONLY}
+        runner = {k: v for k, v in given[executable].items() if k in time_names}
         runner.setdefault('use_sim_time', False)  # the plant owns /clock
+        assert runner['use_sim_time'] is (executable != 'plant')
         for name, value in runner.items():
-            assert launched[executable].get(name) == value, (executable, name)
+            if name in launched[executable]:
+                assert launched[executable][name] == value, (executable, name)
+            else:
+                assert tables[executable][name].default == value, (executable, name)
         for name in SIM_TIME_ARGUMENTS - {'use_sim_time'} - set(runner):
             assert name not in launched[executable], (executable, name)
 

@@ -9,13 +9,13 @@ plant and controller, and the hand's simulated time) and ``--part estimators`` (
 ``estimator:=false``); finger f in ``<namespace>/<f>`` with joint prefix ``f_`` and its model
 ``config/hand/<f>.yaml`` (README, "A whole hand"). The launch arguments are the
 options of ``hand_nodes --help``, with their choices and defaults, from one table
-(``exodigit_nodes.nodes.hand_config.hand_options``) that the venv runner ``python -m
+(``exodigit_nodes.nodes.hand_config.command_options``) that the venv runner ``python -m
 exodigit_nodes.hand`` reads too. When either process exits the launch ends, and fails (exit 1)
 if that process failed.
 """
 
 from exodigit_nodes.logic.lifetime import exit_status
-from exodigit_nodes.nodes.hand_config import hand_options
+from exodigit_nodes.nodes.hand_config import command_options
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
 from launch.conditions import IfCondition
@@ -51,7 +51,7 @@ def hand_process(command: list, part: str, **options):
 
 def generate_launch_description():
     """The hand's arguments, its two processes and their exit handlers."""
-    options = hand_options()
+    options = command_options('hand_nodes')
     arguments = [
         DeclareLaunchArgument(
             option.name,

@@ -1,13 +1,17 @@
-"""What a hand is: its fingers, where they live, and the options that configure it (no rclpy).
+"""What a hand is: its gloves, where they live, and the one option table (no rclpy).
 
-One table of options, :func:`hand_options`, serves ``hand_nodes`` (the process that runs every
-finger's nodes), the hand runner ``python -m exodigit_nodes.hand`` and ``launch/hand.launch.py``;
-its entries and checks are the glove runner's too (:mod:`.run_options`): the time options are
-the plant's parameters of the same names (:mod:`.catalog`), with their defaults, descriptions
-and checks, and ``mode`` is ``pressure_command``'s.
+A hand is a set of gloves (:class:`Glove`), each a finger's plant, estimator and
+pressure_command. Finger f lives in ``<namespace>/<f>`` with joint names ``f_mcp, f_pip, f_dip``
+and the model file ``config/hand/<f>.yaml`` (its link lengths and stiffness; docs/spec/model.md
+§10). A lone glove (``python -m exodigit_nodes.glove``) is the hand of one finger with no finger
+level: its nodes live in the namespace itself, with no joint prefix, on the model of
+``--params-file`` (none: the built-in one).
 
-Finger f lives in ``<namespace>/<f>`` with joint names ``f_mcp, f_pip, f_dip`` and the model
-file ``config/hand/<f>.yaml`` (its link lengths and stiffness; docs/spec/model.md §10).
+One table of options, :func:`command_options`, serves the glove and hand runners, ``hand_nodes``
+(the process that runs every finger's nodes) and ``launch/hand.launch.py``; its entries and
+checks are in :mod:`.run_options` (the time options are the plant's parameters of the same
+names, ``mode`` is ``pressure_command``'s). :func:`hand_config` reads and checks the parsed
+options of any of them.
 """
 
 from __future__ import annotations
@@ -21,8 +25,8 @@ from ..logic.pacing import TimeSettings
 from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
 from .run_options import (
     BOOLEANS,
+    TIME_OPTIONS,
     RunOption,
-    add_options,
     check_sim_only,
     namespace_option,
     parameter_option,
@@ -35,9 +39,14 @@ from .run_options import (
 
 FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 """The fingers of a hand, thumb first."""
-TIME_PARAMETERS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused', 'pause_at')
-"""Plant parameters that are options of the hand besides ``clock`` (one simulated time for every
-finger)."""
+COMMANDS = ('glove', 'hand', 'hand_nodes')
+"""The commands :func:`command_options` has a table for."""
+GLOVE_TIME_OPTIONS = ('real_time_factor', 'lockstep')
+"""The time options of the lone glove's command (the hand has every one of TIME_OPTIONS)."""
+DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
+"""The finger the plants simulate by default: the glove's shows the estimator identifying a
+patient who is not the finger it assumes (README, "Running the glove"); a hand's fingers are
+their own files' (README, "A whole hand")."""
 PARTS = {
     'all': (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE),
     'gloves': (PLANT_NODE, PRESSURE_COMMAND_NODE),
@@ -45,7 +54,7 @@ PARTS = {
 }
 """Which nodes of every finger one ``hand_nodes`` process runs (``--part``), in start order.
 
-The runner and the launch file start a hand as two processes, ``gloves`` (plants and
+The hand runner and the launch file start a hand as two processes, ``gloves`` (plants and
 controllers, and the hand's simulated time) and ``estimators``: an estimator takes message info
 (the source timestamps it pairs by), which rclpy 7.1's EventsExecutor cannot give, and five of
 them on a SingleThreadedExecutor take a core of their own at 100 Hz (README, "A whole hand").
@@ -62,37 +71,90 @@ def hand_config_dir() -> Path:
     return Path(get_package_share_directory('exodigit_nodes')) / 'config' / 'hand'
 
 
-def hand_options() -> tuple[RunOption, ...]:
-    """Every option of the hand, in ``--help`` order."""
-    return (
+def command_options(command: str) -> tuple[RunOption, ...]:
+    """The options of ``command`` (of :data:`COMMANDS`), in ``--help`` order: the one table.
+
+    The glove has no finger level (no ``--fingers``, ``--estimator``), its model from
+    ``--params-file`` and two time options; the hand and ``hand_nodes`` have every time option
+    (one simulated time for the whole hand); the runners ``--record``.
+    """
+    if command not in COMMANDS:
+        raise ValueError(f'command {command!r}: one of {", ".join(COMMANDS)}')
+    glove = command == 'glove'
+    hand = '' if glove else ' (the whole hand)'
+    options = [
         RunOption(
             'fingers',
             ','.join(FINGERS),
             f'comma-separated fingers, each of {",".join(FINGERS)} at most once',
         ),
-        namespace_option('/hand', 'the hand; finger f in <namespace>/f'),
-        parameter_option('mode', note=' (every finger)'),
-        patient_option(NOMINAL_PATIENT, "every plant's finger file"),
+        namespace_option('/glove', 'the glove')
+        if glove
+        else namespace_option('/hand', 'the hand; finger f in <namespace>/f'),
+        parameter_option('mode', note='' if glove else ' (every finger)'),
+        RunOption(
+            'params_file',
+            '',
+            'model parameter YAML (docs/spec/model.md §10) of the glove, for every node; default '
+            'built-in values',
+            metavar='FILE',
+        ),
+        patient_option(
+            DEFAULT_PATIENTS['glove' if glove else 'hand'],
+            'the glove file' if glove else "every plant's finger file",
+        ),
         RunOption(
             'estimator', 'true', 'run an estimator per finger', choices=BOOLEANS, switch=True
         ),
-        *time_options(TIME_PARAMETERS, note=' (the whole hand)'),
-    )
+        *time_options(GLOVE_TIME_OPTIONS if glove else TIME_OPTIONS, note=hand),
+        RunOption(
+            'record',
+            'false',
+            'also record every topic to a rosbag2 MCAP bag in the run directory'
+            + ('' if glove else ' (a bag per finger: bag/<finger>)'),
+            choices=BOOLEANS,
+            switch=True,
+        ),
+    ]
+    lone = {'fingers', 'estimator'} if glove else {'params_file'}
+    runner = set() if command in ('glove', 'hand') else {'record'}
+    return tuple(option for option in options if option.name not in lone | runner)
 
 
-def add_hand_arguments(parser: argparse.ArgumentParser) -> None:
-    """Put every hand option on ``parser`` (values stay text; :func:`hand_config` reads them)."""
-    add_options(parser, hand_options())
+@dataclass(frozen=True)
+class Glove:
+    """One glove of a hand: where its nodes live and the finger they assume.
+
+    Attributes
+    ----------
+    finger : str
+        The finger's name; empty for a lone glove (no finger level).
+    namespace : str
+        Absolute namespace of its nodes.
+    joint_prefix : str
+        Prefix of its joint names (``index_``: ``index_mcp, ...``).
+    model_files : tuple of str
+        The nominal model, which its controller and estimator assume (empty: built-in).
+    plant_files : tuple of str
+        The plant's model: the nominal one with the patient merged over it.
+    """
+
+    finger: str
+    namespace: str
+    joint_prefix: str
+    model_files: tuple[str, ...]
+    plant_files: tuple[str, ...]
 
 
 @dataclass(frozen=True)
 class HandConfig:
-    """One hand: which fingers, where, how their commands and their time run.
+    """One hand: which gloves, where, how their commands and their time run.
 
     Attributes
     ----------
     fingers : tuple of str
-        Finger names, each in :data:`FINGERS` at most once.
+        Finger names, each in :data:`FINGERS` at most once; empty: a lone glove (one finger, no
+        finger level: its nodes in ``namespace`` itself, no joint prefix, ``params_file``).
     namespace : str
         Absolute namespace of the hand.
     mode : str
@@ -105,6 +167,8 @@ class HandConfig:
         ``wall`` or ``sim``.
     time : TimeSettings
         With ``clock`` sim: pace, lockstep, pause.
+    params_file : str
+        The lone glove's model file (empty: built-in); the fingers have their own.
     """
 
     fingers: tuple[str, ...] = FINGERS
@@ -114,14 +178,16 @@ class HandConfig:
     estimator: bool = True
     clock: str = PLANT_NODE.table['clock'].default
     time: TimeSettings = field(default_factory=TimeSettings)
+    params_file: str = ''
 
     def __post_init__(self) -> None:
         unknown = [f for f in self.fingers if f not in FINGERS]
-        if unknown or not self.fingers or len(set(self.fingers)) != len(self.fingers):
+        if unknown or len(set(self.fingers)) != len(self.fingers):
             raise UsageError(
                 f'--fingers {",".join(self.fingers)}: give distinct names from {",".join(FINGERS)}'
             )
-        check_sim_only(self.clock, self.time, TIME_PARAMETERS)
+        if self.fingers and self.params_file:
+            raise UsageError('--params-file: a lone glove has one; every finger has its own')
 
     def node_entries(self, part: str = 'all'):
         """The catalog entries of a finger's nodes in ``part`` (:data:`PARTS`), in start order."""
@@ -129,34 +195,43 @@ class HandConfig:
             entry for entry in PARTS[part] if self.estimator or entry is not ESTIMATOR_NODE
         )
 
-    def finger_namespace(self, finger: str) -> str:
-        """``<namespace>/<finger>``."""
-        return f'{self.namespace.rstrip("/")}/{finger}'
+    def gloves(self) -> tuple[Glove, ...]:
+        """The gloves of the hand, one per finger (a lone glove: one)."""
+        if not self.fingers:
+            files = (self.params_file,) if self.params_file else ()
+            return (self._glove('', self.namespace, '', files),)
+        return tuple(
+            self._glove(
+                finger,
+                f'{self.namespace.rstrip("/")}/{finger}',
+                f'{finger}_',
+                (str(hand_config_dir() / f'{finger}.yaml'),),
+            )
+            for finger in self.fingers
+        )
 
-    def model_files(self, finger: str) -> list[str]:
-        """The nominal model of ``finger`` (what its controller and estimator assume)."""
-        return [str(hand_config_dir() / f'{finger}.yaml')]
+    def _glove(self, finger: str, namespace: str, prefix: str, files: tuple) -> Glove:
+        plant = tuple(with_patient(list(files), self.patient))
+        return Glove(finger, namespace, prefix, files, plant)
 
-    def plant_files(self, finger: str) -> list[str]:
-        """The plant's model of ``finger``: its file, then the patient merged over it."""
-        return with_patient(self.model_files(finger), self.patient)
+    def parameters(self, executable: str, glove: Glove) -> dict:
+        """The parameters of one node of ``glove`` (they win over ``--ros-args`` values).
 
-    def parameters(self, executable: str, finger: str) -> dict:
-        """The per-finger parameters of one node (they win over ``--ros-args`` values)."""
-        values = time_parameters(executable, self.clock, self.time, TIME_PARAMETERS)
-        if executable == PLANT_NODE.executable:
-            return {
-                'params_file': self.plant_files(finger),
-                'joint_prefix': f'{finger}_',
-                **values,
-            }
-        values['params_file'] = self.model_files(finger)
+        Those at the node's default (no joint prefix, no model file) are left out.
+        """
+        values = time_parameters(executable, self.clock, self.time)
+        plant = executable == PLANT_NODE.executable
+        files = glove.plant_files if plant else glove.model_files
+        if files:
+            values['params_file'] = list(files)
+        if plant and glove.joint_prefix:
+            values['joint_prefix'] = glove.joint_prefix
         if executable == PRESSURE_COMMAND_NODE.executable:
             values['mode'] = self.mode
         return values
 
     def arguments(self) -> list[str]:
-        """The command line that gives ``hand_nodes`` this configuration."""
+        """The command line that gives ``hand_nodes`` this configuration (a hand of fingers)."""
         values = {
             'fingers': ','.join(self.fingers),
             'namespace': self.namespace,
@@ -164,24 +239,39 @@ class HandConfig:
             'patient': self.patient,
             'estimator': text(self.estimator),
             'clock': self.clock,
-            'real_time_factor': repr(self.time.real_time_factor),
-            'lockstep': text(self.time.lockstep),
-            'lockstep_timeout': repr(self.time.lockstep_timeout),
-            'start_paused': text(self.time.start_paused),
-            'pause_at': repr(self.time.pause_at),
+            **{name: text(getattr(self.time, name)) for name in TIME_OPTIONS},
         }
-        return [text for option in hand_options() for text in (option.flag, values[option.name])]
+        return [
+            word
+            for option in command_options('hand_nodes')
+            for word in (option.flag, values[option.name])
+        ]
 
 
 def hand_config(options: argparse.Namespace) -> HandConfig:
-    """The :class:`HandConfig` of parsed :func:`add_hand_arguments` options (UsageError)."""
-    check_namespace(options.namespace, '/hand or /left/hand')  # a node refuses it only started
+    """The :class:`HandConfig` of parsed :func:`command_options` options (UsageError).
+
+    The options a command does not have keep their defaults: no ``--fingers``, a lone glove.
+    The time options on the wall clock are refused naming those the command has.
+    """
+    check_namespace(
+        options.namespace, '/glove, /hand or /left/hand'
+    )  # a node refuses it only started
+    names = [name for name in TIME_OPTIONS if hasattr(options, name)]
+    time = time_settings({name: getattr(options, name) for name in names})
+    check_sim_only(options.clock, time, names)
+    fingers = ()
+    if hasattr(options, 'fingers'):
+        fingers = tuple(f.strip() for f in options.fingers.split(',') if f.strip())
+        if not fingers:
+            raise UsageError(f'--fingers {options.fingers!r}: give at least one finger')
     return HandConfig(
-        fingers=tuple(f.strip() for f in options.fingers.split(',') if f.strip()),
+        fingers=fingers,
         namespace=options.namespace,
         mode=options.mode,
         patient=options.patient,
-        estimator=options.estimator == 'true',
+        estimator=getattr(options, 'estimator', 'true') == 'true',
         clock=options.clock,
-        time=time_settings({name: getattr(options, name) for name in TIME_PARAMETERS}),
+        time=time,
+        params_file=getattr(options, 'params_file', ''),
     )

@@ -39,9 +39,10 @@ from rclpy.utilities import remove_ros_args
 
 from ..logic.options import UsageError
 from .catalog import PLANT_NODE
-from .hand_config import PARTS, HandConfig, add_hand_arguments, hand_config
+from .hand_config import PARTS, HandConfig, command_options, hand_config
 from .node_base import freeze_start_up, last_words, serve
 from .plant import Plant
+from .run_options import add_options
 from .sim_time import SimulatedTime
 
 
@@ -66,13 +67,13 @@ def build_hand(config: HandConfig, part: str = 'all') -> list[Node]:
         shared = SimulatedTime(owner, config.time)
         nodes.append(owner)
     classes = [entry.node_class() for entry in config.node_entries(part)]
-    for finger in config.fingers:
+    for glove in config.gloves():
         for node_class in classes:
             options = {'sim_time': shared} if node_class is Plant else {}
-            values = config.parameters(node_class.executable, finger)
+            values = config.parameters(node_class.executable, glove)
             nodes.append(
                 node_class(
-                    namespace=config.finger_namespace(finger),
+                    namespace=glove.namespace,
                     parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
                     **options,
                 )
@@ -90,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
         'rate_hz:=200. Switches (lockstep, estimator...) take true or false; alone they mean '
         'true.',
     )
-    add_hand_arguments(parser)
+    add_options(parser, command_options('hand_nodes'))
     parser.add_argument(
         '--part',
         choices=tuple(PARTS),

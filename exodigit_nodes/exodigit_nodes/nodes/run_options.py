@@ -1,7 +1,8 @@
 """The options of the glove and hand commands: one table of option kinds, one set of checks.
 
 ``python -m exodigit_nodes.glove``, ``python -m exodigit_nodes.hand``, ``hand_nodes`` and
-``launch/hand.launch.py`` build their options from :class:`RunOption` entries made here: the
+``launch/hand.launch.py`` build their options from :class:`RunOption` entries made here (one
+table of them: :func:`.hand_config.command_options`): the
 namespace, the ``pressure_command`` mode, the patient, and the simulated-time options, which
 are the plant's parameters of the same names (:mod:`.catalog`) with their defaults, descriptions
 and checks. Values stay text on the command line (``--lockstep`` alone means true, as does
@@ -156,20 +157,18 @@ def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None
         raise UsageError(f'{listed} need{"" if others else "s"} --clock sim')
 
 
-def time_parameters(
-    executable: str, clock: str, time: TimeSettings, names: Iterable[str]
-) -> dict[str, object]:
+def time_parameters(executable: str, clock: str, time: TimeSettings) -> dict[str, object]:
     """The simulated-time parameters of one glove node: the same for a glove and every finger.
 
-    The plant gets ``clock`` and, with ``clock`` sim, the settings ``names`` of ``time`` (the
-    command's time options, and what its runner sets itself); every other node follows the
-    plant's /clock (``use_sim_time``), and ``pressure_command`` answers each step in lockstep.
+    The plant gets ``clock`` and, with ``clock`` sim, the settings of ``time`` that are its
+    parameters (:data:`TIME_OPTIONS`); every other node follows the plant's /clock
+    (``use_sim_time``), and ``pressure_command`` answers each step in lockstep.
     """
     sim = clock == 'sim'
     if executable == PLANT_NODE.executable:
         values: dict[str, object] = {'clock': clock}
         if sim:
-            values.update({name: getattr(time, name) for name in TIME_OPTIONS if name in names})
+            values.update({name: getattr(time, name) for name in TIME_OPTIONS})
         return values
     values = {'use_sim_time': sim}
     if executable == PRESSURE_COMMAND_NODE.executable:

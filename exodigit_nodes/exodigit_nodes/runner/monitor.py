@@ -82,20 +82,20 @@ class GloveMonitor(Node):
         )
 
     def listened_by(self, nodes, topics) -> bool:
-        """Whether each node of ``nodes`` (names in our namespace) subscribes each of ``topics``.
+        """Whether each node of ``nodes`` (``/hand/recorder``) subscribes each of ``topics``.
 
         Read from the ROS graph: the plant then waits for such a subscriber to be matched before
         it steps (its ``readers_matched``), so it misses no step.
         """
-        namespace = self.get_namespace()
+        names = [node.rpartition('/') for node in nodes]
         return all(
             any(
-                (info.node_name, info.node_namespace) == (node, namespace)
+                (info.node_namespace, info.node_name) == (namespace or '/', name)
                 for info in self.get_subscriptions_info_by_topic(subscription.topic_name)
             )
             for subscription in self._inputs
             if subscription.topic_name.rsplit('/', 1)[-1] in topics
-            for node in nodes
+            for namespace, _, name in names
         )
 
     def resume_plant(self) -> bool:

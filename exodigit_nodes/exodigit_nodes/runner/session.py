@@ -4,8 +4,8 @@
 :class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove), and
 stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or the end of the duration: in the
 session's stop order (the commands first, so the chambers get zero pressure), then each record's
-last step is joined and its plot drawn. The glove runner (:mod:`.glove`, three processes) and the
-hand runner (:mod:`.hand`, one process for every finger) differ only in their :class:`Session`.
+last step is joined and its plot drawn. :mod:`.hand_runner` builds the :class:`Session` of a
+glove or a hand.
 """
 
 from __future__ import annotations
@@ -75,9 +75,9 @@ class Session:
     log_dir : Path
         Where the processes' logs go.
     listeners : tuple of str
-        Nodes besides the summary that must subscribe every glove's signals before the plants
-        resume (the recorder: in simulated time the plant outruns a late subscriber, which
-        would miss the first steps).
+        Nodes (fully qualified) besides the summary that must subscribe every glove's signals
+        before the plants resume (the recorder: in simulated time the plant outruns a late
+        subscriber, which would miss the first steps).
     """
 
     program: str

@@ -1,0 +1,330 @@
+"""The one runner: a hand of N fingers, with a live summary and a run record per finger.
+
+``python -m exodigit_nodes.glove`` and ``python -m exodigit_nodes.hand`` are each a
+:class:`Command` of it: their options come from one table (:func:`..nodes.hand_config
+.command_options`), are read and checked by one set of rules into one :class:`RunConfig`, and
+run by one loop (:func:`.session.run_session`). The glove is the hand of one finger with no
+finger level (:class:`..nodes.hand_config.HandConfig` without fingers): its nodes in the
+namespace itself, no joint prefix, its record at the top of the run directory; finger f of a
+hand has ``<namespace>/f``, the prefix ``f_`` and its record in ``<run>/f/``.
+
+The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`):
+
+``nodes``
+    Each node its own process (``python -m exodigit_nodes.nodes.<node>``), as
+    ``launch/glove.launch.py`` starts them; stopped command node first, so the chambers get zero
+    pressure while the plant still runs. Only for a lone glove: each plant then owns its own
+    simulated time, and a hand has one.
+``parts``
+    ``hand_nodes --part gloves`` (every plant and controller, and the hand's simulated time),
+    then ``--part estimators``, as ``launch/hand.launch.py`` starts them; five fingers in fifteen
+    processes would not keep their pace on two cores (README, "A whole hand").
+
+With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
+a lone glove's to ``<run>/bag``, finger f's to ``<run>/bag/f``; it starts first and stops last.
+(One, not one per finger: a five-finger hand with a recorder per finger is eight DDS
+participants on localhost, and in a measured run one of the five recorders never discovered the
+plants' process.) With ``--clock sim`` the plants start paused until every record listens and
+pause again at ``--duration``, so that every record ends exactly there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ..logic.options import UsageError
+from ..logic.ros_env import discovery_settings
+from ..nodes.hand_config import HandConfig, command_options, hand_config
+from ..nodes.messages import SET_PAUSED
+from ..nodes.run_options import add_options, text, time_parameters
+from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
+from .session import Session, WatchedGlove, identification_references, run_session
+
+NODE_PROCESSES = 'nodes'
+"""Layout: each node of a lone glove its own process."""
+HAND_PROCESSES = 'parts'
+"""Layout: the ``hand_nodes`` processes of :data:`PART_PROCESSES`."""
+LAYOUTS = (NODE_PROCESSES, HAND_PROCESSES)
+PART_PROCESSES = {'hand_nodes': 'gloves', 'hand_estimators': 'estimators'}
+"""The processes of the ``parts`` layout: name and ``hand_nodes --part``, in start and stop order
+(the controllers' process stops first)."""
+RECORDER = 'recorder'
+"""The rosbag2 recorder's process, node and module name."""
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command of the runner: its name (in messages and titles), layout and help.
+
+    Attributes
+    ----------
+    name : str
+        ``glove`` or ``hand``: its option table (:func:`..nodes.hand_config.command_options`).
+    layout : str
+        Of :data:`LAYOUTS`.
+    description : str
+        ``--help``'s description.
+    examples : str
+        ``--help``'s epilog.
+    """
+
+    name: str
+    layout: str
+    description: str
+    examples: str
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One run: the hand, its process layout, how long, what else it writes.
+
+    Attributes
+    ----------
+    program : str
+        The command's name, in messages and summary titles.
+    hand : HandConfig
+        With ``clock`` sim, paused at the start and at ``duration``.
+    layout : str
+        Of :data:`LAYOUTS`.
+    duration : float
+        Seconds to run (simulated with ``clock`` sim); 0 until stopped.
+    ros_params : tuple of str
+        ROS parameter files for every node, absolute.
+    record : bool
+        A rosbag2 recorder of every glove.
+    """
+
+    program: str
+    hand: HandConfig
+    layout: str
+    duration: float = 0.0
+    ros_params: tuple[str, ...] = ()
+    record: bool = False
+
+    def __post_init__(self) -> None:
+        if self.layout not in LAYOUTS:
+            raise ValueError(f'layout {self.layout!r}: one of {", ".join(LAYOUTS)}')
+        if self.layout == NODE_PROCESSES and self.hand.fingers:
+            raise ValueError('a node per process runs a lone glove only (one plant, one clock)')
+        if self.layout == HAND_PROCESSES and not self.hand.fingers:
+            raise ValueError('hand_nodes runs the fingers of a hand')
+
+
+def build_parser(command: Command) -> argparse.ArgumentParser:
+    """The command line of ``python -m exodigit_nodes.<command>``."""
+    parser = argparse.ArgumentParser(
+        prog=f'python -m exodigit_nodes.{command.name}',
+        description=command.description,
+        epilog=command.examples,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        '--duration',
+        type=float,
+        default=0.0,
+        metavar='S',
+        help='seconds to run (simulated seconds with --clock sim), then stop cleanly and exit 0; '
+        '0 (default) runs until Ctrl-C',
+    )
+    parser.add_argument(
+        '--ros-params',
+        action='append',
+        default=[],
+        metavar='FILE',
+        help='ROS parameter YAML (ros__parameters; /**: for every node) passed to every node '
+        'with --params-file; may be repeated',
+    )
+    parser.add_argument(
+        '--out', metavar='DIR', help='run directory (default runs/<YYYYmmdd-HHMMSS>)'
+    )
+    add_options(parser, command_options(command.name))
+    return parser
+
+
+def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
+    """The run of parsed :func:`build_parser` options, checked before anything starts.
+
+    Raises
+    ------
+    UsageError
+        One line naming the option: a negative or non-finite duration, a missing ROS parameter
+        file, any refusal of :func:`..nodes.hand_config.hand_config`, or a model or patient file
+        that cannot be read or breaks a rule of the model.
+    """
+    if not 0.0 <= options.duration < math.inf:
+        raise UsageError(f'--duration {options.duration}: must be a finite number of seconds >= 0')
+    for path in options.ros_params:
+        if not Path(path).is_file():
+            raise UsageError(f'--ros-params {path}: no such file')
+    hand = hand_config(options)
+    from exodigit_model import ParameterError, load_params
+
+    for glove in hand.gloves():
+        for option, files in (
+            ('--params-file', glove.model_files),
+            ('--patient', glove.plant_files),
+        ):
+            try:
+                load_params(list(files))
+            except ParameterError as error:
+                raise UsageError(f'{option}: {" ".join(str(error).split())}') from None
+    if hand.clock == 'sim':
+        # Paused until the summary listens (nothing is missed), and again at the end of the
+        # duration, so that every record ends exactly there.
+        time = replace(hand.time, start_paused=True, pause_at=options.duration)
+        hand = replace(hand, time=time)
+    return RunConfig(
+        program=command.name,
+        hand=hand,
+        layout=command.layout,
+        duration=options.duration,
+        ros_params=tuple(str(Path(path).resolve()) for path in options.ros_params),
+        record=options.record == 'true',
+    )
+
+
+def ros_arguments(namespace: str, ros_params: Sequence[str], values: dict) -> list[str]:
+    """``--ros-args`` of one node process: its namespace, the ROS parameter files, ``values``."""
+    words = ['--ros-args', '-r', f'__ns:={namespace}']
+    for path in ros_params:
+        words += ['--params-file', path]
+    for name, value in values.items():
+        words += ['-p', f'{name}:={parameter_text(value)}']
+    return words
+
+
+def parameter_text(value) -> str:
+    """A parameter value as ``-p`` reads it (YAML): a list of paths quoted, ``true``, ``0.5``."""
+    if isinstance(value, list):
+        quoted = ("'" + str(Path(item).resolve()).replace("'", "''") + "'" for item in value)
+        return f'[{",".join(quoted)}]'
+    return text(value)
+
+
+def node_processes(config: RunConfig) -> dict[str, list[str]]:
+    """The processes of the run's nodes, name to command line, in start order."""
+    hand = config.hand
+    if config.layout == NODE_PROCESSES:
+        (glove,) = hand.gloves()
+        return {
+            entry.executable: [
+                sys.executable,
+                '-m',
+                entry.module,
+                *ros_arguments(
+                    glove.namespace,
+                    config.ros_params,
+                    hand.parameters(entry.executable, glove),
+                ),
+            ]
+            for entry in hand.node_entries()
+        }
+    command = [sys.executable, '-m', 'exodigit_nodes.nodes.hand_nodes', *hand.arguments()]
+    ros_args = ['--ros-args'] if config.ros_params else []
+    for path in config.ros_params:
+        ros_args += ['--params-file', path]
+    return {
+        name: [*command, '--part', part, *ros_args]
+        for name, part in PART_PROCESSES.items()
+        if hand.node_entries(part)  # no estimators: one process
+    }
+
+
+def nodes_run(config: RunConfig, name: str) -> tuple[str, ...]:
+    """The nodes of every glove that process ``name`` runs (none for a recorder)."""
+    hand = config.hand
+    if config.layout == NODE_PROCESSES:
+        return (name,) if name in {entry.executable for entry in hand.node_entries()} else ()
+    part = PART_PROCESSES.get(name)
+    return tuple(entry.executable for entry in hand.node_entries(part)) if part else ()
+
+
+def recorder_command(config: RunConfig, bag: Path) -> list[str]:
+    """The recorder's command line: every glove's topics to ``bag`` (a finger's: ``bag/f``)."""
+    hand = config.hand
+    values = time_parameters(RECORDER, hand.clock, hand.time)  # use_sim_time
+    return [
+        *(sys.executable, '-m', f'exodigit_nodes.nodes.{RECORDER}'),
+        *('--output', str(bag)),
+        *(('--gloves', ','.join(hand.fingers)) if hand.fingers else ()),
+        *ros_arguments(hand.namespace, config.ros_params, values),
+    ]
+
+
+def session(config: RunConfig, run_dir: Path) -> Session:
+    """The :class:`.session.Session` of the run: its processes, one watched glove per finger."""
+    hand = config.hand
+    clock = '' if hand.clock == 'wall' else ', simulated time' + ', lockstep' * hand.time.lockstep
+    watched = tuple(
+        WatchedGlove(
+            title=f'exodigit {config.program} {glove.namespace} ({hand.mode}{clock})',
+            namespace=glove.namespace,
+            record=RunRecord(run_dir / glove.finger),  # a lone glove's: the run directory
+            references=identification_references(list(glove.model_files), list(glove.plant_files)),
+        )
+        for glove in hand.gloves()
+    )
+    recorders = (
+        {RECORDER: recorder_command(config, run_dir / BAG_DIR_NAME)} if config.record else {}
+    )
+    nodes = node_processes(config)
+    first = reversed(nodes) if config.layout == NODE_PROCESSES else nodes
+    return Session(
+        program=config.program,
+        processes=(*recorders.items(), *nodes.items()),
+        stop_order=(*first, *recorders),
+        runs={name: nodes_run(config, name) for name in (*recorders, *nodes)},
+        nodes=tuple(entry.executable for entry in hand.node_entries()),
+        gloves=watched,
+        pause_service=f'{hand.namespace.rstrip("/")}/{SET_PAUSED}',
+        simulated=hand.clock == 'sim',
+        duration=config.duration,
+        log_dir=run_dir / LOG_DIR_NAME,
+        listeners=tuple(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
+    )
+
+
+def banner(config: RunConfig, session: Session) -> str:
+    """The line that says what runs and where its records go."""
+    hand = config.hand
+    fingers = f'fingers {", ".join(hand.fingers)}, ' if hand.fingers else ''
+    run_dir = session.log_dir.parent
+    return (
+        f'{config.program} {hand.namespace}: {fingers}mode {hand.mode}, patient {hand.patient} '
+        '(the controllers and estimators assume the nominal finger); run records and node logs '
+        f'in {run_dir}/'
+        + (f'; rosbag2 (MCAP) in {run_dir / BAG_DIR_NAME}' if config.record else '')
+    )
+
+
+def main(command: Command, argv: Sequence[str] | None = None) -> int:
+    """Run ``command``; the exit code (0 clean stop, 1 a process failed, 2 bad input).
+
+    The discovery settings of the environment (README "Networking") go to every process and to
+    this one's own ROS context. 2, with one line on stderr, for refused options or settings or a
+    run directory (``--out``, default a new ``runs/<time>``) that cannot be written.
+    """
+    options = build_parser(command).parse_args(argv)
+    try:
+        config = run_config(command, options)
+        settings = discovery_settings(os.environ)
+    except ValueError as error:  # UsageError
+        print(f'{command.name}: {error}', file=sys.stderr)
+        return 2
+    env = settings.apply(os.environ)
+    os.environ.update(env)  # this process's own ROS context reads the same settings
+    try:
+        run_dir = Path(options.out) if options.out else new_run_directory(Path('runs'))
+        started = session(config, run_dir)
+    except OSError as error:
+        print(f'{command.name}: cannot write the run record: {error}', file=sys.stderr)
+        return 2
+    print(settings.describe())
+    print(banner(config, started))
+    return run_session(started, env)
