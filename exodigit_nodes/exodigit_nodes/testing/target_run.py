@@ -31,12 +31,8 @@ acknowledgement, a parameter call to the plant, the state and your answer).
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
 import shlex
-import signal
-import subprocess
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,42 +44,18 @@ from rcl_interfaces.srv import GetParameters
 from rclpy.duration import Duration
 from std_msgs.msg import Float64MultiArray
 
-from ..logic.lifetime import stop_with_parent
+from ..logic.lifetime import exit_status
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
 from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message, set_double_request
 from ..nodes.qos import WRITER_QOS
 from ..runner.horizon import RepeatedCall
+from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
 from .processes import ros_args
 from .records import SimState
 
-KIT_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
-<!-- The Fast DDS profile of the kit and your controller in TargetGloveSim.run_targets
-     (exodigit_nodes/testing/target_run.py): the project's (exodigit_nodes/nodes/fastdds.xml) with
-     acknowledgements that come at once. The kit waits for your node to acknowledge each target;
-     a reader acknowledges only when the writer's heartbeat asks, which with the project's 50 ms
-     heartbeat made that wait 46 ms of every step's 65 ms (200 steps, measured). -->
-<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
-  <profiles>
-    <data_writer profile_name="exodigit_kit_writer" is_default_profile="true">
-      <qos>
-        <reliability>
-          <max_blocking_time><sec>1</sec><nanosec>0</nanosec></max_blocking_time>
-        </reliability>
-      </qos>
-      <!-- sent only while a sample is not yet acknowledged -->
-      <times><heartbeatPeriod><sec>0</sec><nanosec>1000000</nanosec></heartbeatPeriod></times>
-    </data_writer>
-    <data_reader profile_name="exodigit_kit_reader" is_default_profile="true">
-      <!-- answer a heartbeat at once, not after Fast DDS's default 5 ms -->
-      <times><heartbeatResponseDelay><sec>0</sec><nanosec>0</nanosec></heartbeatResponseDelay></times>
-    </data_reader>
-  </profiles>
-</dds>
-"""
+KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
 """Fast DDS profile of the kit's process and your controller's during a target run."""
-CONTROLLER_STOP = 5.0
-"""How long your controller may take to exit after SIGINT before SIGKILL, s."""
 RUN_UNTIL = 'run_until'
 
 
@@ -95,13 +67,7 @@ def kit_profile(environ: Mapping[str, str]) -> dict[str, str]:
     """
     env = dict(environ)
     if env.get(PROFILE_VARIABLE, str(PROFILE)) == str(PROFILE):
-        digest = hashlib.sha256(KIT_PROFILE.encode()).hexdigest()[:12]
-        path = Path(tempfile.gettempdir()) / f'exodigit-kit-fastdds-{digest}.xml'
-        if not path.exists():
-            scratch = path.with_suffix(f'.{os.getpid()}')
-            scratch.write_text(KIT_PROFILE)
-            scratch.replace(path)  # whole, also when two processes write it at once
-        env[PROFILE_VARIABLE] = str(path)
+        env[PROFILE_VARIABLE] = str(KIT_PROFILE)
     return env
 
 
@@ -136,13 +102,13 @@ class TargetRecord:
     target: NDArray[np.float64]
 
 
-class ControllerProcess:
+class ControllerProcess(Child):
     """Your controller's command, started in the glove's domain and namespace.
 
     ``command`` gets ``--ros-args -r __ns:=<namespace> -p use_sim_time:=true`` and the
     ``-p`` overrides of ``parameters`` appended; it runs in this process's working directory,
-    its output in ``controller.out``/``.err`` of ``log_dir``, and is sent SIGTERM if the process
-    that started it dies.
+    its output in ``controller.out``/``.err`` of ``log_dir``, and is stopped as every process
+    of the kit (:class:`~exodigit_nodes.runner.supervisor.Child`).
     """
 
     def __init__(
@@ -155,48 +121,26 @@ class ControllerProcess:
         log_dir: Path,
     ) -> None:
         self.command = [*command, *ros_args({'use_sim_time': True, **parameters}, namespace)]
-        self.stdout_path = Path(log_dir) / 'controller.out'
-        self.stderr_path = Path(log_dir) / 'controller.err'
-        with open(self.stdout_path, 'w') as out, open(self.stderr_path, 'w') as err:
-            try:
-                self.process = subprocess.Popen(
-                    self.command,
-                    env=dict(env),
-                    stdin=subprocess.DEVNULL,
-                    stdout=out,
-                    stderr=err,
-                    start_new_session=True,
-                    preexec_fn=lambda: stop_with_parent(signal.SIGTERM),
-                )
-            except OSError as error:
-                raise GloveSimError(
-                    f'cannot start your controller {shlex.join(command)}: {error.strerror}'
-                ) from None
-
-    def alive(self) -> bool:
-        """Whether it still runs."""
-        return self.process.poll() is None
-
-    def stop(self, grace: float = CONTROLLER_STOP) -> int:
-        """SIGINT to its process group, SIGKILL after ``grace`` s; the exit status."""
-        for signum, wait in ((signal.SIGINT, grace), (signal.SIGKILL, None)):
-            if not self.alive():
-                break
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.process.pid, signum)
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                self.process.wait(wait)
-        return self.process.wait()
+        try:
+            super().__init__(
+                'your controller',
+                self.command,
+                env,
+                log=Path(log_dir) / 'controller.out',
+                errors=Path(log_dir) / 'controller.err',
+            )
+        except OSError as error:
+            raise GloveSimError(
+                f'cannot start your controller {shlex.join(command)}: {error.strerror}'
+            ) from None
 
     def failure(self, what: str) -> GloveSimError:
         """The error to raise when it has exited while the kit waited for ``what``."""
-        code = self.process.returncode
-        ended = f'exited with code {code}' if code >= 0 else f'was killed by signal {-code}'
-        tail = self.stderr_path.read_text(errors='replace').strip().splitlines()[-5:]
+        tail = self.errors_path.read_text(errors='replace').strip().splitlines()[-5:]
         return GloveSimError(
-            f'your controller {ended} while waiting for {what}'
+            f'your controller {exit_status(self.popen.returncode)} while waiting for {what}'
             + (': ' + ' | '.join(tail) if tail else ' (nothing on stderr)')
-            + f'; its output is in {self.stdout_path.parent}'
+            + f'; its output is in {self.log_path.parent}'
         )
 
 
