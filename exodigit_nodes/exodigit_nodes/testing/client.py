@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 from ..logic.pacing import CONTROLLERS_LABEL
 from ..nodes.dds import use_profile
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
-from .records import SimRecord, SimState
+from .records import SimRecord, SimState, state_arrays
 
 DEFAULT_TIMEOUT = 60.0
 """Longest wall-clock wait for the glove (start-up, a step, a run) before an error, s."""
@@ -336,12 +336,7 @@ class GloveSim:
         self._paused = True  # pause_at stopped the plant at the last state
         self.state = states[-1]
         return SimRecord(
-            t=np.array([s.t for s in states]),
-            q=np.array([s.q for s in states]),
-            qdot=np.array([s.qdot for s in states]),
-            pressure=np.array([s.pressure for s in states]),
-            forces=np.array([s.forces for s in states]),
-            lengths=np.array([s.lengths for s in states]),
+            **state_arrays(states),
             command=np.array(commands),
         )
 

@@ -59,3 +59,14 @@ class SimRecord:
     forces: NDArray[np.float64]
     lengths: NDArray[np.float64]
     command: NDArray[np.float64]
+
+
+def state_arrays(states: list[SimState]) -> dict[str, NDArray[np.float64]]:
+    """The published fields of ``states`` stacked by step, as keyword arguments of a record.
+
+    ``t`` of shape (n,); ``q``, ``qdot``, ``pressure``, ``forces``, ``lengths`` (n, 3).
+    """
+    return {
+        name: np.array([getattr(s, name) for s in states])
+        for name in ('t', 'q', 'qdot', 'pressure', 'forces', 'lengths')
+    }

@@ -52,7 +52,7 @@ from ..runner.horizon import RepeatedCall
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
 from .processes import ros_args
-from .records import SimState
+from .records import SimState, state_arrays
 
 KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
 """Fast DDS profile of the kit's process and your controller's during a target run."""
@@ -295,12 +295,7 @@ class TargetGloveSim(GloveSim):
         self._external_synced = True
         return TargetRecord(
             initial=initial,
-            t=np.array([s.t for s in states]),
-            q=np.array([s.q for s in states]),
-            qdot=np.array([s.qdot for s in states]),
-            pressure=np.array([s.pressure for s in states]),
-            forces=np.array([s.forces for s in states]),
-            lengths=np.array([s.lengths for s in states]),
+            **state_arrays(states),
             command=np.array(commands),
             target=targets,
         )
