@@ -5,8 +5,8 @@ Every topic is reliable and volatile, so a subscriber with the default rclpy pro
 (:data:`WRITER_QOS`), so a reader that keeps every message (:data:`RECORD_QOS`) loses none
 when its process stalls for seconds. Subscriptions keep the last 10 (:data:`READER_QOS`): a
 controller wants the latest state, not a backlog.
-``markers`` and ``/diagnostics`` use the same profiles at lower rates; ``/clock`` has its own
-(:data:`CLOCK_QOS`).
+``markers``, ``/diagnostics`` and ``/clock`` use the same profiles (rclpy's best-effort time
+source matches a reliable publisher too).
 """
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -33,15 +33,6 @@ READER_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 """Profile of every subscription of the glove nodes: reliable, keep-last 10, volatile."""
-
-CLOCK_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
-"""Profile of ``/clock`` (docs/spec/ros.md Part II): reliable, keep-last 1, which both rclpy's
-best-effort time-source subscription and reliable subscribers match."""
 
 RECORD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
