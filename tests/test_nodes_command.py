@@ -1,21 +1,30 @@
-"""The closed loops of pressure_command against the running plant and estimator.
+"""pressure_command: its closed loops over DDS, and its own logic in process.
 
-Position mode with targets from the ``joint_targets`` topic, force mode switched at run time,
-the range-of-motion back-off, and what the controller does when the plant goes away.
+Over DDS (the wiring): position mode with targets from the ``joint_targets`` topic, and force
+mode switched at run time, against the running plant and estimator. One plant, controller and
+estimator serve those tests; every test finds the controller in position mode at `TARGETS`
+(what a test sets is put back after it).
 
-One plant, controller and estimator serve the module; every test finds the controller in
-position mode at `TARGETS` (what a test sets is put back after it). The tests that leave the
-controller capped by a back-off, or stop the plant, have a plant and controller of their own.
+In process (`reliability_inprocess.InProcessNode`, no DDS traffic): targets outside the range
+of motion refused, the range-of-motion back-off reported, and the ramp down reported when the
+joint states stop. The controllers and the limiter themselves are tested in tests/test_control.py;
+a plant stopped under a running position controller (processes) in
+tests/test_reliability_faults.py.
 """
 
+import itertools
 import os
-import signal
 import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from ros_harness import STOP_TIMEOUT, wait_until
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
+from exodigit_nodes.nodes.pressure_command import PressureCommand
+from rclpy.parameter import Parameter
+from reliability_inprocess import InProcessNode
+from ros_harness import wait_until
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -26,13 +35,12 @@ NS = f'/nodes_command_{os.getpid()}'  # unique per session
 ANGLE_SETTLED = 1e-3
 FORCE_SETTLED = 1e-3
 SETTLE_TIME = 15.0  # s
-MAX_PRESSURE = 60e3  # Pa, the node's default
-#: How far past a range-of-motion limit the lagging chambers may carry a joint, rad.
-OVERSHOOT = 0.01
+#: The controller's feedback_timeout (its default), s.
+FEEDBACK_TIMEOUT = 0.5
 PLANT = {'pressure_time_constant': 0.05}
 TARGETS = [0.1, 0.1, 0.1]  # rad, the controller's joint_targets at start
-#: The controller at start: position mode, reporting 10 times a second (the tests wait for it).
-CONTROLLER = {'mode': 'position', 'joint_targets': TARGETS, 'diagnostic_period': 0.1}
+#: The controller at start: position mode.
+CONTROLLER = {'mode': 'position', 'joint_targets': TARGETS}
 #: The controller's parameters that tests change (put back in this order: targets within limits).
 CHANGED = ['mode', 'joint_targets', 'force_targets']
 
@@ -42,8 +50,8 @@ def model():
     return GloveModel(load_params())
 
 
-def start_loop(launcher, probe, namespace, estimator=True):
-    """Plant, position controller at `TARGETS` (and estimator) in ``namespace``, all heard.
+def start_loop(launcher, probe, namespace):
+    """Plant, position controller at `TARGETS` and estimator in ``namespace``, all heard.
 
     Returns the nodes, the probe's inboxes of their topics and a ``joint_targets`` publisher.
     """
@@ -53,15 +61,13 @@ def start_loop(launcher, probe, namespace, estimator=True):
             f'{namespace}/estimated_contact_forces', Float64MultiArray
         ),
         'pressure_command': probe.subscribe(f'{namespace}/pressure_command', Float64MultiArray),
-        'diagnostics': probe.subscribe('/diagnostics', DiagnosticArray),
     }
     nodes = {
         'plant': launcher.start('plant', PLANT, namespace=namespace),
         'pressure_command': launcher.start('pressure_command', CONTROLLER, namespace=namespace),
     }
-    if estimator:
-        nodes['estimator'] = launcher.start('estimator', {}, namespace=namespace)
-    heard = inboxes['estimated_contact_forces' if estimator else 'pressure_command']
+    nodes['estimator'] = launcher.start('estimator', {}, namespace=namespace)
+    heard = inboxes['estimated_contact_forces']
     assert heard.wait_count(1, timeout=30.0), {name: n.stderr() for name, n in nodes.items()}
     return nodes, probe.publisher(f'{namespace}/joint_targets', Float64MultiArray), inboxes
 
@@ -76,25 +82,6 @@ def loop(running, probe):
     """The module's loop, with the controller's parameters put back after the test."""
     with probe.parameters_restored(f'{NS}/pressure_command', CHANGED):
         yield running
-
-
-@pytest.fixture
-def own_loop(launcher, probe, request):
-    """A plant and a position controller for this test alone (no estimator), stopped after it."""
-    namespace = f'{NS}_{request.node.name}'
-    nodes, targets, inboxes = start_loop(launcher, probe, namespace, estimator=False)
-    yield namespace, nodes, targets, inboxes
-    for node in nodes.values():
-        node.stop()
-
-
-def command_status(inboxes, since, namespace=NS):
-    return [
-        s
-        for array in inboxes['diagnostics'].messages(since)
-        for s in array.status
-        if s.name == f'{namespace}/pressure_command'
-    ]
 
 
 def settles(inbox, field, target, tolerance, since):
@@ -116,22 +103,6 @@ def test_position_mode_reaches_the_targets_sent_on_the_topic(loop):
     )
 
 
-def test_targets_outside_the_range_of_motion_are_refused(loop):
-    _, targets, inboxes = loop
-    mark = time.monotonic()
-    targets.publish(Float64MultiArray(data=[0.35, 3.0, 0.2]))
-    refused = wait_until(
-        lambda: [
-            s
-            for s in command_status(inboxes, mark)
-            if any(kv.key == 'rejected joint_targets: out of range' for kv in s.values)
-        ],
-        3.0,
-    )
-    assert refused
-    assert settles(inboxes['joint_states'], 'position', TARGETS, ANGLE_SETTLED, mark)
-
-
 def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
     _, _, inboxes = loop
     pressure = [40e3, 20e3, 10e3]  # Pa, inside the limits: the target is reachable
@@ -148,46 +119,95 @@ def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
     np.testing.assert_allclose(inboxes['pressure_command'].latest().data, pressure, rtol=1e-2)
 
 
-def test_leaving_the_range_of_motion_makes_the_controller_back_off(own_loop, probe):
-    namespace, _, targets, inboxes = own_loop
-    states = inboxes['joint_states']
-    mark = time.monotonic()
-    targets.publish(Float64MultiArray(data=[0.35, 0.3, 0.2]))
-    assert states.wait_for(lambda m: m.position[0] > 0.2, SETTLE_TIME, since=mark) is not None
-    limits = {'joint_upper_limits': [0.15, 1.75, 1.4]}  # the glove's MCP is now outside
-    assert all(r.successful for r in probe.set_parameters(f'{namespace}/pressure_command', limits))
-    mark = time.monotonic()
-    backing_off = wait_until(
-        lambda: [
-            s for s in command_status(inboxes, mark, namespace) if 'backing off' in s.message
-        ],
-        5.0,
-    )
-    assert backing_off and backing_off[-1].level == DiagnosticStatus.WARN
-    assert states.wait_for(lambda m: m.position[0] <= 0.15, 10.0, since=mark) is not None
-    settled = time.monotonic()
-    assert wait_until(lambda: len(states.messages(settled)) >= 150, 10.0)
-    overshoot = max(m.position[0] for m in states.messages(settled))
-    assert overshoot < 0.15 + OVERSHOOT
+# -- in process: the node's own logic -------------------------------------------------------
 
 
-def test_without_the_plant_the_closed_loop_ramps_to_zero_and_says_so(own_loop):
-    namespace, nodes, _, inboxes = own_loop
-    assert inboxes['pressure_command'].wait_for(lambda m: min(m.data) > 0.0, SETTLE_TIME)
-    nodes['plant'].signal(signal.SIGINT)
-    assert nodes['plant'].wait(STOP_TIMEOUT) == 0
-    mark = time.monotonic()
-    zero = inboxes['pressure_command'].wait_for(lambda m: max(m.data) == 0.0, 5.0, since=mark)
-    assert zero is not None
-    sent = np.array([m.data for m in inboxes['pressure_command'].messages(mark)])
-    assert sent.min() >= 0.0 and sent.max() <= MAX_PRESSURE
-    reported = wait_until(
-        lambda: [
-            s
-            for s in command_status(inboxes, mark, namespace)
-            if 'no fresh joint_states' in s.message
-        ],
-        3.0,
-    )
-    assert reported and reported[-1].level == DiagnosticStatus.WARN
-    assert nodes['pressure_command'].alive()
+@pytest.fixture
+def in_process(probe):
+    """Builds PressureCommand nodes in process (position mode at `TARGETS`); closes them."""
+    made = []
+
+    def build(**overrides):
+        parameters = {'mode': 'position', 'joint_targets': str(TARGETS), **overrides}
+        made.append(InProcessNode(PressureCommand, parameters, probe))
+        return made[-1]
+
+    yield build
+    for node in made:
+        node.close()
+
+
+def joint_states(q, t):
+    """A joint_states message at angles ``q`` (rad) stamped ``t`` (s)."""
+    message = JointState(name=['mcp', 'pip', 'dip'], position=[float(v) for v in q])
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(round(t * 1e9), 10**9)
+    return message
+
+
+def report(node):
+    """The node's /diagnostics status now: (status, key -> value)."""
+    node.node.report()
+    status = node.take()['/diagnostics'][-1].status[0]
+    return status, {kv.key: kv.value for kv in status.values}
+
+
+def test_targets_outside_the_range_of_motion_are_refused(in_process):
+    # The controller keeps its targets, and its diagnostics count the refusal.
+    node = in_process()
+    node.deliver('joint_targets', Float64MultiArray(data=[0.35, 3.0, 0.2]))
+    np.testing.assert_array_equal(node.node.loop.controller.targets, TARGETS)
+    status, values = report(node)
+    assert values['rejected joint_targets: out of range'] == '1'
+    assert status.level == DiagnosticStatus.WARN
+    node.deliver('joint_targets', Float64MultiArray(data=[0.35, 0.3, 0.2]))  # inside: taken
+    np.testing.assert_array_equal(node.node.loop.controller.targets, [0.35, 0.3, 0.2])
+
+
+def test_leaving_the_range_of_motion_makes_the_controller_back_off_and_say_so(in_process):
+    # In lockstep each joint_states is answered by one command at once: no clock involved.
+    node = in_process(lockstep='true')
+    node.deliver('joint_targets', Float64MultiArray(data=[0.35, 0.3, 0.2]))
+    bent = [0.2, 0.2, 0.2]  # rad: the MCP inside the default range, outside the one set below
+    for k in range(1, 6):
+        node.deliver('joint_states', joint_states(bent, 0.01 * k))
+    rising = [m.data[0] for m in node.take()['pressure_command']]
+    assert rising[-1] > rising[0] > 0.0
+    status, _ = report(node)
+    assert 'backing off' not in status.message
+    limits = Parameter('joint_upper_limits', value=[0.15, 1.75, 1.4])
+    assert node.node.set_parameters([limits])[0].successful
+    for k in range(6, 11):
+        node.deliver('joint_states', joint_states(bent, 0.01 * k))
+    backing = [m.data[0] for m in node.take()['pressure_command']]
+    assert backing[0] < rising[-1]
+    assert all(b < a for a, b in itertools.pairwise(backing)), backing
+    status, values = report(node)
+    assert status.level == DiagnosticStatus.WARN and 'backing off' in status.message
+    assert int(values['limited steps: back-off']) == 5
+
+
+def test_without_fresh_joint_states_the_closed_loop_ramps_to_zero_and_says_so(in_process):
+    # The node runs on simulated time here (use_sim_time, /clock delivered by hand), so the
+    # joint states go stale exactly when the test says.
+    node = in_process(use_sim_time='true', max_pressure_rate='100000.0')
+
+    def at(t):
+        node.deliver('clock', Clock(clock=Time(sec=int(t), nanosec=round(t % 1 * 1e9))))
+
+    at(100.0)
+    node.deliver('joint_states', joint_states([0.0, 0.0, 0.0], 100.0))
+    for k in range(1, 11):
+        at(100.0 + 0.01 * k)
+        node.node.tick()
+    held = [max(m.data) for m in node.take()['pressure_command']]
+    assert held[-1] > 0.0
+    status, _ = report(node)
+    assert 'no fresh joint_states' not in status.message
+    for k in range(1, 31):
+        at(100.1 + FEEDBACK_TIMEOUT + 0.01 * k)  # the last state is older than the timeout
+        node.node.tick()
+    sent = np.array([m.data for m in node.take()['pressure_command']])
+    assert sent.min() >= 0.0 and sent.max() <= held[-1]
+    assert list(sent[-1]) == [0.0, 0.0, 0.0]
+    status, _ = report(node)
+    assert status.level == DiagnosticStatus.WARN and 'no fresh joint_states' in status.message
