@@ -126,7 +126,8 @@ def test_the_command_takes_the_trial_options_and_refuses_in_process_ones(capsys)
     text = capsys.readouterr().out
     for option in ('--ros-controller CMD', '--parallel N', '--population', '--require RULE'):
         assert option in text
-    assert '--mode' not in text and '--engine' not in text
+    assert '--engine {kit,ray}' in text  # its own engines, not the in-process ones
+    assert '--mode' not in text and '--shard-size' not in text
     assert trial_command.main(['--ros-controller', 'x', '--parallel', '0']) == 2
     assert 'parallel = 0' in capsys.readouterr().err
     with pytest.raises(SystemExit):

@@ -12,17 +12,27 @@ the controller").
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
 import sys
 
 from exodigit_model.checks import ParameterError
 from exodigit_model.tools import trial_command
 from exodigit_model.tools._deps import ToolError
 from exodigit_model.trials import ControllerSpec, run_trial
+from exodigit_model.trials.ray_engine import ShardError
 
 from .testing.client import DEFAULT_TIMEOUT
-from .testing.trial_engine import DEFAULT_PARALLEL, KitEngine, PatientError, PatientRun
+from .testing.trial_engine import (
+    DEFAULT_PARALLEL,
+    KitEngine,
+    PatientError,
+    PatientRun,
+    kit_shard,
+)
 
 PROG = 'python -m exodigit_nodes.trial'
+ENGINES = ('kit', 'ray')
 EXIT_USAGE = 2
 
 EPILOG = f"""examples:
@@ -78,6 +88,18 @@ def build_parser() -> argparse.ArgumentParser:
         help=f'gloves at once, each in its own ROS domain ({DEFAULT_PARALLEL})',
     )
     groups['running'].add_argument(
+        '--engine',
+        choices=ENGINES,
+        default=ENGINES[0],
+        help='kit: the gloves on this machine; ray: one Ray task per patient, the gloves spread '
+        "over a Ray cluster's nodes, --parallel tasks at once (kit)",
+    )
+    groups['running'].add_argument(
+        '--address',
+        metavar='ADDR',
+        help='Ray cluster address (--engine ray; default: start a local instance on 127.0.0.1)',
+    )
+    groups['running'].add_argument(
         '--timeout',
         type=float,
         default=DEFAULT_TIMEOUT,
@@ -96,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     """The trial: 0 when every rule passed, 1 when one failed (ToolError for bad input)."""
 
     def progress(run: PatientRun) -> None:
-        done = len(engine.runs)
+        done = len(kit.runs)
         print(f'{run.message} ({done}/{args.patients})', file=sys.stderr, flush=True)
 
     try:
@@ -104,28 +126,48 @@ def run(args: argparse.Namespace) -> int:
         spec = trial_command.trial_spec(
             args, ControllerSpec('ros', args.ros_controller, parameters)
         )
-        engine = KitEngine(
+        if args.engine == 'ray':  # a task per patient: the gloves spread over the nodes
+            spec = dataclasses.replace(spec, shard_size=1)
+        kit = KitEngine(
             args.parallel,
             timeout=args.timeout,
             follows_targets=not args.no_targets,
             log_dir=args.node_logs,
             on_patient=None if args.no_progress else progress,
         )
-        result = run_trial(spec, rules=args.require, engine=engine, progress=False)
-    except (ValueError, PatientError) as error:
+        engine = kit if args.engine == 'kit' else spread(args)
+        try:
+            result = run_trial(spec, rules=args.require, engine=engine, progress=False)
+        finally:
+            if engine is not kit:
+                engine.close()
+    except (ValueError, PatientError, ShardError) as error:
         raise ToolError(str(error)) from None
     for line in trial_command.report_lines(result):
         print(line)
     if args.out is not None:
         from exodigit_model.trials.report import write_report
 
-        worst = engine.records.get(result.worst_patient())
+        worst = kit.records.get(result.worst_patient())
+        if worst is None and not args.no_figures:  # a Ray run keeps no records: run it again
+            try:
+                worst = kit.session(spec, result.worst_patient())
+            except PatientError as error:
+                raise ToolError(f'the figure of the worst patient: {error}') from None
         try:
             written = write_report(result, args.out, figures=not args.no_figures, record=worst)
         except ValueError as error:
             raise ToolError(f'--out {error}') from None
         print(f'wrote {args.out}/: {", ".join(path.name for path in written)}')
     return result.status
+
+
+def spread(args: argparse.Namespace):
+    """The Ray engine of ``--engine ray``: each task runs a shard's gloves on its node."""
+    if args.node_logs is not None:
+        raise ToolError('--node-logs is for --engine kit (the gloves run on the Ray nodes)')
+    shard = functools.partial(kit_shard, timeout=args.timeout, follows_targets=not args.no_targets)
+    return trial_command.ray_engine(args.address, workers=args.parallel, shard=shard)
 
 
 def main(argv: list[str] | None = None) -> int:

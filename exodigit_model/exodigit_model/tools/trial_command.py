@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+from typing import Any
 
 import yaml
 
@@ -212,10 +213,15 @@ def engine(args: argparse.Namespace) -> Engine:
         if args.address is not None:
             raise ToolError('--address is for --engine ray')
         return LocalEngine()
+    return ray_engine(args.address)
+
+
+def ray_engine(address: str | None, **options: Any) -> Engine:
+    """``RayEngine(address, **options)``, its failures to start as one-line ToolErrors."""
     from ..trials.ray_engine import RayEngine
 
     try:
-        return RayEngine(address=args.address)
+        return RayEngine(address=address, **options)
     except ModuleNotFoundError as error:
         if error.name and error.name.split('.')[0] == 'ray':
             raise ToolError(

@@ -36,7 +36,7 @@ from __future__ import annotations
 import importlib
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import Any
 
@@ -90,6 +90,11 @@ class RayEngine:
         How many shards run at once (≥ 1), one worker process each; for the instance the engine
         starts, also its CPUs, so its worker processes. None (default): every CPU of the
         machine, or of the cluster.
+    shard : callable, optional
+        What a task runs, ``shard(spec, index) -> PatientMetrics`` (picklable: a module-level
+        function or a ``functools.partial`` of one): :func:`~.trial.run_shard` by default;
+        ``exodigit_nodes.testing.trial_engine.kit_shard`` spreads a ROS node controller's
+        gloves over the cluster's nodes.
 
     Raises
     ------
@@ -107,7 +112,13 @@ class RayEngine:
     ...     result = run_trial(TrialSpec(patients=10_000), engine=engine)
     """
 
-    def __init__(self, address: str | None = None, *, workers: int | None = None) -> None:
+    def __init__(
+        self,
+        address: str | None = None,
+        *,
+        workers: int | None = None,
+        shard: Callable[[TrialSpec, int], PatientMetrics] = run_shard,
+    ) -> None:
         if workers is not None and (
             isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
         ):
@@ -125,7 +136,8 @@ class RayEngine:
             self._start_local()
         else:
             self._ray.init(address=address)
-        self._run_shard = self._ray.remote(num_cpus=1)(run_shard)
+        self._shard = shard
+        self._task = self._ray.remote(num_cpus=1)(run_task)
 
     def _start_local(self) -> None:
         """Start a Ray instance on this machine whose servers listen on 127.0.0.1 only."""
@@ -146,7 +158,7 @@ class RayEngine:
     def map(
         self, spec: TrialSpec, indices: Sequence[int], on_done: OnDone
     ) -> list[PatientMetrics]:
-        """:func:`~.trial.run_shard` of every index as a Ray task; results in index order.
+        """The engine's ``shard`` of every index as a Ray task; results in index order.
 
         At most ``workers`` tasks are in flight. ``on_done(index, metrics)`` is called in this
         process as each task finishes.
@@ -167,7 +179,7 @@ class RayEngine:
         def submit() -> None:
             position = next(queue, None)
             if position is not None:
-                pending[self._run_shard.remote(shared, indices[position])] = position
+                pending[self._task.remote(self._shard, shared, indices[position])] = position
 
         try:
             for _ in range(limit):
@@ -204,6 +216,17 @@ class RayEngine:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def run_task(
+    shard: Callable[[TrialSpec, int], PatientMetrics], spec: TrialSpec, index: int
+) -> PatientMetrics:
+    """What a Ray task runs: ``shard(spec, index)``.
+
+    Ray makes tasks of plain functions only, and an engine's ``shard`` may be a
+    ``functools.partial``.
+    """
+    return shard(spec, index)
 
 
 def import_ray(*, local: bool) -> ModuleType:

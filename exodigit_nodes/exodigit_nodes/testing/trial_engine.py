@@ -290,6 +290,31 @@ def patient_record(spec: TrialSpec, patient: int, record: TargetRecord) -> Patie
     )
 
 
+def kit_shard(
+    spec: TrialSpec,
+    index: int,
+    *,
+    timeout: float = DEFAULT_TIMEOUT,
+    follows_targets: bool = True,
+) -> PatientMetrics:
+    """Shard ``index`` of a ROS node controller's trial on this machine, one glove at a time.
+
+    What a Ray task runs to spread a trial's gloves over a cluster's nodes::
+
+        RayEngine(address, shard=functools.partial(kit_shard, timeout=60.0))
+
+    Every node needs exodigit_nodes and the controller's command; the gloves of a node claim
+    its free ROS domains as the kit does anywhere.
+
+    Raises
+    ------
+    PatientError
+        When a patient's run fails.
+    """
+    engine = KitEngine(1, timeout=timeout, follows_targets=follows_targets, keep_records=False)
+    return engine.map(spec, [index], lambda *_: None)[0]
+
+
 class KitEngine:
     """Runs a trial of a ROS node controller on the testing kit (module docstring).
 
@@ -423,6 +448,30 @@ class KitEngine:
                 for worker in workers:
                     worker.close()
         return [results[index] for index in indices]
+
+    def session(self, spec: TrialSpec, patient: int) -> PatientRecord:
+        """Patient ``patient``'s session run again on a glove of its own.
+
+        For a report's figure of a trial whose engine kept no records (a Ray run of
+        :func:`kit_shard`): the same patient, protocol and controller, so the same session.
+
+        Raises
+        ------
+        PatientError
+            When the run fails.
+        """
+        index = patient // spec.shard_size
+        with tempfile.TemporaryDirectory(prefix='exodigit_kit_trial_') as scratch:
+            root = Path(scratch) if self.log_dir is None else self.log_dir
+            job = next(j for j in self._jobs(spec, index, root) if j.patient == patient)
+            worker = Worker()
+            try:
+                run = worker.run(job)
+            finally:
+                worker.close()
+        if not run.success:
+            raise PatientError(run)
+        return patient_record(spec, patient, run.record)
 
     def _jobs(self, spec: TrialSpec, index: int, root: Path) -> list[PatientJob]:
         """Shard ``index``'s patients as jobs, each with its parameter file written."""
