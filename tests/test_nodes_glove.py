@@ -2,7 +2,9 @@
 
 One plant (no lag, no noise), one pressure_command (a fast staircase) and one estimator run for
 the whole module in namespace /nodes_glove; the tests watch their topics from the probe node.
-What a test sets is put back after it; the test that stops the nodes stops a glove of its own.
+What a test sets is put back after it; the test that stops nodes stops a command node and an
+estimator of its own. Refused parameter sets are checked in process (the nodes' parameter
+callbacks), and once over DDS.
 """
 
 import math
@@ -14,6 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_nodes.nodes.estimator import Estimator
+from exodigit_nodes.nodes.pressure_command import PressureCommand
+from rclpy.parameter import Parameter
+from reliability_inprocess import InProcessNode
 from ros_harness import STOP_TIMEOUT, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -189,8 +195,8 @@ def unmatched(estimates, inbox):
 def test_estimated_forces_equal_the_plant_contact_forces_on_noise_free_data(glove):
     _, inboxes = glove
     estimated, forces = inboxes['estimated_contact_forces'], inboxes['contact_forces']
-    assert estimated.wait_count(300, timeout=10.0)
-    records = estimated.records()[-200:]
+    assert estimated.wait_count(150, timeout=10.0)
+    records = estimated.records()[-100:]
     estimates = [tuple(m.data) for _, m, _ in records]
     assert len(set(estimates)) > 10  # a moving glove, not the rest state
     # An estimate is sent after its plant step, and each topic arrives in order: once the probe
@@ -231,40 +237,66 @@ def test_markers_show_the_glove(glove):
     assert all(math.isfinite(p.x) and math.isfinite(p.y) for m in markers for p in m.points)
 
 
-@pytest.mark.parametrize(
-    ('node', 'values', 'named'),
-    [
-        ('pressure_command', {'mode': 'bogus'}, 'mode'),
-        ('pressure_command', {'max_pressure': math.nan}, 'max_pressure'),
-        ('pressure_command', {'max_pressure_rate': 'fast'}, 'max_pressure_rate'),
-        ('pressure_command', {'sine_low': 50e3}, 'sine_low'),
-        ('pressure_command', {'joint_upper_limits': [1.0, 1.0]}, 'joint_upper_limits'),
-        ('pressure_command', {'rate_hz': 10.0}, 'rate_hz'),
-        ('estimator', {'max_sample_age': 0.0}, 'max_sample_age'),
-        ('estimator', {'identification_window': 2.5}, 'identification_window'),
-        ('estimator', {'params_file': '/tmp/other.yaml'}, 'params_file'),
-    ],
-)
-def test_a_bad_parameter_set_is_refused_naming_it_and_the_node_runs_on(
-    glove, probe, node, values, named
+BAD_SETS = [
+    ('pressure_command', {'mode': 'bogus'}, 'mode'),
+    ('pressure_command', {'max_pressure': math.nan}, 'max_pressure'),
+    ('pressure_command', {'max_pressure_rate': 'fast'}, 'max_pressure_rate'),
+    ('pressure_command', {'sine_low': 50e3}, 'sine_low'),  # a rule across two parameters
+    ('pressure_command', {'joint_upper_limits': [1.0, 1.0]}, 'joint_upper_limits'),
+    ('pressure_command', {'rate_hz': 10.0}, 'rate_hz'),
+    ('estimator', {'max_sample_age': 0.0}, 'max_sample_age'),
+    ('estimator', {'identification_window': 2.5}, 'identification_window'),
+    ('estimator', {'params_file': '/tmp/other.yaml'}, 'params_file'),
+]
+"""(node, values, the parameter the refusal must name): sets a running node must refuse."""
+
+
+@pytest.fixture(scope='module')
+def in_process(probe):
+    """The command node and the estimator as the module's glove runs them, built in process.
+
+    No DDS traffic and nothing spins them: their parameter callbacks are what rclpy's
+    SetParameters service calls.
+    """
+    built = {
+        'pressure_command': InProcessNode(
+            PressureCommand,
+            {'mode': 'staircase', 'step_duration': '0.3', 'max_pressure': str(MAX_PRESSURE)},
+            probe,
+        ),
+        'estimator': InProcessNode(Estimator, {'identification_period': '0.2'}, probe),
+    }
+    yield {name: made.node for name, made in built.items()}
+    for made in built.values():
+        made.close()
+
+
+@pytest.mark.parametrize(('node', 'values', 'named'), BAD_SETS)
+def test_a_bad_parameter_set_is_refused_naming_it_and_the_value_kept(
+    in_process, node, values, named
 ):
+    # Every bad value of each parameter alone: tests/test_reliability_params.py. Here: a rule
+    # across parameters, read-only ones, and the values of this glove.
+    made = in_process[node]
+    name, bad = next(iter(values.items()))
+    before = made.get_parameter(name).value
+    result = made.set_parameters([Parameter(name, value=bad)])[0]
+    assert not result.successful
+    assert named in result.reason
+    assert made.get_parameter(name).value == before
+
+
+def test_a_bad_parameter_set_over_dds_is_refused_naming_it_and_the_node_runs_on(glove, probe):
+    # The wiring: rclpy's SetParameters service of a node process answers with our refusal.
     nodes, inboxes = glove
-    name = next(iter(values))
-    before = probe.get_parameters(f'{NS}/{node}', [name])
-    results = probe.set_parameters(f'{NS}/{node}', values)
+    before = probe.get_parameters(f'{NS}/pressure_command', ['sine_low'])
+    results = probe.set_parameters(f'{NS}/pressure_command', {'sine_low': 50e3})
     assert not results[0].successful
-    assert named in results[0].reason
-    assert probe.get_parameters(f'{NS}/{node}', [name]) == before
-    output = 'pressure_command' if node == 'pressure_command' else 'estimated_contact_forces'
+    assert 'sine_low' in results[0].reason
+    assert probe.get_parameters(f'{NS}/pressure_command', ['sine_low']) == before
     mark = time.monotonic()
-    assert inboxes[output].wait_for(lambda m: True, timeout=5.0, since=mark) is not None
-    assert nodes[node].alive()
-
-
-def test_rclpy_own_parameters_stay_settable(glove, probe):
-    for node in ('plant', 'pressure_command', 'estimator'):
-        results = probe.set_parameters(f'{NS}/{node}', {'use_sim_time': False})
-        assert results[0].successful, (node, results[0].reason)
+    assert inboxes['pressure_command'].wait_for(lambda m: True, timeout=5.0, since=mark)
+    assert nodes['pressure_command'].alive()
 
 
 @pytest.fixture
@@ -295,27 +327,38 @@ def test_a_good_parameter_set_is_applied(glove, probe, max_pressure_restored):
 
 
 @pytest.fixture
-def own_glove(launcher, probe):
-    """A glove for one test alone (which may stop it); whatever still runs stops after it."""
-    nodes, inboxes = start_glove(launcher, probe, f'{NS}_own')
-    yield nodes, inboxes
+def own_nodes(launcher, probe):
+    """A command node and an estimator for one test alone (which stops them); no plant.
+
+    The staircase needs no feedback: the command node sends pressures without a plant. The
+    plant's Ctrl-C takes the command node's way (the same spin loop and executor, no last
+    words); a plant whose starter dies stops on SIGINT in tests/test_nodes_lifetime.py.
+    """
+    namespace = f'{NS}_own'
+    commands = probe.subscribe(f'{namespace}/pressure_command', Float64MultiArray)
+    nodes = {
+        'pressure_command': launcher.start(
+            'pressure_command', {'mode': 'staircase', 'step_duration': 0.1}, namespace=namespace
+        ),
+        'estimator': launcher.start('estimator', {}, namespace=namespace),
+    }
+    yield nodes, commands
     for node in nodes.values():
         node.stop()
 
 
-def test_sigint_stops_every_node_within_2_s_and_the_command_node_sends_zero_first(own_glove):
-    nodes, inboxes = own_glove
+def test_sigint_stops_the_nodes_and_the_command_node_sends_zero_first(own_nodes):
+    nodes, commands = own_nodes
     command = nodes['pressure_command']
-    assert inboxes['pressure_command'].wait_for(lambda m: max(m.data) > 0.0, 5.0) is not None
-    started = time.monotonic()
+    assert commands.wait_for(lambda m: max(m.data) > 0.0, 30.0) is not None, command.stderr()
     command.signal(signal.SIGINT)
     assert command.wait(STOP_TIMEOUT) == 0, command.stderr()
-    assert time.monotonic() - started < STOP_TIMEOUT
-    last = inboxes['pressure_command'].latest
+    last = commands.latest
     assert wait_until(lambda: list(last().data) == [0.0] * 3, 2.0), (last(), command.stderr())
-    for name in ('estimator', 'plant'):
-        started = time.monotonic()
-        nodes[name].signal(signal.SIGINT)
-        assert nodes[name].wait(STOP_TIMEOUT) == 0, nodes[name].stderr()
-        assert time.monotonic() - started < STOP_TIMEOUT
-        assert 'Traceback' not in nodes[name].stderr()
+    estimator = nodes['estimator']
+    started = wait_until(lambda: 'estimator: model from' in estimator.stderr(), 30.0)
+    assert started, estimator.stderr()
+    estimator.signal(signal.SIGINT)
+    assert estimator.wait(STOP_TIMEOUT) == 0, estimator.stderr()
+    for node in nodes.values():
+        assert 'Traceback' not in node.stderr()
