@@ -23,13 +23,8 @@ from exodigit_model.trials import ControllerSpec, run_trial
 from exodigit_model.trials.ray_engine import ShardError
 
 from .testing.client import DEFAULT_TIMEOUT
-from .testing.trial_engine import (
-    DEFAULT_PARALLEL,
-    KitEngine,
-    PatientError,
-    PatientRun,
-    kit_shard,
-)
+from .testing.trial_engine import DEFAULT_PARALLEL, KitEngine, PatientError, kit_shard
+from .testing.trial_worker import PatientRun
 
 PROG = 'python -m exodigit_nodes.trial'
 ENGINES = ('kit', 'ray')

@@ -1,0 +1,180 @@
+"""The worker processes of a ROS node trial: one patient's glove at a time, driven apart.
+
+:class:`~.trial_engine.KitEngine` runs each glove it has in flight through a :class:`Worker`, a
+process of its own (``python -m exodigit_nodes.testing.trial_worker``) that reads pickled
+:class:`PatientJob`s on its standard input, runs each with :func:`run_patient` and writes the
+:class:`PatientRun` back on its standard output. A fresh process reads the kit's Fast DDS profile
+(:data:`.target_run.KIT_PROFILE`) and shares no interpreter lock; plain subprocesses, not
+:mod:`multiprocessing`'s, so a script that runs a trial needs no
+``if __name__ == '__main__'`` guard.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..logic.lifetime import stop_with_parent
+from .client import GloveSimError
+from .target_run import TargetGloveSim, TargetRecord
+
+WORKER_STOP = 10.0
+"""How long a worker may take to stop its glove and exit, at each step of its stop, s."""
+
+
+@dataclass(frozen=True)
+class PatientJob:
+    """What a worker needs to run one patient's glove (picklable)."""
+
+    patient: int
+    params_file: str
+    plant: Mapping[str, Any]
+    command: tuple[str, ...]
+    parameters: Mapping[str, Any]
+    targets: np.ndarray
+    follows: bool
+    timeout: float
+    log_dir: str
+
+
+@dataclass(frozen=True)
+class PatientRun:
+    """One patient's glove run, in the manner of a solver's result.
+
+    Attributes
+    ----------
+    patient : int
+        The patient's index in the trial.
+    status : int
+        0: the session ran; 1: it failed (the message says why: the controller exited, or it
+        or the plant did not go on within the timeout).
+    message : str
+        One line.
+    record : TargetRecord or None
+        The session (None when it failed).
+    wall_s : float
+        Wall time from the glove's start to its stop, s.
+    """
+
+    patient: int
+    status: int
+    message: str
+    record: TargetRecord | None = field(default=None, repr=False)
+    wall_s: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """Whether the session ran."""
+        return self.status == 0
+
+
+def run_patient(job: PatientJob) -> PatientRun:
+    """Start a glove of ``job``'s patient and the controller, run the targets, stop both.
+
+    Never raises for a failing controller or glove: that is ``status`` 1 with the reason.
+    """
+    started = time.monotonic()
+    try:
+        with TargetGloveSim(
+            job.params_file, plant=job.plant, timeout=job.timeout, log_dir=job.log_dir
+        ) as glove:
+            glove.start_controller(job.command, job.parameters)
+            record = glove.run_targets(job.targets, follows=job.follows)
+    except (GloveSimError, ValueError) as error:
+        wall = time.monotonic() - started
+        return PatientRun(job.patient, 1, f'patient {job.patient}: {error}', None, wall)
+    wall = time.monotonic() - started
+    steps = len(record.t)
+    message = f'patient {job.patient}: {steps} steps in {wall:.1f} s'
+    return PatientRun(job.patient, 0, message, record, wall)
+
+
+class Worker:
+    """A worker process that runs :func:`run_patient` for the jobs it is sent, one at a time."""
+
+    def __init__(self) -> None:
+        self.process = subprocess.Popen(
+            [sys.executable, '-m', __name__],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            start_new_session=True,  # Ctrl-C reaches the engine, which stops the workers
+            preexec_fn=lambda: stop_with_parent(signal.SIGTERM),
+        )
+
+    def run(self, job: PatientJob) -> PatientRun:
+        """``run_patient(job)`` in the worker; a worker that dies is ``status`` 1."""
+        started = time.monotonic()
+        try:
+            pickle.dump(job, self.process.stdin)
+            self.process.stdin.flush()
+            return pickle.load(self.process.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError):
+            code = self.process.wait()
+            return PatientRun(
+                job.patient,
+                1,
+                f"patient {job.patient}: the kit's worker process ended (code {code}); node "
+                f'logs in {job.log_dir}',
+                None,
+                time.monotonic() - started,
+            )
+
+    def close(self, *, at_once: bool = False) -> None:
+        """End the worker: no more jobs, then SIGINT (it stops its glove), then SIGKILL.
+
+        Without more jobs it exits after the current one; SIGINT comes after
+        :data:`WORKER_STOP`, or at once with ``at_once``.
+        """
+        with contextlib.suppress(OSError):
+            self.process.stdin.close()
+        if not at_once and self._ended():
+            return
+        for signum in (signal.SIGINT, signal.SIGKILL):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, signum)
+            if self._ended():
+                return
+
+    def _ended(self) -> bool:
+        try:
+            self.process.wait(WORKER_STOP)
+        except subprocess.TimeoutExpired:
+            return False
+        return True
+
+
+def worker_main() -> None:
+    """A worker: read pickled :class:`PatientJob`s on stdin, write :class:`PatientRun`s.
+
+    Standard output is the results' channel only: what anything else prints goes to stderr.
+    """
+    results = os.fdopen(os.dup(1), 'wb')
+    os.dup2(2, 1)
+    jobs = sys.stdin.buffer
+    try:
+        while True:
+            try:
+                job = pickle.load(jobs)
+            except EOFError:
+                return
+            pickle.dump(run_patient(job), results)
+            results.flush()
+    except KeyboardInterrupt:  # the engine stops us (its glove is closed on the way out)
+        return
+
+
+if __name__ == '__main__':
+    # the module by its name, so that what a worker pickles unpickles in the engine
+    from exodigit_nodes.testing.trial_worker import worker_main as main
+
+    main()
