@@ -1,11 +1,14 @@
 """A node refuses a bad configuration at start: non-zero exit, one clear line, no traceback.
 
 Every node reads its ``params_file`` through ``node_base.load_model``: each kind of bad file is
-checked there, without a process, and each node once as a process (that it exits with one
-line). Each node is also started once with a bad parameter.
+checked there, without a process. Each node class is built in this process with a bad file and
+with a bad parameter, and must refuse with a ``ConfigurationError`` naming it. How a refusal
+leaves a process (``node_base.serve``: status 2, that one line on stderr, no traceback, nothing
+else rclpy might print) is the same for every node: two processes check it, one per kind.
 """
 
 import pytest
+from exodigit_nodes.nodes.catalog import NODES
 from exodigit_nodes.nodes.node_base import ConfigurationError, load_model
 
 BAD_FILES = {
@@ -14,6 +17,7 @@ BAD_FILES = {
     'broken yaml': 'material: [\n',
     'unknown key': 'finger:\n  joints:\n    - {name: mcp, stifness: 0.04}\n',
 }
+CLASSES = {node.executable: node.node_class() for node in NODES}
 
 
 @pytest.fixture(scope='module')
@@ -26,6 +30,36 @@ def bad_files(tmp_path_factory):
             path.write_text(text)
         paths[label] = str(path)
     return paths
+
+
+def refusal_in_process(probe, node: str, parameters: dict[str, str]) -> str:
+    """The ConfigurationError text of node class ``node`` built here with ``parameters``.
+
+    Built in the probe's context (no second DDS participant); a node that refuses is destroyed
+    at once, and one that does not fails the test.
+    """
+
+    class Refusing(CLASSES[node]):
+        def __init__(self, **options):
+            try:
+                super().__init__(**options)
+            except ConfigurationError:
+                self.destroy_node()
+                raise
+            self.destroy_node()
+
+    args = ['--ros-args', '-r', '__ns:=/startup_in_process']
+    args += [flag for name, value in parameters.items() for flag in ('-p', f'{name}:={value}')]
+    with pytest.raises(ConfigurationError) as refusal:
+        Refusing(
+            context=probe.context,
+            cli_args=args,
+            start_parameter_services=False,
+            enable_rosout=False,
+        )
+    message = str(refusal.value)
+    assert '\n' not in message
+    return message
 
 
 def refused(launcher, module, parameters):
@@ -47,23 +81,34 @@ def test_a_bad_params_file_is_one_line_naming_it(bad_files, label):
     ('node', 'label'),
     [('plant', 'missing'), ('pressure_command', 'broken yaml'), ('estimator', 'unknown key')],
 )
-def test_a_bad_params_file_stops_the_node_with_one_clear_line(launcher, bad_files, node, label):
-    code, lines = refused(launcher, node, {'params_file': bad_files[label]})
-    assert code not in (0, None)
-    assert len(lines) == 1, lines
-    assert lines[0].startswith(f'{node}: error: params_file: ')
-    assert bad_files[label] in lines[0]
+def test_each_node_refuses_a_bad_params_file_naming_it(probe, bad_files, node, label):
+    message = refusal_in_process(probe, node, {'params_file': bad_files[label]})
+    assert message.startswith('params_file: ') and bad_files[label] in message
 
 
 @pytest.mark.parametrize(
     ('node', 'parameters', 'named'),
     [
         ('plant', {'command_timeout': 'soon'}, 'command_timeout'),  # rclpy's type check
-        ('pressure_command', {'sine_low': 30e3, 'sine_high': 10e3}, 'sine_low'),  # a rule
-        ('estimator', {'identification_window': 1}, 'identification_window'),  # a bound
+        ('plant', {'lockstep': 'true'}, 'lockstep needs clock sim'),  # a rule
+        ('pressure_command', {'sine_low': '30000.0', 'sine_high': '10000.0'}, 'sine_low'),
+        ('estimator', {'identification_window': '1'}, 'identification_window'),  # a bound
     ],
 )
-def test_a_bad_parameter_at_start_stops_the_node_naming_it(launcher, node, parameters, named):
-    code, lines = refused(launcher, node, parameters)
-    assert code not in (0, None)
-    assert len(lines) == 1 and named in lines[0], lines
+def test_each_node_refuses_a_bad_parameter_at_start_naming_it(probe, node, parameters, named):
+    assert named in refusal_in_process(probe, node, parameters)
+
+
+def test_a_bad_params_file_stops_the_process_with_one_clear_line(launcher, bad_files):
+    code, lines = refused(launcher, 'estimator', {'params_file': bad_files['unknown key']})
+    assert code == 2
+    assert len(lines) == 1, lines
+    assert lines[0].startswith('estimator: error: params_file: ')
+    assert bad_files['unknown key'] in lines[0]
+
+
+def test_a_bad_parameter_stops_the_process_with_one_clear_line(launcher):
+    code, lines = refused(launcher, 'plant', {'lockstep': True})
+    assert code == 2
+    assert len(lines) == 1, lines
+    assert lines[0].startswith('plant: error: ') and 'lockstep needs clock sim' in lines[0]
