@@ -1,11 +1,11 @@
-"""An extensible glove over DDS (docs/spec/model.md §12): ``segment_lengths`` through the kit.
+"""An extensible glove (docs/spec/model.md §12): ``segment_lengths`` through the kit.
 
 The MCP segment has no separate strain-limiting layer (``layer_axial_stiffness: 0.0``), the PIP
 and DIP keep the default ``.inf`` (inextensible). With the kit's default chamber lag 0 each
 published state is the coupled solve at its command, so the lengths are compared with an
-independent ``GloveModel(load_params(file)).solve(p)``. One glove (with its estimator and
-markers) serves the module, put to rest before each test.
-"""
+independent ``GloveModel(load_params(file)).solve(p)``. One glove (with its estimator) serves
+the module, put to rest before each test. The markers drawn at the published lengths are
+checked on a plant built in process (`reliability_inprocess.InProcessNode`)."""
 
 import math
 import signal
@@ -16,11 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from exodigit_nodes.nodes.markers import ARC_SAMPLES
+from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.testing import GloveSim
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
-from ros_harness import RosProbe, wait_until
-from visualization_msgs.msg import MarkerArray
+from reliability_inprocess import InProcessNode
+from ros_harness import wait_until
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
 
 from exodigit_model import GloveModel, load_params
 
@@ -67,8 +70,8 @@ def rest(model):
 
 @pytest.fixture(scope='module')
 def shared_glove(params_file, tmp_path_factory):
-    options = {'estimator': True, 'plant': {'marker_rate_hz': 20.0}}
-    with GloveSim(params_file, **options, log_dir=tmp_path_factory.mktemp('logs')) as glove:
+    logs = tmp_path_factory.mktemp('logs')
+    with GloveSim(params_file, estimator=True, log_dir=logs) as glove:
         yield glove
 
 
@@ -120,35 +123,32 @@ def test_the_plant_publishes_the_segment_lengths_of_the_solve(glove, model, rest
     np.testing.assert_array_equal(glove.reset().lengths, rest)
 
 
-def test_a_run_records_the_segment_lengths_of_each_step(glove, model, rest):
-    record = run_with_controller(glove, 0.3)
-    assert record.lengths.shape == (30, 3)
-    assert record.lengths[:, 0].max() > rest[0] + 1e-4  # the run pressurised the MCP
-    for t, pressure, lengths, command in zip(
-        record.t, record.pressure, record.lengths, record.command, strict=True
-    ):
-        np.testing.assert_array_equal(command, command_at(t))
-        assert_lengths_of_the_solve(lengths, model.solve(pressure), rest)
-
-
-def test_markers_draw_the_arcs_at_the_published_lengths(glove, rest):
-    probe = RosProbe(glove.domain_id, name='extensible_probe')
+def test_markers_draw_the_arcs_at_the_published_lengths(probe, params_file, rest):
+    # The plant built in process, stepped by its step service; someone listens to the markers
+    # (the one input condition stubbed), so its marker timer draws the state just stepped.
+    node = InProcessNode(
+        Plant,
+        {'params_file': str(params_file), 'clock': 'sim', 'start_paused': 'true'}
+        | {'pressure_time_constant': '0.0', 'marker_rate_hz': '20.0'},
+        probe,
+    )
     try:
-        markers = probe.subscribe(f'{glove.namespace}/markers', MarkerArray)
-        state = glove.step([40e3, 40e3, 40e3])  # lockstep: the plant holds this state
-
-        def stamped_now(array):
-            stamp = array.markers[0].header.stamp
-            return round(state.t * 1e9) == stamp.sec * 10**9 + stamp.nanosec
-
-        array = markers.wait_for(stamped_now, 10.0)
+        node.node.marker_publisher.get_subscription_count = lambda: 1
+        node.deliver('pressure_command', Float64MultiArray(data=[40e3, 40e3, 40e3]))
+        step = next(s.callback for s in node.node.services if s.service_name.endswith('/step'))
+        assert step(Trigger.Request(), Trigger.Response()).success
+        node.node.publish_markers()
+        published = node.take()
     finally:
-        probe.close()
-    assert array is not None, 'no markers of the stepped state'
-    assert state.lengths[0] > rest[0] + 1e-4
+        node.close()
+    lengths = published['segment_lengths'][-1].data
+    angles = published['joint_states'][-1].position
+    assert lengths[0] > rest[0] + 1e-4
+    array = published['markers'][-1]
+    assert array.markers[0].header.stamp == published['joint_states'][-1].header.stamp
     # The backbone: base block, then each arc (ARC_SAMPLES points) and the two ends of its block.
     points = np.array([[p.x, p.y] for p in array.markers[0].points])
-    for k, (length, angle) in enumerate(zip(state.lengths, state.q, strict=True)):
+    for k, (length, angle) in enumerate(zip(lengths, angles, strict=True)):
         arc = points[2 + k * (ARC_SAMPLES + 2) :][:ARC_SAMPLES]
         chord = np.linalg.norm(arc[-1] - arc[0])
         # A circular arc of length ℓ bent by q has the chord 2ℓ·sin(q/2)/q (closed form).
@@ -165,10 +165,20 @@ def test_the_estimator_recovers_the_contact_forces_of_an_extensible_glove(glove,
         np.testing.assert_allclose(state.estimated_forces, expected.forces, atol=1e-8)
 
 
-def test_after_a_run_each_step_carries_its_own_estimate(glove, model):
-    # The estimator answers a run's states too; its late answers must not be paired with the
+def test_a_run_records_each_steps_lengths_and_after_it_each_step_has_its_own_estimate(
+    glove, model, rest
+):
+    # One controller run for both: the run's record holds the lengths of each step; and the
+    # estimator answers the run's states too, so its late answers must not be paired with the
     # steps taken after the run (the kit once handed them out as those steps' estimates).
-    run_with_controller(glove, 0.3)
+    record = run_with_controller(glove, 0.3)
+    assert record.lengths.shape == (30, 3)
+    assert record.lengths[:, 0].max() > rest[0] + 1e-4  # the run pressurised the MCP
+    for t, pressure, lengths, command in zip(
+        record.t, record.pressure, record.lengths, record.command, strict=True
+    ):
+        np.testing.assert_array_equal(command, command_at(t))
+        assert_lengths_of_the_solve(lengths, model.solve(pressure), rest)
     assert wait_until(lambda: not glove._node.other_controllers(), DEFAULT_TIMEOUT)
     glove.reset()
     for command in COMMANDS[:3]:
