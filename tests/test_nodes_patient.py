@@ -2,7 +2,8 @@
 
 The plant simulates a patient file; a probe publishes ``patient_effort`` and reads the
 estimator's ``estimated_finger_torque``, ``estimated_rest_angle`` and the diagnostics. Expected
-values come from ``GloveModel`` solves of the same patient, independent of the nodes.
+values come from ``GloveModel`` solves of the same patient, independent of the nodes. One glove
+serves the module: it identifies the patient first thing, then each test finds it at rest.
 """
 
 import ast
@@ -55,17 +56,22 @@ def patient_glove(patient_file, log_dir):
 
 
 @pytest.fixture(scope='module')
-def shared_glove(patient_file, tmp_path_factory):
-    """One glove for the tests that need only the plant at rest (starting one costs seconds)."""
-    with patient_glove(patient_file, tmp_path_factory.mktemp('logs')) as glove:
-        yield glove
+def started(patient_file, tmp_path_factory):
+    """One glove for the module (starting one costs seconds), identified first thing.
+
+    The identification runs before any test can step the glove: the estimator's window (500
+    pairs) then holds the identification's steps only, whatever order the tests run in.
+    """
+    with patient_glove(patient_file, tmp_path_factory.mktemp('logs')) as (sim, probe):
+        yield sim, probe, identification_run(sim, probe)
 
 
 @pytest.fixture
-def glove(shared_glove):
+def glove(started):
     """The shared glove at rest: no command, no effort (``reset`` forgets both)."""
-    shared_glove[0].reset()
-    return shared_glove
+    sim, probe, _ = started
+    sim.reset()
+    return sim, probe
 
 
 def plant_status(diagnostics, ns):
@@ -124,37 +130,19 @@ def test_a_bad_effort_is_dropped_and_counted(glove, patient_file):
     np.testing.assert_allclose(state.q, model.solve([10e3] * 3).q, atol=ANGLE_TOLERANCE)
 
 
-def test_the_estimator_identifies_the_patient_and_publishes_its_torque(patient_file, tmp_path):
-    # A glove of its own: the estimator's window (500 pairs) must hold this test's steps only.
-    with patient_glove(patient_file, tmp_path) as glove:
-        identify(*glove, patient_file)
-
-
-def identify(sim, probe, patient_file):
+def identification_run(sim, probe) -> dict:
+    """3 simulated s of a sine (two identification periods); what the estimator published."""
     ns = sim.namespace
     torques = probe.subscribe(f'{ns}/estimated_finger_torque', Float64MultiArray)
     rests = probe.subscribe(f'{ns}/estimated_rest_angle', Float64MultiArray)
     stiffness = probe.subscribe(f'{ns}/estimated_finger_stiffness', Float64MultiArray)
     diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
     assert wait_until(lambda: probe.node.count_publishers(f'{ns}/estimated_rest_angle'), 10.0)
-    model = GloveModel(load_params(patient_file))
     states = []
-    for k in range(300):  # 3 simulated s of a sine: two identification periods
+    for k in range(300):
         p = 25e3 * (1.0 - np.cos(2.0 * np.pi * k / 150))
         states.append(sim.step([p, 0.8 * p, 0.6 * p]))
-    assert wait_until(lambda: rests.count() >= 1 and stiffness.count() >= 1, 10.0)
-    truth = LINEAR_PATIENT['finger']['joints']
-    np.testing.assert_allclose(
-        stiffness.latest().data, [j['stiffness'] for j in truth], rtol=STIFFNESS_RTOL
-    )
-    np.testing.assert_allclose(
-        rests.latest().data, [j['rest_angle'] for j in truth], atol=REST_TOLERANCE
-    )
-    # τ̂_H of each step is the patient's torque at that state (static patient: no speed terms)
-    assert torques.count() >= 100
-    expected = [model.finger_torque(s.q) for s in states]
-    for message in torques.messages()[-50:]:
-        assert min(np.abs(np.array(message.data) - e).max() for e in expected) < 1e-9
+    identified = wait_until(lambda: rests.count() >= 1 and stiffness.count() >= 1, 10.0)
     report = wait_until(
         lambda: next(
             (
@@ -167,8 +155,33 @@ def identify(sim, probe, patient_file):
         ),
         10.0,
     )
-    assert report is not None
-    assert max(ast.literal_eval(report['fit RMSE (N·m)'])) < 1e-6
+    return {
+        'states': states,
+        'torques': torques.messages(),
+        'rest': rests.latest() if identified else None,
+        'stiffness': stiffness.latest() if identified else None,
+        'report': report,
+    }
+
+
+def test_the_estimator_identifies_the_patient_and_publishes_its_torque(started, patient_file):
+    run = started[2]
+    assert run['rest'] is not None and run['stiffness'] is not None, 'nothing identified'
+    truth = LINEAR_PATIENT['finger']['joints']
+    np.testing.assert_allclose(
+        run['stiffness'].data, [j['stiffness'] for j in truth], rtol=STIFFNESS_RTOL
+    )
+    np.testing.assert_allclose(
+        run['rest'].data, [j['rest_angle'] for j in truth], atol=REST_TOLERANCE
+    )
+    # τ̂_H of each step is the patient's torque at that state (static patient: no speed terms)
+    assert len(run['torques']) >= 100
+    model = GloveModel(load_params(patient_file))
+    expected = [model.finger_torque(s.q) for s in run['states']]
+    for message in run['torques'][-50:]:
+        assert min(np.abs(np.array(message.data) - e).max() for e in expected) < 1e-9
+    assert run['report'] is not None
+    assert max(ast.literal_eval(run['report']['fit RMSE (N·m)'])) < 1e-6
 
 
 def test_diagnostics_say_when_a_contact_is_in_tension(glove):
