@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from exodigit_model.tools.bag import Series, read_bag, step_pairs
 from exodigit_model.tools.cli import main
+from exodigit_nodes.nodes.recorder import main as recorder_main
 from ros_harness import ros_environment, wait_until
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
@@ -273,15 +274,15 @@ def test_recorder_stops_by_itself_after_duration(ros_domain, tmp_path):
         (['--output', 'x', '--duration', 'nan'], '--duration nan: must be a finite number'),
     ],
 )
-def test_recorder_refuses_bad_arguments(arguments, fragment, ros_domain, tmp_path):
-    result = subprocess.run(
-        [sys.executable, '-m', 'exodigit_nodes.nodes.recorder', *arguments],
-        cwd=tmp_path,
-        env=ros_environment(ros_domain),
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT,
-    )
-    assert result.returncode == 2
-    assert fragment in result.stderr and 'Traceback' not in result.stderr
+def test_recorder_refuses_bad_arguments(arguments, fragment, tmp_path, monkeypatch, capsys):
+    # The recorder's main, in this process: it refuses before rclpy starts (the command's exit
+    # status and stderr: test_recorder_refuses_an_existing_output).
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = recorder_main(arguments)
+    except SystemExit as exit_:  # argparse's error exit
+        code = exit_.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert fragment in err and 'Traceback' not in err
     assert not (tmp_path / 'x').exists()
