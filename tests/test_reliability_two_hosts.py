@@ -33,6 +33,8 @@ COMMAND_TIMEOUT = 0.5
 VENT_TIMEOUT = COMMAND_TIMEOUT + 5.0
 #: Reliable traffic resumes after the link returns within this, s (Fast DDS resends).
 RESUME_TIMEOUT = 20.0
+#: The plant's diagnostics period, s: the venting report is waited for (default 1 s).
+REPORT_PERIOD = 0.2
 
 
 class Lines:
@@ -88,7 +90,14 @@ def is_pressure(low: float, high: float):
 
 
 def test_glove_works_across_the_link_and_vents_when_it_is_cut(hosts, ros_domain, tmp_path):
-    plant = start(hosts, 0, node('plant', {}), ros_domain, tmp_path, 'plant')
+    plant = start(
+        hosts,
+        0,
+        node('plant', {'diagnostic_period': REPORT_PERIOD}),
+        ros_domain,
+        tmp_path,
+        'plant',
+    )
     plant_side = Lines(
         start(hosts, 0, [sys.executable, PROBE, f'{NAMESPACE}/chamber_pressure', '/diagnostics'],
               ros_domain, tmp_path, 'probe_a')
