@@ -32,6 +32,9 @@ CONFIG = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'config'
 RATE_HZ = 100.0
 MAX_PRESSURE = 60e3  # Pa
 MAX_PRESSURE_RATE = 400e3  # Pa/s
+#: How long the staircase holds each level, s: five levels and their rate-limited ramps (25 ms
+#: each) within the first half second.
+STEP_DURATION = 0.1
 #: Angle tolerance of the plant against an independent solve, rad (issue 3).
 ANGLE_TOLERANCE = 1e-9
 #: Force tolerance of the estimator against the plant, N (solver residual 1e-13 N·m).
@@ -82,7 +85,7 @@ def start_glove(launcher, probe, namespace):
             'pressure_command',
             {
                 'mode': 'staircase',
-                'step_duration': 0.3,
+                'step_duration': STEP_DURATION,
                 'max_pressure': MAX_PRESSURE,
                 'max_pressure_rate': MAX_PRESSURE_RATE,
             },
@@ -195,8 +198,8 @@ def unmatched(estimates, inbox):
 def test_estimated_forces_equal_the_plant_contact_forces_on_noise_free_data(glove):
     _, inboxes = glove
     estimated, forces = inboxes['estimated_contact_forces'], inboxes['contact_forces']
-    assert estimated.wait_count(300, timeout=10.0)
-    records = estimated.records()[-200:]
+    assert estimated.wait_count(150, timeout=10.0)
+    records = estimated.records()[-100:]
     estimates = [tuple(m.data) for _, m, _ in records]
     assert len(set(estimates)) > 10  # a moving glove, not the rest state
     # An estimate is sent after its plant step, and each topic arrives in order: once the probe
@@ -261,7 +264,11 @@ def in_process(probe):
     built = {
         'pressure_command': InProcessNode(
             PressureCommand,
-            {'mode': 'staircase', 'step_duration': '0.3', 'max_pressure': str(MAX_PRESSURE)},
+            {
+                'mode': 'staircase',
+                'step_duration': str(STEP_DURATION),
+                'max_pressure': str(MAX_PRESSURE),
+            },
             probe,
         ),
         'estimator': InProcessNode(Estimator, {'identification_period': '0.2'}, probe),
