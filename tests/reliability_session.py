@@ -90,20 +90,43 @@ def latest_status(diagnostics, name: str, since: float = -1.0):
 
 
 class GloveSession:
-    """The glove's three nodes in ``namespace``; ``overrides`` change their parameters."""
+    """The glove's three nodes in ``namespace``; ``overrides`` change their parameters.
 
-    def __init__(self, launcher, probe, namespace: str, overrides: dict | None = None) -> None:
+    The probe records the glove's topics from the start, or (``listen=False``) from
+    :meth:`listen` on, for a test that has no use for what the glove sends before.
+    """
+
+    def __init__(
+        self, launcher, probe, namespace: str, overrides: dict | None = None, listen: bool = True
+    ) -> None:
         self.launcher = launcher
         self.probe = probe
         self.namespace = namespace
         self.parameters = {n: dict(PARAMETERS[n], **(overrides or {}).get(n, {})) for n in NODES}
         self.processes = {}
+        self.inbox = {}
+        self.diagnostics = None
+        self.model = GloveModel(load_params())
+        if listen:
+            self.listen()
+
+    def listen(self, diagnostics=None) -> None:
+        """Record the glove's topics from now on, and /diagnostics in ``diagnostics`` (an Inbox
+        several sessions may share; None: one of its own)."""
         self.inbox = {
-            topic: probe.subscribe(f'{namespace}/{topic}', kind, with_info=True)
+            topic: self.probe.subscribe(f'{self.namespace}/{topic}', kind, with_info=True)
             for topic, kind in TOPICS.items()
         }
-        self.diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
-        self.model = GloveModel(load_params())
+        if diagnostics is None:
+            diagnostics = self.probe.subscribe('/diagnostics', DiagnosticArray)
+        self.diagnostics = diagnostics
+
+    def publishes(self, node: str, topic: str) -> bool:
+        """Whether the probe has discovered ``node``'s publisher of ``topic`` (the graph)."""
+        infos = self.probe.node.get_publishers_info_by_topic(f'{self.namespace}/{topic}')
+        return any(
+            info.node_name == node and info.node_namespace == self.namespace for info in infos
+        )
 
     def start(self, node: str) -> None:
         """Start (or restart) ``node``."""
