@@ -6,7 +6,7 @@ SetParameters services would ask it: ``list_parameters``, ``describe_parameters`
 ``get_parameters`` and, per parameter, ``set_parameters_atomically`` of
 ``Parameter.from_parameter_msg`` (rclpy's services do exactly that, and nothing more, for each
 request). The services themselves answer over DDS from node processes in
-tests/test_nodes_plant.py, test_nodes_command.py and test_nodes_glove.py.
+tests/test_nodes_glove.py, test_nodes_command.py and test_reliability_faults.py.
 
 Parameters are found by listing them, so a new parameter is covered as soon as it is declared.
 For each one, `reliability_params.bad_values` derives from its descriptor alone: out-of-range
