@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 
+import pytest
 from ros_harness import ros_environment, wait_until
 
 #: Starts the plant as ``ros2 launch`` does (a plain child, no pre-exec hook of ours), prints
@@ -48,25 +49,36 @@ def test_a_node_stops_when_the_process_that_started_it_is_killed(ros_domain, tmp
             os.kill(node, signal.SIGKILL)
 
 
-#: Runs one finger of ``hand_nodes`` in a program that shuts rclpy down itself half a second
-#: after the nodes are built (as code embedding the nodes may).
+#: Runs one finger of ``hand_nodes`` in a program that shuts rclpy down itself (as code embedding
+#: the nodes may): half a second after the nodes are built, between callbacks (``timer``), or
+#: inside the plant's first publish, so that the publish finds the context gone (``callback``).
 EMBEDDER = """
 import threading, rclpy
 from exodigit_nodes.nodes import hand_nodes
+from exodigit_nodes.nodes.plant import Plant
 build = hand_nodes.build_hand
 def build_then_shut_down(*args):
     nodes = build(*args)
-    threading.Timer(0.5, rclpy.shutdown).start()
+    if WHERE == 'timer':
+        threading.Timer(0.5, rclpy.shutdown).start()
     return nodes
+publish_state = Plant.publish_state
+def shut_down_then_publish(self, state, stamp):
+    if WHERE == 'callback' and self.cycles > 10:
+        rclpy.shutdown()
+    publish_state(self, state, stamp)
 hand_nodes.build_hand = build_then_shut_down
+Plant.publish_state = shut_down_then_publish
 raise SystemExit(hand_nodes.main(['--fingers', 'index', '--part', 'gloves']))
 """
 
 
-def test_nodes_shut_down_by_their_embedder_stop_without_last_words(ros_domain, tmp_path):
+@pytest.mark.parametrize('where', ['timer', 'callback'])
+def test_nodes_shut_down_by_their_embedder_stop_without_last_words(ros_domain, tmp_path, where):
     # The command node's last words publish zero pressure; with the context gone that raised.
+    # A callback that publishes as the context goes raised out of the spin loop.
     done = subprocess.run(
-        [sys.executable, '-c', EMBEDDER],
+        [sys.executable, '-c', f'WHERE = {where!r}' + EMBEDDER],
         env=ros_environment(ros_domain),
         cwd=tmp_path,
         capture_output=True,

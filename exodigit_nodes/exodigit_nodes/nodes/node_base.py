@@ -341,6 +341,9 @@ def serve(
         code = 2
     except ExternalShutdownException:
         pass
+    except RuntimeError:  # rclpy's RCLError of a callback that published as rclpy shut down
+        if rclpy.ok():  # not a shutdown by the program that embeds the nodes: a failure
+            raise
     finally:
         stop.ignore()
         if helper is not None:
