@@ -149,9 +149,7 @@ class Plant(GloveNode):
             self.time.add(self)
         # After the step's timer (fired together, the report shows that step). With clock sim on
         # the wall clock: a paused plant still reports, whatever its use_sim_time.
-        self.create_timer(
-            self.values['diagnostic_period'], self.report, clock=self.report_clock
-        )
+        self.create_timer(self.values['diagnostic_period'], self.report, clock=self.report_clock)
         if self.lockstep and settings.time.lockstep_timeout > 0.0:
             timeout = f'{settings.time.lockstep_timeout:g} s'
         else:
