@@ -216,6 +216,17 @@ def robot_side_forces(glove, work, q, pressure, forces):
     transpose_solve(work.j_robot, balance, forces)
 
 
+@kernel(counted=False)
+def estimate_into(glove, work, angles, pressures, forces):
+    """:func:`robot_side_forces` for every row of angles and pressures (N, 3), into ``forces``.
+
+    Counts no references: every view a row takes would cost an atomic count pair otherwise
+    (:func:`.jit.kernel`), more than the estimate's arithmetic.
+    """
+    for r in range(angles.shape[0]):
+        robot_side_forces(glove, work, angles[r], pressures[r], forces[r])
+
+
 @kernel
 def estimate(glove, work, q, pressure):
     """Robot-side contact forces (N) from measured ``q`` and ``pressure``, bottom strains.
@@ -242,8 +253,7 @@ def estimate_rows(packed, angles, pressures):
         converged[:] = True
         strains[:] = 0.0
         left[:] = 0.0
-        for r in range(rows):
-            robot_side_forces(glove, work, angles[r], pressures[r], forces[r])
+        estimate_into(glove, work, angles, pressures, forces)
         return converged, strains, forces, left
     for r in range(rows):
         converged[r], strains[r], forces[r], left[r] = estimate(

@@ -67,12 +67,25 @@ def norm(v):
 
 
 @kernel(counted=False)
+def solve_into(glove, work, x, pressure, free, motion, rate, forces, torque):
+    """:func:`newton` as a compiled function of its own, for the kernels that allocate.
+
+    :func:`newton` is inlined into its callers (a call passes every array of ``glove`` and
+    ``work``, several hundred numbers, which cost as much as the arithmetic of a solve); a
+    kernel that counts references must not inline it, or every view it takes would be
+    counted again (:func:`.jit.kernel`), so it calls this.
+    """
+    return newton(glove, work, x, pressure, free, motion, rate, forces, torque)
+
+
+@kernel(inline=True)
 def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
 
     ``work`` is the scratch (:mod:`.workspace`); ``free``, ``motion`` and ``rate`` describe the
     finger (:func:`.statics.evaluate`); ``forces`` and ``torque`` receive f (N) and τ_H (N·m)
-    at the final ``x``.
+    at the final ``x``. Inlined: only a kernel that counts no references may call it
+    (:func:`solve_into` for the others).
 
     Returns
     -------

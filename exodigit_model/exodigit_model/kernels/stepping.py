@@ -96,8 +96,20 @@ def predict(glove, x, q_before, earlier, start):
 
 
 @kernel(counted=False)
+def step_glove(glove, work, state, new, command, effort, limits):
+    """:func:`step_into` as a compiled function of its own, for the kernels that allocate.
+
+    As :func:`.newton.solve_into` is :func:`.newton.newton`'s.
+    """
+    return step_into(glove, work, state, new, command, effort, limits)
+
+
+@kernel(inline=True)
 def step_into(glove, work, state, new, command, effort, limits):
     """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
+
+    Inlined, with :func:`.newton.newton` (a call would pass several hundred numbers): only a
+    kernel that counts no references may call it (:func:`step_glove` for the others).
 
     Parameters
     ----------
@@ -213,7 +225,7 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
         new[7:, :3],
     )
     limits = (decay, supply, rate, valid_low, valid_high)
-    return new, step_into(glove, work, state, rows, command, effort, limits)
+    return new, step_glove(glove, work, state, rows, command, effort, limits)
 
 
 @kernel(counted=False)
