@@ -272,14 +272,22 @@ class GloveVectorEnv(VectorEnv):
 
     def _gather(self) -> tuple:
         """Every sub-environment's last outcome, from the cohort it belongs to."""
-        gathered: dict[str, NDArray] = {}
-        for cohort in self._cohorts:
-            live = cohort.members
-            rows = cohort.rows[live]
-            for key, value in cohort.outcome.items():
-                if key not in gathered:
-                    gathered[key] = np.empty((self.num_envs, *value.shape[1:]), value.dtype)
-                gathered[key][rows] = value[live]
+        cohorts = self._cohorts
+        whole = len(cohorts) == 1 and len(cohorts[0].rows) == self.num_envs
+        if whole and cohorts[0].in_order and cohorts[0].members.all():
+            # Every sub-environment in one cohort, in order (until the first autoreset): the
+            # same arrays, copied whole instead of row by row.
+            gathered = {key: np.array(value) for key, value in cohorts[0].outcome.items()}
+        else:
+            gathered: dict[str, NDArray] = {}
+            for cohort in cohorts:
+                live = cohort.members
+                rows = cohort.rows[live]
+                for key, value in cohort.outcome.items():
+                    if key not in gathered:
+                        shape = (self.num_envs, *value.shape[1:])
+                        gathered[key] = np.empty(shape, value.dtype)
+                    gathered[key][rows] = value[live]
         infos = {}
         for key in INFO_KEYS:
             infos[key] = gathered[key]
@@ -305,6 +313,8 @@ class _Cohort:
         self, definition: GloveEnv, rows: NDArray[np.intp], fingers, noise_seed: int
     ) -> None:
         self.definition, self.rows = definition, rows
+        self.in_order = bool(np.array_equal(rows, np.arange(len(rows))))
+        """Whether ``rows`` are the sub-environments 0, 1, … in order."""
         self.members = np.ones(len(rows), bool)
         settings = replace(definition.settings, seed=noise_seed)
         self.simulation = GloveSimulation(definition.model, settings, fingers=fingers)

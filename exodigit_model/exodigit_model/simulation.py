@@ -7,8 +7,9 @@ length Δt = 1/``rate_hz`` from the state at t_{k−1}:
    (:mod:`.chambers`);
 2. the coupled solve (eq 36, or 11.4 with the patient's damping and spasticity: q̇ =
    (q − q_prev)/Δt inside the equation) at the new pressures and the patient's effort,
-   warm-started from the last converged solution; a solve that does not converge keeps the last
-   good state and says so;
+   warm-started from the last converged solution, or from where its smooth motion goes on
+   (:func:`.kernels.stepping.predict`); a solve that does not converge keeps the last good state
+   and says so;
 3. q̇ = (q − q_prev)/Δt, and the measured angles and pressures with seeded Gaussian noise (the
    true state is never noisy).
 
@@ -465,7 +466,8 @@ class GloveSimulation:
         self._rest_lengths = np.broadcast_to(self.model.constants.arc_lengths, self.shape)
         x, forces, torque, status, _, residual, valid, moving_range = self._rest
         q = x[..., :3]
-        state = (x, q.copy(), zeros, forces, torque)
+        earlier = np.repeat(q[..., None, :], 2, axis=-2)  # still: the rest, two steps back
+        state = (x, q.copy(), zeros, forces, torque, earlier)
         if self.count is None:
             self._block = _block_of(state)
         else:
@@ -530,16 +532,17 @@ def _population(fingers: Iterable[Finger], count: int | None) -> tuple[Finger, .
 
 
 def _state_of(block: NDArray[np.float64]) -> tuple:
-    """One glove's state (x, q_before, pressure, forces, torque) as views of its block."""
-    return block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3]
+    """One glove's state (x, q_before, pressure, forces, torque, earlier): views of its block."""
+    return block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], block[7:, :3]
 
 
 def _block_of(state: tuple) -> NDArray[np.float64]:
-    """One glove's state as a block (5, n) (:func:`.kernels.stepping.step_one`)."""
-    block = np.zeros((5, state[0].size))
+    """One glove's state as a block (9, n) (:func:`.kernels.stepping.step_one`)."""
+    block = np.zeros((9, state[0].size))
     block[0] = state[0]
-    for row, values in enumerate(state[1:], start=1):
+    for row, values in enumerate(state[1:5], start=1):
         block[row, :3] = values
+    block[7:, :3] = state[5]
     return block
 
 

@@ -27,10 +27,11 @@ import numpy as np
 
 from .constants import unpack
 from .jit import kernel
-from .kinematics import finger_terms, robot_terms
+from .kinematics import finger_terms, robot_jacobians, robot_terms
 from .linear import solve, transpose_product, transpose_solve
 from .newton import ARMIJO, MAX_HALVINGS, MAX_ITERATIONS, RTOL, XTOL, allowed, norm
 from .statics import evaluate
+from .structural import structural_torque
 from .workspace import workspace
 
 
@@ -199,23 +200,43 @@ def hold(packed, q, motion):
     return True, np.zeros(3), pressure, np.zeros(3)
 
 
+@kernel(inline=True)
+def robot_side_forces(glove, work, q, pressure, forces):
+    """Robot-side f = (J_R*)^{-T}(τ_s(q) + B_R p) (N), inextensible segments, into ``forces``.
+
+    The residual of the glove alone (no finger) and J_R*, nothing else: the numbers
+    :func:`.statics.evaluate` of the free glove and a transpose solve give, without the
+    Jacobian that evaluation computes too.
+    """
+    moments, balance = glove.pressure_moments, work.rhs
+    for k in range(3):
+        tau, _ = structural_torque(glove, k, q[k])
+        balance[k] = tau + moments[k] * pressure[k]
+    robot_jacobians(q, glove.arc_lengths, glove.block_half_lengths, False, work)
+    transpose_solve(work.j_robot, balance, forces)
+
+
+@kernel(counted=False)
+def estimate_into(glove, work, angles, pressures, forces):
+    """:func:`robot_side_forces` for every row of angles and pressures (N, 3), into ``forces``.
+
+    Counts no references: every view a row takes would cost an atomic count pair otherwise
+    (:func:`.jit.kernel`), more than the estimate's arithmetic.
+    """
+    for r in range(angles.shape[0]):
+        robot_side_forces(glove, work, angles[r], pressures[r], forces[r])
+
+
 @kernel
 def estimate(glove, work, q, pressure):
     """Robot-side contact forces (N) from measured ``q`` and ``pressure``, bottom strains.
 
     Returns (converged, strain (3,), forces (3,), balance left (3,)); needs no finger model.
     """
-    motion = np.zeros((3, 3))
     if glove.extensible:
-        return balance_strains(glove, work, q, pressure, motion, True)
-    residual = np.empty(3)
-    jacobian = np.empty((3, 3))
+        return balance_strains(glove, work, q, pressure, np.zeros((3, 3)), True)
     forces = np.empty(3)
-    torque = np.empty(3)
-    x = q.copy()
-    evaluate(glove, work, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque)
-    robot_terms(q, glove.arc_lengths, glove.block_half_lengths, False, work)
-    transpose_solve(work.j_robot, residual, forces)
+    robot_side_forces(glove, work, q, pressure, forces)
     return True, np.zeros(3), forces, np.zeros(3)
 
 
@@ -228,6 +249,12 @@ def estimate_rows(packed, angles, pressures):
     strains = np.empty((rows, 3))
     forces = np.empty((rows, 3))
     left = np.empty((rows, 3))
+    if not glove.extensible:  # the estimate in place, row by row: nothing allocated per row
+        converged[:] = True
+        strains[:] = 0.0
+        left[:] = 0.0
+        estimate_into(glove, work, angles, pressures, forces)
+        return converged, strains, forces, left
     for r in range(rows):
         converged[r], strains[r], forces[r], left[r] = estimate(
             glove, work, angles[r], pressures[r]

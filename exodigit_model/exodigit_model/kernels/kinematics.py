@@ -100,20 +100,31 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
     """J_R* and its slopes into ``work`` (:class:`.workspace.Workspace`).
 
     With ``with_lengths`` also J_ℓ* and the slopes §12 adds (``j_length``, ``length_slopes``,
-    ``robot_length_slopes``; left as they are otherwise).
+    ``robot_length_slopes``; left as they are otherwise). :func:`robot_jacobians`, then
+    :func:`robot_slopes_of`.
+    """
+    robot_jacobians(q, lengths, half_lengths, with_lengths, work)
+    robot_slopes_of(lengths, work)
+
+
+@kernel(inline=True)
+def robot_jacobians(q, lengths, half_lengths, with_lengths, work):
+    """J_R* into ``work``, and with ``with_lengths`` J_ℓ* and its slopes: no slope of J_R*.
+
+    What a residual needs (:func:`.statics.residual_of`); :func:`robot_slopes_of` adds the
+    slopes of J_R* from the frames this leaves in ``work``.
     """
     chord, slope, curvature = work.chord, work.chord_slope, work.curvature
     turns, origins, centres, local = work.turns, work.origins, work.centres, work.local
     chord_terms(q, work.half_turn, chord, slope, curvature)
     frames(work.half_turn, chord, lengths, half_lengths, turns, origins, centres)
-    j_robot, robot_slopes = work.j_robot, work.robot_slopes
+    j_robot = work.j_robot
     j_length, length_slopes, robot_length_slopes = (
         work.j_length,
         work.length_slopes,
         work.robot_length_slopes,
     )
     j_robot[:, :] = 0.0
-    robot_slopes[:, :, :] = 0.0
     if with_lengths:
         j_length[:, :] = 0.0
         length_slopes[:, :, :] = 0.0
@@ -127,7 +138,6 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
             a = 1j * relative + turn * slope[k]
             local[i, k] = a
             j_robot[i, k] = a.imag
-            robot_slopes[k, i, k] = (turn * curvature[k] - relative).imag - a.real
             if with_lengths:
                 b = unit_turn * chord[k]
                 b_slope = (unit_turn * slope[k]).imag
@@ -138,6 +148,23 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
                     length_slopes[m, i, k] = -b.real
                 for m in range(k):
                     robot_length_slopes[k, i, m] = b.real
+
+
+@kernel(inline=True)
+def robot_slopes_of(lengths, work):
+    """The slopes of J_R* into ``work.robot_slopes``, from the frames of :func:`robot_jacobians`.
+
+    ``lengths`` must be the ones that call was given.
+    """
+    turns, origins, centres, local = work.turns, work.origins, work.centres, work.local
+    curvature, robot_slopes = work.curvature, work.robot_slopes
+    robot_slopes[:, :, :] = 0.0
+    for i in range(3):
+        back = turns[i + 1].conjugate()
+        for k in range(i + 1):
+            relative = back * (centres[i] - origins[k + 1])
+            turn = back * turns[k] * lengths[k]
+            robot_slopes[k, i, k] = (turn * curvature[k] - relative).imag - local[i, k].real
     for i in range(3):
         for k in range(i + 1):
             for m in range(k + 1, i + 1):

@@ -2,7 +2,12 @@
 
 The iteration uses the analytic Jacobian of :func:`.statics.evaluate`, starts from the caller's
 guess (warm start) and backtracks along the Newton direction until the squared residual norm
-decreases enough (Armijo, factor ``ARMIJO``). Trial states that would compress a fibre below
+decreases enough (Armijo, factor ``ARMIJO``). Where a step cut the residual to ``REUSE`` of
+what it was or less, the next step keeps the Jacobian it was taken with (a chord step: near the
+root the Jacobian hardly changes over such a step, so the iteration still gains at least that
+factor per step); a chord step whose line search fails is taken again with a fresh Jacobian.
+The residual is what decides convergence, never the Jacobian, so the root is the one Newton
+finds, to the same tolerance. Trial states that would compress a fibre below
 ``MIN_STRETCH`` (where the material law stops being meaningful) are never evaluated. The
 iteration never raises and never returns NaN: a state that cannot be improved keeps its last
 finite value and is reported as not converged.
@@ -20,7 +25,7 @@ import math
 
 from .jit import kernel
 from .linear import solve
-from .statics import evaluate
+from .statics import jacobian_of, residual_of
 
 RTOL = 1e-12
 """Converged when ‖F‖ ≤ RTOL · ‖|τ_s| + |B_R p| + |(J_R*)ᵀ f|‖ (the terms F is made of)."""
@@ -32,6 +37,8 @@ MAX_HALVINGS = 40
 """Step halvings at most per Newton step."""
 ARMIJO = 1e-4
 """Sufficient-decrease factor of the line search."""
+REUSE = 1e-3
+"""A step that leaves at most this share of the residual keeps its Jacobian for the next."""
 MIN_STRETCH = 0.2
 """Lowest fibre stretch a trial state may have (the material law's domain, with margin)."""
 
@@ -60,87 +67,108 @@ def norm(v):
 
 
 @kernel(counted=False)
+def solve_into(glove, work, x, pressure, free, motion, rate, forces, torque):
+    """:func:`newton` as a compiled function of its own, for the kernels that allocate.
+
+    :func:`newton` is inlined into its callers (a call passes every array of ``glove`` and
+    ``work``, several hundred numbers, which cost as much as the arithmetic of a solve); a
+    kernel that counts references must not inline it, or every view it takes would be
+    counted again (:func:`.jit.kernel`), so it calls this.
+    """
+    return newton(glove, work, x, pressure, free, motion, rate, forces, torque)
+
+
+@kernel(inline=True)
 def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
 
     ``work`` is the scratch (:mod:`.workspace`); ``free``, ``motion`` and ``rate`` describe the
     finger (:func:`.statics.evaluate`); ``forces`` and ``torque`` receive f (N) and τ_H (N·m)
-    at the final ``x``.
+    at the final ``x``. Inlined: only a kernel that counts no references may call it
+    (:func:`solve_into` for the others).
 
     Returns
     -------
     status : int
         ``CONVERGED`` … ``NOT_FINITE``.
     iterations : int
-        Newton steps taken.
+        Steps taken (Newton and chord steps).
     residual : float
         Residual norm at the final ``x``, N·m.
     """
     n = x.size
     residual, trial_residual = work.residual[:n], work.trial_residual[:n]
     jacobian = work.jacobian[: n * n].reshape((n, n))
-    trial_jacobian = work.trial_jacobian[: n * n].reshape((n, n))
     trial, step = work.trial[:n], work.step[:n]
     trial_forces, trial_torque, matrix = work.trial_forces, work.trial_torque, work.matrix
-    scale = evaluate(
-        glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque
-    )
+    scale = residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque)
     size_of_residual = norm(residual)
     if not math.isfinite(size_of_residual):
         return NOT_FINITE, 0, size_of_residual
     if size_of_residual <= RTOL * scale:
         return CONVERGED, 0, size_of_residual
+    jacobian_of(glove, work, x, free, jacobian, forces)
+    fresh = True  # whether ``jacobian`` is the one at ``x``
     iterations = 0
     for _ in range(MAX_ITERATIONS):
         for k in range(n):
             trial_residual[k] = -residual[k]
         solve(jacobian, trial_residual, step, matrix)
         step_size = norm(step)
-        if not math.isfinite(step_size):
-            return NOT_FINITE, iterations, size_of_residual
-        small = step_size <= XTOL
-        alpha = 1.0
         accepted = False
+        small = step_size <= XTOL
         trial_scale = trial_size = 0.0
-        for _ in range(MAX_HALVINGS):
-            for k in range(n):
-                trial[k] = x[k] + alpha * step[k]
-            if allowed(glove, trial):
-                trial_scale = evaluate(
-                    glove,
-                    work,
-                    trial,
-                    pressure,
-                    free,
-                    motion,
-                    rate,
-                    trial_residual,
-                    trial_jacobian,
-                    trial_forces,
-                    trial_torque,
-                )
-                trial_size = norm(trial_residual)
-                # A step below XTOL is taken whole: at the root, rounding may not let F decrease.
-                if math.isfinite(trial_size) and (
-                    small or trial_size <= (1.0 - ARMIJO * alpha) * size_of_residual
-                ):
-                    accepted = True
-                    break
-            alpha *= 0.5
+        if math.isfinite(step_size):
+            alpha = 1.0
+            for _ in range(MAX_HALVINGS):
+                for k in range(n):
+                    trial[k] = x[k] + alpha * step[k]
+                if allowed(glove, trial):
+                    trial_scale = residual_of(
+                        glove,
+                        work,
+                        trial,
+                        pressure,
+                        free,
+                        motion,
+                        rate,
+                        trial_residual,
+                        trial_forces,
+                        trial_torque,
+                    )
+                    trial_size = norm(trial_residual)
+                    # A step below XTOL is taken whole: at the root, rounding may not let F
+                    # decrease.
+                    if math.isfinite(trial_size) and (
+                        small or trial_size <= (1.0 - ARMIJO * alpha) * size_of_residual
+                    ):
+                        accepted = True
+                        break
+                alpha *= 0.5
         if not accepted:
-            return NO_DECREASE, iterations, size_of_residual
+            if fresh:
+                status = NO_DECREASE if math.isfinite(step_size) else NOT_FINITE
+                return status, iterations, size_of_residual
+            # A chord step failed: the same x again, with the Jacobian at x (``work`` holds
+            # the last trial's terms, so x's are computed again, the same numbers).
+            residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque)
+            jacobian_of(glove, work, x, free, jacobian, forces)
+            fresh = True
+            continue
         for k in range(n):  # (loops: a slice copy would allocate, and this kernel may not)
             x[k] = trial[k]
             residual[k] = trial_residual[k]
-            for j in range(n):
-                jacobian[k, j] = trial_jacobian[k, j]
         for k in range(3):
             forces[k] = trial_forces[k]
             torque[k] = trial_torque[k]
+        previous_size = size_of_residual
         scale, size_of_residual = trial_scale, trial_size
         iterations += 1
         if size_of_residual <= RTOL * scale:
             return CONVERGED, iterations, size_of_residual
         if small:
             return CONVERGED_STEP, iterations, size_of_residual
+        fresh = size_of_residual > REUSE * previous_size
+        if fresh:  # ``work`` holds the terms at the accepted trial, the new x
+            jacobian_of(glove, work, x, free, jacobian, forces)
     return ITERATION_LIMIT, iterations, size_of_residual

@@ -76,10 +76,19 @@ def finger_torque(law, q, qdot, rate):
     damping = law[LAW_DAMPING]
     if (qdot != 0.0 or rate != 0.0) and (damping > 0.0 or flexors > 0.0 or extensors > 0.0):
         w, threshold = SPASTICITY_WIDTH, law[LAW_SPASTICITY_THRESHOLD]
-        rising, rising_slope = softplus_and_sigmoid((qdot - threshold) / w)
-        falling, falling_slope = softplus_and_sigmoid((-qdot - threshold) / w)
         at_zero = law[LAW_SPASTIC_AT_ZERO]
-        spastic = extensors * (w * rising - at_zero) - flexors * (w * falling - at_zero)
-        value += damping * qdot + spastic
-        slope += (damping + extensors * rising_slope + flexors * falling_slope) * rate
+        # A side without spasticity adds zero (most patients: extensors 0, docs/patients.md),
+        # so its softplus (an exp and a log each) is not computed.
+        extending = extending_slope = flexing = flexing_slope = 0.0
+        if extensors > 0.0:
+            rising, rising_slope = softplus_and_sigmoid((qdot - threshold) / w)
+            extending, extending_slope = (
+                extensors * (w * rising - at_zero),
+                extensors * rising_slope,
+            )
+        if flexors > 0.0:
+            falling, falling_slope = softplus_and_sigmoid((-qdot - threshold) / w)
+            flexing, flexing_slope = flexors * (w * falling - at_zero), flexors * falling_slope
+        value += damping * qdot + (extending - flexing)
+        slope += (damping + extending_slope + flexing_slope) * rate
     return value, slope

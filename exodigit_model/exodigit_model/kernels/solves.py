@@ -12,7 +12,7 @@ import numpy as np
 from .constants import LAW_ROM_MAX, LAW_ROM_MIN, unpack, with_finger
 from .jit import kernel
 from .kinematics import finger_terms, robot_terms
-from .newton import newton
+from .newton import solve_into
 from .statics import evaluate, finger_load
 from .workspace import MAX_UNKNOWNS, workspace
 
@@ -27,7 +27,7 @@ def solve_state(packed, pressure, x, free, motion, rate):
     forces = np.empty(3)
     torque = np.empty(3)
     work = workspace()
-    status, iterations, residual = newton(
+    status, iterations, residual = solve_into(
         glove, work, x, pressure, free, motion, rate, forces, torque
     )
     return status, iterations, residual, forces, torque
@@ -49,7 +49,7 @@ def solve_rows(packed, pressures, starts, free, motions, rate):
     residual = np.empty(rows)
     work = workspace()
     for r in range(rows):
-        status[r], iterations[r], residual[r] = newton(
+        status[r], iterations[r], residual[r] = solve_into(
             glove, work, x[r], pressures[r], free, motions[r], rate, forces[r], torque[r]
         )
     return x, forces, torque, status, iterations, residual
@@ -115,7 +115,7 @@ def rest_rows(packed, finger_half_lengths, laws, valid_low, valid_high):
     vented, still = np.zeros(3), np.zeros((3, 3))
     for r in range(rows):
         patient = with_finger(glove, finger_half_lengths[r], laws[r])
-        status[r], iterations[r], residual[r] = newton(
+        status[r], iterations[r], residual[r] = solve_into(
             patient, work, x[r], vented, False, still, 0.0, forces[r], torque[r]
         )
         valid[r] = stretch_in_range(patient, x[r], valid_low, valid_high)

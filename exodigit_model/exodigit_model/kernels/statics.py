@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from .kinematics import finger_terms, robot_terms
+from .kinematics import finger_terms, robot_jacobians, robot_slopes_of
 from .linear import transpose_product, transpose_solve
 from .patient import finger_torque
 from .section import resultants
@@ -66,6 +66,8 @@ def finger_load(glove, q, motion, rate, torque, slopes):
 def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque):
     """F (or (R, S)) at unknowns ``x`` into ``residual``, ∂/∂x into ``jacobian``; the scale.
 
+    :func:`residual_of`, then :func:`jacobian_of`.
+
     Parameters
     ----------
     glove : GloveConstants
@@ -86,6 +88,18 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
     -------
     float
         ‖|terms|‖: the norm of the per-row sums of the absolute terms, N·m.
+    """
+    scale = residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque)
+    jacobian_of(glove, work, x, free, jacobian, forces)
+    return scale
+
+
+@kernel(inline=True)
+def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque):
+    """F (or (R, S)) at ``x`` into ``residual``, f and τ_H; the scale (:func:`evaluate`).
+
+    Leaves in ``work`` what :func:`jacobian_of` needs for the Jacobian at this ``x``: a
+    Newton iteration asks for the Jacobian only where it takes its next step from.
     """
     extensible = x.size == 6
     rest = glove.arc_lengths
@@ -110,27 +124,65 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
         else:
             lengths[k] = rest[k]
             tau[k], tau_slope[k] = structural_torque(glove, k, x[k])
-    jacobian[:, :] = 0.0
     coupling[:] = 0.0
     stretching[:] = 0.0
     if free:
         forces[:] = 0.0
         torque[:] = 0.0
+    else:
+        q = x[:3]
+        robot_jacobians(q, lengths, glove.block_half_lengths, extensible, work)
+        finger_terms(q, glove.finger_half_lengths, work.j_finger, work.finger_slopes)
+        finger_load(glove, q, motion, rate, torque, work.load_slopes)
+        transpose_solve(work.j_finger, torque, forces)
+        transpose_product(work.j_robot, forces, coupling)
+        if extensible:
+            transpose_product(work.j_length, forces, stretching)
+    total = 0.0
+    for k in range(3):
+        drive = moments[k] * pressure[k]
+        residual[k] = tau[k] + drive - coupling[k]
+        size = abs(tau[k]) + abs(drive) + abs(coupling[k])
+        total += size * size
+    if extensible:
+        for k in range(3):
+            if segments_stretch[k]:
+                layer = layer_stiffness[k] * x[3 + k]
+                area = areas[k] * pressure[k]
+                residual[3 + k] = rest[k] * (-axial[k] - layer + area - stretching[k])
+                size = rest[k] * (abs(axial[k]) + abs(layer) + abs(area) + abs(stretching[k]))
+                total += size * size
+            else:
+                residual[3 + k] = x[3 + k]
+    return math.sqrt(total)
+
+
+@kernel(inline=True)
+def jacobian_of(glove, work, x, free, jacobian, forces):
+    """∂F/∂x at ``x`` into ``jacobian``, from what :func:`residual_of` left in ``work``.
+
+    The last :func:`residual_of` must have been at this ``x`` and ``free``, with these
+    ``forces``.
+    """
+    extensible = x.size == 6
+    rest = glove.arc_lengths
+    lengths, tau_slope, moment_rate, force_rate = (
+        work.lengths,
+        work.tau_slope,
+        work.moment_rate,
+        work.force_rate,
+    )
+    segments_stretch, layer_stiffness = glove.extensible_segments, glove.layer_stiffness
+    jacobian[:, :] = 0.0
+    if free:
         for m in range(3):
             jacobian[m, m] = tau_slope[m]
     else:
-        q = x[:3]
-        robot_terms(q, lengths, glove.block_half_lengths, extensible, work)
+        robot_slopes_of(lengths, work)
         j_robot, j_length, j_finger = work.j_robot, work.j_length, work.j_finger
         robot_slopes, length_slopes = work.robot_slopes, work.length_slopes
         robot_length_slopes = work.robot_length_slopes
         finger_slopes, load_slopes = work.finger_slopes, work.load_slopes
-        finger_terms(q, glove.finger_half_lengths, j_finger, finger_slopes)
-        finger_load(glove, q, motion, rate, torque, load_slopes)
-        transpose_solve(j_finger, torque, forces)
-        transpose_product(j_robot, forces, coupling)
-        if extensible:
-            transpose_product(j_length, forces, stretching)
         rhs, force_slope, column = work.rhs, work.force_slope, work.column
         for m in range(3):
             for k in range(3):
@@ -164,20 +216,3 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
                 jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + layer_stiffness[m])
             else:
                 jacobian[3 + m, 3 + m] = 1.0
-    total = 0.0
-    for k in range(3):
-        drive = moments[k] * pressure[k]
-        residual[k] = tau[k] + drive - coupling[k]
-        size = abs(tau[k]) + abs(drive) + abs(coupling[k])
-        total += size * size
-    if extensible:
-        for k in range(3):
-            if segments_stretch[k]:
-                layer = layer_stiffness[k] * x[3 + k]
-                area = areas[k] * pressure[k]
-                residual[3 + k] = rest[k] * (-axial[k] - layer + area - stretching[k])
-                size = rest[k] * (abs(axial[k]) + abs(layer) + abs(area) + abs(stretching[k]))
-                total += size * size
-            else:
-                residual[3 + k] = x[3 + k]
-    return math.sqrt(total)

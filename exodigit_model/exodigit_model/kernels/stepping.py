@@ -4,10 +4,9 @@ A step of length Δt from the state (x, p) under the command u:
 
 1. chambers: u is clipped to [0, supply] and p ← u + (p − u)·exp(−Δt/T) (exact zero-order
    hold; ``decay`` = exp(−Δt/T), 0 for an ideal chamber);
-2. the stepped solve (11.4) at the new p, q̇ = (q − q_prev)/Δt inside the equation, from the
-   last good state (or, for a patient whose torque depends on speed, from where the last step's
-   motion goes on: half the Newton steps); a solve that does not converge keeps the last good
-   state.
+2. the stepped solve (11.4) at the new p, q̇ = (q − q_prev)/Δt inside the equation, from a
+   prediction of the angles (:func:`predict`: where the last steps' motion goes on, when it is
+   smooth); a solve that does not converge keeps the last good state.
 
 :func:`step_into` advances one glove; :func:`step_one` and :func:`run_glove` take one step or
 many (recorded) from Python; :func:`step_gloves` advances a batch, one glove after the other,
@@ -63,9 +62,54 @@ def advance_chambers(pressure, command, decay, supply):
     return below, above
 
 
+SMOOTH = 0.5
+"""A glove's motion is smooth when a quadratic through its three steps before the last one
+predicted the last one's angles to within this share of how far they moved (every joint)."""
+
+
+@kernel(inline=True)
+def predict(glove, x, q_before, earlier, start):
+    """Where the Newton iteration of the next step starts: ``start`` (the unknowns), filled.
+
+    ``x`` holds the last good unknowns, ``q_before`` the angles one step before them and
+    ``earlier`` (2, 3) the angles two and three steps before (rad). The solution moves little
+    per step, so the iteration starts near it: where the cubic through the last four steps'
+    angles goes on, when the motion is smooth (:data:`SMOOTH`), which leaves a smooth command
+    a single Newton step to the solver's tolerance, most steps; else, as before, the last good
+    angles, or, for a patient whose torque depends on speed, where the last step's motion goes
+    on (half the Newton steps of starting still). The bottom strains start where they were.
+    Only the start depends on this, not the root the iteration converges to.
+    """
+    smooth = True
+    for k in range(3):
+        guess = 3.0 * q_before[k] - 3.0 * earlier[0, k] + earlier[1, k]
+        if abs(x[k] - guess) > SMOOTH * abs(x[k] - q_before[k]):
+            smooth = False
+    for k in range(x.size):
+        start[k] = x[k]
+    if smooth:
+        for k in range(3):
+            start[k] = 4.0 * x[k] - 6.0 * q_before[k] + 4.0 * earlier[0, k] - earlier[1, k]
+    elif moves_with_speed(glove):
+        for k in range(3):
+            start[k] = 2.0 * x[k] - q_before[k]
+
+
 @kernel(counted=False)
+def step_glove(glove, work, state, new, command, effort, limits):
+    """:func:`step_into` as a compiled function of its own, for the kernels that allocate.
+
+    As :func:`.newton.solve_into` is :func:`.newton.newton`'s.
+    """
+    return step_into(glove, work, state, new, command, effort, limits)
+
+
+@kernel(inline=True)
 def step_into(glove, work, state, new, command, effort, limits):
     """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
+
+    Inlined, with :func:`.newton.newton` (a call would pass several hundred numbers): only a
+    kernel that counts no references may call it (:func:`step_glove` for the others).
 
     Parameters
     ----------
@@ -73,11 +117,14 @@ def step_into(glove, work, state, new, command, effort, limits):
     work : Workspace
         Scratch (:mod:`.workspace`); its ``motion`` holds the finger's history.
     state : tuple of ndarray
-        (x, q_before, pressure, forces, torque): the unknowns of the last good state, the
-        angles one step before it (rad), the chamber pressures (Pa), f (N) and τ_H (N·m).
+        (x, q_before, pressure, forces, torque, earlier): the unknowns of the last good state,
+        the angles one step before it (rad), the chamber pressures (Pa), f (N), τ_H (N·m) and
+        (2, 3) the angles two and three steps before it (rad; :func:`predict`).
     new : tuple of ndarray
-        The same five after the step (the last good x, f, τ_H where the solve failed), then
-        the clipped command (Pa) and q̇ = (q − q_prev)/Δt (rad/s): filled.
+        The first five of ``state`` after the step (the last good x, f, τ_H where the solve
+        failed), the clipped command (Pa), q̇ = (q − q_prev)/Δt (rad/s) and ``earlier``:
+        filled. Where the solve failed, the glove is still: its history is the last good
+        angles.
     command, effort : ndarray, shape (3,)
         The pressure command (Pa) and the patient's voluntary effort (N·m).
     limits : tuple of float
@@ -91,35 +138,34 @@ def step_into(glove, work, state, new, command, effort, limits):
         in_range_of_motion (of the solve's result), below, above (the command clipped at zero,
         at the supply).
     """
-    x, q_before, pressure, forces, torque = state
-    new_x, new_q_before, new_pressure, new_forces, new_torque, applied, qdot = new
+    x, q_before, pressure, forces, torque, earlier = state
+    new_x, new_q_before, new_pressure, new_forces, new_torque, applied, qdot, new_earlier = new
     decay, supply, rate, valid_low, valid_high = limits
     for k in range(3):
         applied[k] = command[k]
         new_pressure[k] = pressure[k]
     below, above = advance_chambers(new_pressure, applied, decay, supply)
     motion = work.motion
-    speed_dependent = moves_with_speed(glove)
-    for k in range(x.size):
-        new_x[k] = x[k]
+    predict(glove, x, q_before, earlier, new_x)
     for k in range(3):
         motion[0, k] = x[k]
         motion[1, k] = 0.0
         motion[2, k] = effort[k]
-        if speed_dependent:  # start where the last step's motion goes on: half the steps
-            new_x[k] = 2.0 * x[k] - q_before[k]
     status, iterations, residual = newton(
         glove, work, new_x, new_pressure, False, motion, rate, new_forces, new_torque
     )
     valid = stretch_in_range(glove, new_x, valid_low, valid_high)
     moving_range = in_range_of_motion(glove, new_x)
-    if status > CONVERGED_STEP:
+    failed = status > CONVERGED_STEP
+    if failed:
         for k in range(x.size):
             new_x[k] = x[k]
         for k in range(3):
             new_forces[k] = forces[k]
             new_torque[k] = torque[k]
     for k in range(3):
+        new_earlier[0, k] = x[k] if failed else q_before[k]
+        new_earlier[1, k] = x[k] if failed else earlier[0, k]
         new_q_before[k] = x[k]
         qdot[k] = (new_x[k] - x[k]) * rate
     return status, iterations, residual, valid, moving_range, below, above
@@ -136,6 +182,7 @@ def fresh(n):
         np.empty(3),
         np.empty(3),
         np.empty(3),
+        np.empty((2, 3)),
     )
 
 
@@ -150,6 +197,7 @@ def fresh_rows(rows, n):
         np.empty((rows, 3)),
         np.empty((rows, 3)),
         np.empty((rows, 3)),
+        np.empty((rows, 2, 3)),
     )
 
 
@@ -158,16 +206,26 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
     """One glove one step on, from Python (``packed`` constants): :func:`step_into`.
 
     The state travels as one array (fewer arrays to pass between Python and compiled code):
-    ``block`` (5, n) holds x, then q_before, the pressure, f and τ_H in the first three columns
-    of the rows below. Returns a new (7, n) block (the state after the step, then the clipped
-    command and q̇) and the outcome of :func:`step_into`; ``block`` is left as it is.
+    ``block`` (9, n) holds x, then q_before, the pressure, f and τ_H in the first three columns
+    of the rows below, and the two rows of ``earlier`` in those of its last two rows. Returns
+    a new block (the state after the step, with the clipped command and q̇ in rows 5 and 6)
+    and the outcome of :func:`step_into`; ``block`` is left as it is.
     """
     glove, work = unpack(packed), workspace()
-    new = np.zeros((7, block.shape[1]))
-    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3])
-    rows = (new[0], new[1, :3], new[2, :3], new[3, :3], new[4, :3], new[5, :3], new[6, :3])
+    new = np.zeros((9, block.shape[1]))
+    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], block[7:, :3])
+    rows = (
+        new[0],
+        new[1, :3],
+        new[2, :3],
+        new[3, :3],
+        new[4, :3],
+        new[5, :3],
+        new[6, :3],
+        new[7:, :3],
+    )
     limits = (decay, supply, rate, valid_low, valid_high)
-    return new, step_into(glove, work, state, rows, command, effort, limits)
+    return new, step_glove(glove, work, state, rows, command, effort, limits)
 
 
 @kernel(counted=False)
@@ -178,10 +236,15 @@ def run_rows(glove, work, state, new, commands, efforts, limits, record):
         outcome = step_into(glove, work, state, new, commands[t], efforts[t], limits)
         status[t], iterations[t], residual[t] = outcome[0], outcome[1], outcome[2]
         flags[t, 0], flags[t, 1], flags[t, 2], flags[t, 3] = outcome[3:]
-        for j in range(5):
-            step_state, step_new = state[j], new[j]
-            for k in range(step_state.size):
-                step_state[k] = step_new[k]
+        for k in range(state[0].size):
+            state[0][k] = new[0][k]
+        for k in range(3):
+            state[1][k] = new[1][k]
+            state[2][k] = new[2][k]
+            state[3][k] = new[3][k]
+            state[4][k] = new[4][k]
+            state[5][0, k] = new[7][0, k]
+            state[5][1, k] = new[7][1, k]
         for k in range(new[0].size):
             unknowns[t, k] = new[0][k]
         for k in range(3):
@@ -212,6 +275,7 @@ def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, 
         state[2].copy(),
         state[3].copy(),
         state[4].copy(),
+        state[5].copy(),
     )
     record = (
         np.empty((steps, 3)),
@@ -241,8 +305,24 @@ def step_rows(glove, fingers, work, states, new, commands, efforts, limits, outc
     status, iterations, residual, flags = outcomes
     for r in range(commands.shape[0]):
         patient = with_finger(glove, finger_half_lengths[r], laws[r])
-        state = (states[0][r], states[1][r], states[2][r], states[3][r], states[4][r])
-        row = (new[0][r], new[1][r], new[2][r], new[3][r], new[4][r], new[5][r], new[6][r])
+        state = (
+            states[0][r],
+            states[1][r],
+            states[2][r],
+            states[3][r],
+            states[4][r],
+            states[5][r],
+        )
+        row = (
+            new[0][r],
+            new[1][r],
+            new[2][r],
+            new[3][r],
+            new[4][r],
+            new[5][r],
+            new[6][r],
+            new[7][r],
+        )
         outcome = step_into(patient, work, state, row, commands[r], efforts[r], limits)
         status[r], iterations[r], residual[r] = outcome[0], outcome[1], outcome[2]
         flags[r, 0], flags[r, 1], flags[r, 2], flags[r, 3] = outcome[3:]
@@ -284,4 +364,5 @@ def step_gloves(
     fingers = (finger_half_lengths, laws)
     step_rows(glove, fingers, work, states, new, commands, efforts, limits, outcomes)
     status, iterations, residual, flags = outcomes
-    return new[:5], new[5], new[6], status, iterations, residual, flags
+    state = (new[0], new[1], new[2], new[3], new[4], new[7])
+    return state, new[5], new[6], status, iterations, residual, flags
