@@ -187,13 +187,24 @@ def default_model():
     return GloveModel(load_params())
 
 
-@pytest.mark.parametrize('node', ['plant'], indirect=True)
+@pytest.fixture
+def plant_commanded_only(probe):
+    """A plant of its own that only ever gets pressure commands.
+
+    Not the module's plant: the fuzzing above may have left it a valid patient effort, which
+    moves the glove until its effort timeout (wall clock) and so off the solve of the pressure.
+    """
+    made = InProcessNode(node_class('plant'), NODES['plant'], probe)
+    yield made
+    made.close()
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
 @given(command=st.lists(st.floats(-2e5, 2e5), min_size=3, max_size=3))
 def test_plant_state_after_a_valid_command_is_the_solve_of_the_saturated_pressure(
-    node, default_model, command
+    plant_commanded_only, default_model, command
 ):
-    published = drive(node, 'pressure_command', Float64MultiArray(data=command))
+    published = drive(plant_commanded_only, 'pressure_command', Float64MultiArray(data=command))
     expected_pressure = np.clip(command, 0.0, MAX_SUPPLY)
     np.testing.assert_array_equal(published['chamber_pressure'][-1].data, expected_pressure)
     solution = default_model.solve(expected_pressure)
