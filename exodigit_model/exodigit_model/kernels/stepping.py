@@ -63,8 +63,9 @@ def advance_chambers(pressure, command, decay, supply):
 
 
 SMOOTH = 0.5
-"""A glove's motion is smooth when a quadratic through its three steps before the last one
-predicted the last one's angles to within this share of how far they moved (every joint)."""
+"""A glove's motion is smooth when, at every joint, a quadratic through its three steps before
+the last one predicted the last one's angle, and a straight line through the two before it did,
+each to within this share of how far the last step moved it."""
 
 
 @kernel(inline=True)
@@ -79,20 +80,33 @@ def predict(glove, x, q_before, earlier, start):
     angles, or, for a patient whose torque depends on speed, where the last step's motion goes
     on (half the Newton steps of starting still). The bottom strains start where they were.
     Only the start depends on this, not the root the iteration converges to.
+
+    The cubic's step beyond the last angles is the sum of the last three differences of the
+    angles, Δq + Δ²q + Δ³q; smooth bounds the second and the third by half the first. The third
+    alone is not enough: a glove held still for two steps and then let go back to where it came
+    from has Δ³q = 0 with Δ²q = Δq, and the cubic would start it twice as far past its rest
+    as it had moved.
+
+    Returns whether the start is not the last good unknowns (a prediction was made).
     """
     smooth = True
     for k in range(3):
-        guess = 3.0 * q_before[k] - 3.0 * earlier[0, k] + earlier[1, k]
-        if abs(x[k] - guess) > SMOOTH * abs(x[k] - q_before[k]):
+        moved = x[k] - q_before[k]
+        second = moved - (q_before[k] - earlier[0, k])
+        third = second - (q_before[k] - 2.0 * earlier[0, k] + earlier[1, k])
+        if max(abs(second), abs(third)) > SMOOTH * abs(moved):
             smooth = False
     for k in range(x.size):
         start[k] = x[k]
     if smooth:
         for k in range(3):
             start[k] = 4.0 * x[k] - 6.0 * q_before[k] + 4.0 * earlier[0, k] - earlier[1, k]
-    elif moves_with_speed(glove):
+        return True
+    if moves_with_speed(glove):
         for k in range(3):
             start[k] = 2.0 * x[k] - q_before[k]
+        return True
+    return False
 
 
 @kernel(counted=False)
@@ -146,14 +160,25 @@ def step_into(glove, work, state, new, command, effort, limits):
         new_pressure[k] = pressure[k]
     below, above = advance_chambers(new_pressure, applied, decay, supply)
     motion = work.motion
-    predict(glove, x, q_before, earlier, new_x)
+    predicted = predict(glove, x, q_before, earlier, new_x)
     for k in range(3):
         motion[0, k] = x[k]
         motion[1, k] = 0.0
         motion[2, k] = effort[k]
-    status, iterations, residual = newton(
-        glove, work, new_x, new_pressure, False, motion, rate, new_forces, new_torque
-    )
+    # A predicted start that does not converge is tried again from the last good unknowns: the
+    # prediction may cost Newton steps, never a solve. One call site in a loop, not two calls:
+    # each call of the inlined newton compiles a copy of it.
+    iterations = 0
+    for _ in range(2):
+        status, taken, residual = newton(
+            glove, work, new_x, new_pressure, False, motion, rate, new_forces, new_torque
+        )
+        iterations += taken
+        if status <= CONVERGED_STEP or not predicted:
+            break
+        predicted = False
+        for k in range(x.size):
+            new_x[k] = x[k]
     valid = stretch_in_range(glove, new_x, valid_low, valid_high)
     moving_range = in_range_of_motion(glove, new_x)
     failed = status > CONVERGED_STEP
