@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_model.model import state_warnings
 from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -43,6 +42,7 @@ from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationS
 from ..logic.inputs import InvalidInputError, joint_vector
 from ..logic.pacing import TIME_SETTING_NAMES, TimeSettings, known_node
 from ..logic.parameters import describe_files
+from ..logic.plant_report import StepCounts, plant_report
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
 from .markers import GloveMarkers
@@ -409,53 +409,25 @@ class Plant(GloveNode):
 
     def report(self) -> None:
         """One /diagnostics status: solver, validity, watchdog, saturation, timing."""
-        now = self.state.t if self.sim_clock else self.now_seconds()
-        state = self.state
-        problems, time_values = (
-            ([], {'clock': 'wall'}) if self.time is None else self.time.status()
-        )
-        if self.watchdog.tripped:
-            problems.append(f'watchdog: no command for {self.watchdog.age(now):.2f} s, vented')
         failures = self.simulation.solver_failures
-        if failures > self.failures_reported:
-            problems.append(
-                f'solver did not converge {failures - self.failures_reported} times '
-                f'(last residual {self.failure_residual:.3g} N·m), kept the last good state'
-            )
-            self.failures_reported = failures
-        problems += state_warnings(True, state.in_valid_range, state.in_range_of_motion)
-        tension = [name for name, f in zip(JOINT_NAMES, state.forces, strict=True) if f < 0.0]
-        notes = (
-            [f'contact in tension at {", ".join(tension)} (the strap pulls)'] if tension else []
+        counts = StepCounts(
+            cycles=self.cycles,
+            late_cycles=self.late_cycles,
+            failures=failures,
+            new_failures=failures - self.failures_reported,
+            failure_residual=self.failure_residual,
+            saturation=self.simulation.chambers.saturation,
         )
-        if state.saturated:
-            problems.append('command saturated to the supply range')
-        saturation = self.simulation.chambers.saturation
-        values = {
-            'joint angles (rad)': str(state.q.tolist()),
-            'chamber pressure (Pa)': str(state.pressure.tolist()),
-            'solver iterations': str(state.iterations),
-            'solver residual (N·m)': f'{state.residual:.3g}',
-            'solver failures': str(failures),
-            'in valid range': str(bool(state.in_valid_range)),
-            'in range of motion': str(bool(state.in_range_of_motion)),
-            'contact forces (N)': str(state.forces.tolist()),
-            'contacts in tension': ', '.join(tension) or 'none',
-            'patient effort (N·m)': str(state.effort.tolist()),
-            'watchdog': 'venting'
-            if self.watchdog.tripped
-            else ('waiting for a command' if self.watchdog.last_feed is None else 'ok'),
-            'command age (s)': f'{self.watchdog.age(now):.3f}',
-            'watchdog trips': str(self.watchdog.trips),
-            'saturated below 0': str(saturation.below_zero),
-            'saturated above supply': str(saturation.above_supply),
-            'cycles': str(self.cycles),
-            'late cycles': str(self.late_cycles),
-            **time_values,
-        }
+        self.failures_reported = failures
+        report = plant_report(self.state, self.watchdog, self.time_now(), counts)
+        if self.time is None:
+            problems, time_values = [], {'clock': 'wall'}
+        else:
+            problems, time_values = self.time.status()
+        problems += report.problems
         level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
-        text = '; '.join(problems + notes) or 'running'
-        self.publish_status(level, text, values, self.stamp())
+        text = '; '.join(problems + report.notes) or 'running'
+        self.publish_status(level, text, report.values | time_values, self.stamp())
 
 
 def main(args: list[str] | None = None) -> int:

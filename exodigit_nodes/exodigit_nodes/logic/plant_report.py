@@ -1,0 +1,95 @@
+"""What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Diagnostics").
+
+:func:`plant_report` turns the plant's state and counters into the report's problems (each a
+reason for WARN), notes (said, but no reason for WARN) and the key-value pairs shown beside
+them. The plant node adds its simulated time's problems and values and publishes the status.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from exodigit_model.chambers import Saturation
+from exodigit_model.model import state_warnings
+
+from exodigit_model import JOINT_NAMES, GloveState
+
+from .watchdog import Watchdog
+
+
+@dataclass(frozen=True)
+class StepCounts:
+    """The plant's counters since it started.
+
+    Attributes
+    ----------
+    cycles, late_cycles : int
+        Steps taken, and wall-clock steps that came late (the plant's ``LATE_FACTOR``).
+    failures : int
+        Solves that did not converge.
+    new_failures : int
+        Of those, how many since the last report.
+    failure_residual : float
+        Residual of the latest that did not converge, N·m.
+    saturation : Saturation
+        Commands clipped to the supply range.
+    """
+
+    cycles: int
+    late_cycles: int
+    failures: int
+    new_failures: int
+    failure_residual: float
+    saturation: Saturation
+
+
+@dataclass(frozen=True)
+class PlantReport:
+    """:func:`plant_report`'s result: ``problems`` (WARN when any), ``notes``, ``values``."""
+
+    problems: list[str]
+    notes: list[str]
+    values: dict[str, str]
+
+
+def plant_report(
+    state: GloveState, watchdog: Watchdog, now: float, counts: StepCounts
+) -> PlantReport:
+    """The report of ``state`` at ``now`` (s, the plant's time) with the watchdog's view."""
+    problems = []
+    if watchdog.tripped:
+        problems.append(f'watchdog: no command for {watchdog.age(now):.2f} s, vented')
+    if counts.new_failures:
+        problems.append(
+            f'solver did not converge {counts.new_failures} times '
+            f'(last residual {counts.failure_residual:.3g} N·m), kept the last good state'
+        )
+    problems += state_warnings(True, state.in_valid_range, state.in_range_of_motion)
+    if state.saturated:
+        problems.append('command saturated to the supply range')
+    tension = [name for name, f in zip(JOINT_NAMES, state.forces, strict=True) if f < 0.0]
+    notes = [f'contact in tension at {", ".join(tension)} (the strap pulls)'] if tension else []
+    if watchdog.tripped:
+        command = 'venting'
+    else:
+        command = 'waiting for a command' if watchdog.last_feed is None else 'ok'
+    values = {
+        'joint angles (rad)': str(state.q.tolist()),
+        'chamber pressure (Pa)': str(state.pressure.tolist()),
+        'solver iterations': str(state.iterations),
+        'solver residual (N·m)': f'{state.residual:.3g}',
+        'solver failures': str(counts.failures),
+        'in valid range': str(bool(state.in_valid_range)),
+        'in range of motion': str(bool(state.in_range_of_motion)),
+        'contact forces (N)': str(state.forces.tolist()),
+        'contacts in tension': ', '.join(tension) or 'none',
+        'patient effort (N·m)': str(state.effort.tolist()),
+        'watchdog': command,
+        'command age (s)': f'{watchdog.age(now):.3f}',
+        'watchdog trips': str(watchdog.trips),
+        'saturated below 0': str(counts.saturation.below_zero),
+        'saturated above supply': str(counts.saturation.above_supply),
+        'cycles': str(counts.cycles),
+        'late cycles': str(counts.late_cycles),
+    }
+    return PlantReport(problems, notes, values)
