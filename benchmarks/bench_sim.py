@@ -3,7 +3,9 @@
 1. Lockstep, ``real_time_factor 0``: plant + pressure_command (sine) + estimator over DDS, 60
    simulated seconds at 100 Hz; wall time from resuming the paused plant to its state at 60 s
    (a recorder in this process takes every joint_states and pressure_command).
-   [>= 20x real time, stretch 50x]
+   [>= 20x real time, stretch 50x] Its time per step against the round trip of a bare rclpy
+   echo between two processes, measured in the same run (``bench_nodes.echo_round_trips``).
+   [<= 2x]
 2. A controller in the benchmark process through ``GloveSim.step``. [>= 20x real time]
 3. ``GloveSimulation`` in process, no ROS (issue "The model at compiled speed"; the model's own
    solve figures are in ``benchmarks/bench_model.py``):
@@ -45,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
+from bench_nodes import PINGS, echo_round_trips
 from exodigit_model.kernels import jit
 from exodigit_nodes.nodes.qos import RECORD_QOS
 from exodigit_nodes.testing import GloveSim, claim_domain
@@ -177,6 +180,17 @@ def lockstep_speed(seconds: float, repeats: int, workdir: Path) -> None:
         f'{seconds:g} simulated s: {", ".join(f"{f:.1f}x" for f in factors)} real time '
         f'(median {statistics.median(factors):.1f}x, wall {seconds / max(factors):.2f}-'
         f'{seconds / min(factors):.2f} s)  [>= 20x, stretch 50x]'
+    )
+    lease = claim_domain()
+    try:
+        echo = statistics.median(echo_round_trips(lease.domain_id, workdir))
+    finally:
+        lease.release()
+    step = 1.0 / (RATE_HZ * statistics.median(factors))  # wall s per simulated step
+    print(
+        f'   a lockstep step takes {1e3 * step:.2f} ms (median run) = {step / echo:.1f}x the '
+        f'round trip of a bare two-process rclpy echo ({1e3 * echo:.2f} ms, median of '
+        f'{PINGS})  [<= 2x]'
     )
 
 
