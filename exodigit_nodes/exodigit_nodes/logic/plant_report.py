@@ -1,4 +1,4 @@
-"""What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Diagnostics").
+"""What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Nodes and topics").
 
 :func:`plant_report` turns the plant's state and counters into the report's problems (each a
 reason for WARN), notes (said, but no reason for WARN) and the key-value pairs shown beside
