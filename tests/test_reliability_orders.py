@@ -1,26 +1,29 @@
 """The three nodes started in every order (6 orders) give the same, normal glove.
 
-The orders run side by side, one namespace each (``/order0`` .. ``/order5``), at a low rate so
-that 18 processes fit on two cores: in three waves, each order starts its next node, and the
-next wave begins once the probe has discovered every node of the wave (the publisher of its
-first output, that node's, on the graph), so each node's endpoints are announced before the
-next node of its order starts. Then the probe subscribes (not before: what the gloves send
-while they start is no use to the check, and would only cost the 18 processes and the probe CPU)
-and every glove must be normal (`reliability_session.GloveSession.normal`: commands reach the
-chambers, the state is the model's solve, the estimator agrees with the plant and identifies
-K_H, and every node reports in /diagnostics).
+The orders run side by side, one namespace each (``/order0`` .. ``/order5``), their 18 nodes
+in one host process (tests/node_host.py: one start-up instead of 18, each node built when the
+test asks), at a low rate: in three waves, each order starts its next node, and the next wave
+begins once the probe has discovered every node of the wave (the publisher of its first output,
+that node's, on the graph), so each node's endpoints are announced before the next node of its
+order starts. Then the probe subscribes (not before: what the gloves send while they start is
+no use to the check, and would only cost CPU) and every glove must be normal
+(`reliability_session.GloveSession.normal`: commands reach the chambers, the state is the
+model's solve, the estimator agrees with the plant and identifies K_H, and every node reports
+in /diagnostics).
 """
 
 import itertools
 import time
 
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from node_host import NodeHost
 from reliability_session import NODES, START_TIMEOUT, GloveSession
 from ros_harness import wait_until
 
 ORDERS = list(itertools.permutations(NODES))
-#: Node rate in this test, Hz (every message costs the 18 processes and the probe CPU; the
-#: checks need few of them), and the estimator window (pairs; its least): one second. The
+#: Node rate in this test, Hz (every message costs the host and the probe CPU; the checks need
+#: few of them), and the estimator window (pairs; its least): one second. The
 #: estimator fits what part of its window it holds, so a longer window delays nothing.
 RATE = 10.0
 WINDOW = 10
@@ -42,9 +45,16 @@ def discovered(session: GloveSession, node: str) -> bool:
     return bool(wait_until(lambda: session.publishes(node, FIRST_OUTPUT[node]), START_TIMEOUT))
 
 
-def test_every_start_order_gives_a_normal_glove(launcher, probe):
+@pytest.fixture
+def host(ros_domain, tmp_path):
+    nodes = NodeHost(ros_domain, tmp_path)
+    yield nodes
+    assert nodes.close() == 0, nodes.log()
+
+
+def test_every_start_order_gives_a_normal_glove(host, probe):
     sessions = [
-        GloveSession(launcher, probe, f'/order{i}', OVERRIDES, listen=False)
+        GloveSession(host, probe, f'/order{i}', OVERRIDES, listen=False)
         for i in range(len(ORDERS))
     ]
     for wave in range(len(NODES)):
