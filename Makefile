@@ -4,7 +4,8 @@
 #                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag
 #                            (with HAND=1 one per finger);
 #                            HAND=1 runs a whole hand instead (five gloves, two processes)
-#   make test                lint, format check and the whole test suite (what CI runs)
+#   make test [PYTEST_WORKERS=2] [PYTEST_ARGS=...]
+#                            lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
 # requirements or package file changed. Both also compile the model's kernels into numba's cache
 # (`make warm`, README "Compiled model") when their sources changed, so no test or node compiles.
@@ -17,6 +18,9 @@ DURATION ?= 0
 NAMESPACE ?= /glove
 RECORD ?=
 PYTEST_ARGS ?=
+# Test workers (pytest-xdist; README "The two commands"): two, for this project's two-core VMs;
+# 0 runs every test in the one pytest process.
+PYTEST_WORKERS ?= 2
 
 # Discovery never leaves this machine (see README, "Networking"); one domain per command.
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
@@ -64,7 +68,7 @@ endif
 test: warm
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
+	$(BIN)/python -m pytest --numprocesses $(PYTEST_WORKERS) --dist loadfile $(PYTEST_ARGS)
 
 bench: warm
 	$(BIN)/python benchmarks/bench_model.py
