@@ -139,6 +139,20 @@ def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):
     assert 'killed by SIGTERM (did not stop on SIGINT)' in exit_.describe()
 
 
+def test_a_child_takes_sigint_though_the_thread_that_started_it_blocks_it(tmp_path):
+    # A Ray worker blocks SIGINT, and a child inherits the signals blocked where it was forked:
+    # the testing kit's gloves in a Ray task waited out the grace period for SIGTERM.
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        supervisor = Supervisor(os.environ, log_dir=tmp_path)
+        supervisor.start('plant', [sys.executable, '-c', POLITE, 'plant', str(tmp_path / 'x')])
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    assert wait_until(lambda: ready(supervisor, 'plant'), WAIT)
+    (exit_,) = supervisor.stop(['plant'], grace=WAIT)
+    assert exit_.clean and exit_.returncode == 0, exit_.describe()
+
+
 def test_an_unexpected_exit_is_seen_with_its_code_and_log(tmp_path):
     supervisor = Supervisor(os.environ, log_dir=tmp_path)
     supervisor.start('plant', [sys.executable, '-c', 'print("bad params_file"); exit(3)'])
@@ -202,6 +216,26 @@ def test_the_testing_kit_starts_its_nodes_with_the_runners_supervisor(tmp_path):
 )
 def test_an_exit_status_is_told_in_words(returncode, words):
     assert exit_status(returncode) == words
+
+
+def test_a_stop_request_unblocks_the_stop_signals_it_handles():
+    # In a process of one thread, started with SIGINT blocked (a child of a Ray worker, started
+    # by something else than our supervisor, e.g. ros2 launch): the StopRequest still hears it.
+    script = """
+import os, signal, time
+from exodigit_nodes.logic.lifetime import StopRequest
+signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+stop = StopRequest()
+os.kill(os.getpid(), signal.SIGINT)
+deadline = time.monotonic() + 5.0
+while not stop.requested and time.monotonic() < deadline:
+    time.sleep(0.01)
+print(stop.signal_name or 'nothing')
+"""
+    result = subprocess.run(
+        [sys.executable, '-c', script], capture_output=True, text=True, timeout=60, check=True
+    )
+    assert result.stdout.strip() == 'SIGINT', result.stderr
 
 
 @pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])

@@ -66,10 +66,12 @@ class StopRequest:
     def install(self) -> None:
         """Handle the stop signals (again: loading rclpy's C extension takes SIGINT over).
 
-        Also when SIGINT was ignored: a shell starts background commands that way.
+        Also when SIGINT was ignored (a shell starts background commands that way) or blocked
+        (a child of a Ray worker inherits its blocked SIGINT): they are unblocked in this thread.
         """
         for signum in STOP_SIGNALS:
             signal.signal(signum, self)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
     def ignore(self) -> None:
         """Ignore the stop signals from now on (the process is stopping already)."""

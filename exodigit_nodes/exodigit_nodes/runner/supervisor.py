@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..logic.lifetime import exit_status, stop_with_parent
+from ..logic.lifetime import STOP_SIGNALS, exit_status, stop_with_parent
 
 #: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL (as the
 #: default ``sigterm_timeout`` of ``ros2 launch``).
@@ -30,7 +30,7 @@ STOP_GRACE = 5.0
 #: Seconds between two checks while waiting for processes to exit.
 POLL_INTERVAL = 0.05
 #: The escalation of a stop, in order.
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
+ESCALATION = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,10 @@ def _child_setup(parent: int) -> Callable[[], None]:
 
     A shell starts background commands with SIGINT ignored, and an ignored signal stays ignored
     across exec: a node still starting (before it installs its own handler) would then sit out
-    the supervisor's SIGINT. The disposition is reset to the default here.
+    the supervisor's SIGINT. The disposition is reset to the default here. So are blocked stop
+    signals unblocked: a Ray worker blocks SIGINT, a child inherits the blocked signals, and a
+    child of a Ray task (the testing kit's gloves) would take no SIGINT at all, only the SIGTERM
+    that follows it after the grace period.
 
     The children run in their own sessions, so neither a terminal hang-up nor a killed
     supervisor would otherwise reach them: on Linux they get SIGINT when ``parent`` dies, even by
@@ -81,6 +84,7 @@ def _child_setup(parent: int) -> Callable[[], None]:
 
     def hook() -> None:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
         if not stop_with_parent(signal.SIGINT, parent):  # it died before the hook ran
             os._exit(1)
 
@@ -182,7 +186,7 @@ class Child:
         if self.exit() is not None:
             return self._exit
         forced = False
-        for signum in STOP_SIGNALS:
+        for signum in ESCALATION:
             if self.poll() is not None:
                 break
             forced = signum != signal.SIGINT
