@@ -412,6 +412,18 @@ def test_pause_and_step_advance_exactly_one_step_each(sim_plant):
     assert not running.success and 'not paused' in running.message
 
 
+def test_set_paused_logs_a_change_once_however_often_it_is_asked(sim_plant, capfd):
+    # The testing kit asks set_paused for the matched controllers until its controller is
+    # there: hundreds of calls a second, which once filled the plant's log.
+    node = sim_plant()
+    capfd.readouterr()
+    for paused in (True, True, True, True, False, False):
+        answer = call(node, 'set_paused', SetBool.Request(data=paused), SetBool.Response())
+        assert answer.success and answer.message.startswith('paused' if paused else 'running')
+    logged = [line for line in capfd.readouterr().err.splitlines() if ' at t = ' in line]
+    assert len(logged) == 2 and 'paused at' in logged[0] and 'running at' in logged[1], logged
+
+
 def test_run_until_holds_the_steps_there_and_raising_it_lets_them_go_on(sim_plant):
     # What a runner does to keep its record whole (exodigit_nodes.runner.horizon): not a pause.
     node = sim_plant(start_paused='true', run_until='0.05')

@@ -182,8 +182,14 @@ class SimulatedTime:
     def on_set_paused(
         self, request: SetBool.Request, response: SetBool.Response
     ) -> SetBool.Response:
-        """Pause (data true) or resume simulated time; a resumed lockstep waits for answers."""
-        if request.data != self.paused:
+        """Pause (data true) or resume simulated time; a resumed lockstep waits for answers.
+
+        The answer says the state and the lockstep controllers matched; the log says it when
+        the state changed (a client that asks again and again for the controllers, as the
+        testing kit does while it waits for one, is logged at debug level).
+        """
+        changed = request.data != self.paused
+        if changed:
             self.paused = request.data
             if not self.paused:
                 self.restart_pacing()
@@ -194,7 +200,8 @@ class SimulatedTime:
             f'{state} at t = {self.t:.9f} s (step {self._step_number()}); '
             f'{CONTROLLERS_LABEL}{", ".join(controllers) or "none"}'
         )
-        self.owner.get_logger().info(response.message)
+        logger = self.owner.get_logger()
+        (logger.info if changed else logger.debug)(response.message)
         if not self.paused:
             self.try_step(time.monotonic())
         return response
