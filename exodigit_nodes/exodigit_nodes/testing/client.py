@@ -294,11 +294,7 @@ class GloveSim:
         )
         self._set_paused(True)
         if not self._external_synced:
-            # The plant must have matched the controller before the state it is to answer.
-            self._wait(
-                lambda: set(controllers) <= self._plant_controllers(),
-                f'the plant to match {", ".join(controllers)}',
-            )
+            self._wait_matched(controllers)
         end_ns = self._node.time_ns(self.state.t) + round(steps * 1e9 / self.rate_hz)
         self._call(
             self._node.parameter_client,
@@ -350,6 +346,17 @@ class GloveSim:
             self._call(self._node.pause_client, self._node.pause_request(paused), 'set_paused')
             self._paused = paused
 
+    def _wait_matched(self, controllers: list[str]) -> None:
+        """Wait until the plant and our ``pressure_command`` reader have matched ``controllers``.
+
+        The plant before the state each is to answer; our reader to count their answers.
+        """
+        names = ', '.join(controllers)
+        self._wait(
+            lambda: set(controllers) <= self._plant_controllers(), f'the plant to match {names}'
+        )
+        self._wait(self._node.hears_every_controller, f'to hear {names}')
+
     def _plant_controllers(self) -> set[str]:
         """The controllers the plant has matched (its ``set_paused`` answer lists them)."""
         response = self._call(
@@ -366,10 +373,11 @@ class GloveSim:
     def _release_run_until(self, failure: GloveSimError | None = None) -> None:
         """Let the plant step freely again after a :meth:`run` (also one that ``failure`` ended).
 
-        After a ``failure`` the plant has not reached the run's ``pause_at``: that is cleared
-        too, else it would pause the plant at that time in a later :meth:`step` (which then
-        waits in vain). A failure to do either after a ``failure`` becomes a note on it, not a
-        new error.
+        After a ``failure`` the plant may or may not have reached the run's ``pause_at`` (the
+        answers may be what is missing): ``pause_at`` is cleared, else it would pause the plant
+        at that time in a later :meth:`step` (which then waits in vain), and the plant is paused
+        so that the next :meth:`step` resumes it, whichever it was. A failure to do any of it
+        after a ``failure`` becomes a note on it, not a new error.
         """
         try:
             self._answered(self._node.horizon.release().answer, 'reset run_until')
@@ -379,10 +387,12 @@ class GloveSim:
                     self._node.pause_at_request(0.0),
                     'reset pause_at',
                 )
+                self._call(self._node.pause_client, self._node.pause_request(True), 'set_paused')
+                self._paused = True
         except GloveSimError as error:
             if failure is None:
                 raise
-            failure.add_note(f'and run_until or pause_at stays set: {error}')
+            failure.add_note(f'and run_until, pause_at or the pause stays set: {error}')
 
     def _call(self, client, request, what: str):
         future = client.call_async(request)

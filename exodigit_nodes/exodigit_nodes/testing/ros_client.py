@@ -71,7 +71,7 @@ class GloveClient(Node):
                 if topic != JOINT_STATES
             ),
         ]
-        self.create_subscription(
+        self.command_subscription = self.create_subscription(
             Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_QOS
         )
         self.command_message = joint_vector_message()
@@ -129,6 +129,16 @@ class GloveClient(Node):
             for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
             if (info.node_name, info.node_namespace) != me and known_node(info)
         ]
+
+    def hears_every_controller(self) -> bool:
+        """Whether our ``pressure_command`` reader has matched every publisher the graph lists.
+
+        The graph lists a publisher before our reader has matched it, and what a volatile
+        publisher sends in between never reaches us: a run counting its controller's answers
+        would wait in vain for the first.
+        """
+        topic = self.command_subscription.topic_name
+        return self.command_subscription.get_publisher_count() >= self.count_publishers(topic)
 
     # -- states and commands ---------------------------------------------------------------
 

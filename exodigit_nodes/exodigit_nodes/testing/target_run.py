@@ -233,10 +233,7 @@ class TargetGloveSim(GloveSim):
         node = self._node
         controllers = self._wait(node.other_controllers, 'your controller to publish')
         self._set_paused(True)
-        self._wait(
-            lambda: set(controllers) <= self._plant_controllers(),
-            f'the plant to match {", ".join(controllers)}',
-        )
+        self._wait_matched(controllers)
         # A node publishes (and its reader acknowledges) before its executor spins; an
         # executor that starts with a target and a state waiting may take the state first (a
         # run here answered state 0 with the node's default target). A node that answers a
