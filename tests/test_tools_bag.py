@@ -53,14 +53,14 @@ def recorder_command(output):
     ]
 
 
-def start_recorder(output, domain, workdir):
+def start_recorder(output, domain, workdir, stderr=subprocess.PIPE):
     return subprocess.Popen(
         recorder_command(output),
         cwd=workdir,
         env=ros_environment(domain),
         stdin=subprocess.DEVNULL,
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=stderr,
         text=True,
         start_new_session=True,
     )
@@ -85,14 +85,16 @@ def session(launcher, probe, ros_domain, tmp_path_factory):
     workdir = tmp_path_factory.mktemp('bag')
     bag = workdir / 'session'
     launcher.start('plant', {'pressure_time_constant': 0.0}, namespace=NAMESPACE)
-    recorder = start_recorder(bag, ros_domain, workdir)
+    log = workdir / 'recorder.err'
+    with open(log, 'w') as errors:
+        recorder = start_recorder(bag, ros_domain, workdir, stderr=errors)
     states = probe.subscribe(f'{NAMESPACE}/joint_states', JointState)
-    # a recorder that has not subscribed yet misses the first command's steps (a CI run did)
-    listening = f'{NAMESPACE}/recorder'
+    # A recorder that has not matched the plant yet misses the first command's steps (a CI run
+    # did; another, whose test waited for the graph to list the recorder's subscriptions, got
+    # none of the plant's messages): wait until it has heard each of the plant's outputs.
     for topic in ('joint_states', 'chamber_pressure', 'contact_forces', 'segment_lengths'):
-        assert wait_until(
-            lambda t=topic: listening in probe.subscribers(f'{NAMESPACE}/{t}'), TIMEOUT
-        )
+        heard = f'first message on {NAMESPACE}/{topic}'
+        assert wait_until(lambda heard=heard: heard in log.read_text(), TIMEOUT), log.read_text()
     command = probe.publisher(f'{NAMESPACE}/pressure_command', Float64MultiArray, wait_for=2)
     model = GloveModel(load_params())
     published = []
@@ -126,11 +128,11 @@ def session(launcher, probe, ros_domain, tmp_path_factory):
     finally:
         recorder.send_signal(signal.SIGINT)
         try:
-            _, err = recorder.communicate(timeout=TIMEOUT)
+            recorder.communicate(timeout=TIMEOUT)
         except subprocess.TimeoutExpired:
             recorder.kill()
-            _, err = recorder.communicate()
-    return bag, published, recorder.returncode, err
+            recorder.communicate()
+    return bag, published, recorder.returncode, log.read_text()
 
 
 def test_recorder_stops_cleanly_on_sigint(session):

@@ -169,10 +169,21 @@ class Recorder(Node):
         )
 
     def _callback_for(self, topic: str):
+        """The subscription callback of ``topic``: its first message is also logged.
+
+        That log line says the recorder has matched the topic's publisher (the graph lists a
+        subscriber before its publishers have matched it): a test waits for it.
+        """
+        heard = False
+
         def record(data: bytes) -> None:
+            nonlocal heard
             stamp = self.get_clock().now().nanoseconds
             for glove in self._routes[topic]:
                 self.bags[glove].write(self._names[topic], stamp, data)
+            if not heard:
+                heard = True
+                self.get_logger().info(f'first message on {self._names[topic]}')
 
         return record
 
