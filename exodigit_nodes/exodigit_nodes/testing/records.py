@@ -1,8 +1,12 @@
-"""What the testing kit returns: one plant step (:class:`SimState`), a run (:class:`SimRecord`)."""
+"""What the testing kit returns: one plant step (:class:`SimState`), a run (:class:`SimRecord`).
+
+Both kinds of run record (this :class:`SimRecord` and the targets run's ``TargetRecord``) are a
+:class:`StateHistory` with their commands added.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,12 +48,15 @@ class SimState:
 
 
 @dataclass(frozen=True)
-class SimRecord:
-    """The states of a :meth:`GloveSim.run` and the commands that answered them, as arrays.
+class StateHistory:
+    """Published plant states stacked by step (SI units; joint order MCP, PIP, DIP).
 
-    Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
-    plant applies in the next step). Shapes (n,) for ``t`` and (n, 3) for the others; units as
-    in :class:`SimState` (``lengths`` m), ``command`` in Pa.
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Simulated time of each state, s (the stamps of ``joint_states``).
+    q, qdot, pressure, forces, lengths : ndarray, shape (n, 3)
+        The fields of :class:`SimState` by step (rad, rad/s, Pa, N, m).
     """
 
     t: NDArray[np.float64]
@@ -58,15 +65,22 @@ class SimRecord:
     pressure: NDArray[np.float64]
     forces: NDArray[np.float64]
     lengths: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SimRecord(StateHistory):
+    """The states of a :meth:`GloveSim.run` and the commands that answered them.
+
+    Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
+    plant applies in the next step), Pa, shape (n, 3).
+    """
+
     command: NDArray[np.float64]
 
 
 def state_arrays(states: list[SimState]) -> dict[str, NDArray[np.float64]]:
-    """The published fields of ``states`` stacked by step, as keyword arguments of a record.
-
-    ``t`` of shape (n,); ``q``, ``qdot``, ``pressure``, ``forces``, ``lengths`` (n, 3).
-    """
+    """The published fields of ``states`` stacked by step, as a :class:`StateHistory`'s fields."""
     return {
         name: np.array([getattr(s, name) for s in states])
-        for name in ('t', 'q', 'qdot', 'pressure', 'forces', 'lengths')
+        for name in (f.name for f in fields(StateHistory))
     }

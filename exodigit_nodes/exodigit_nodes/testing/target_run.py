@@ -52,7 +52,7 @@ from ..runner.horizon import RepeatedCall
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
 from .processes import ros_args
-from .records import SimState, state_arrays
+from .records import SimState, StateHistory, state_arrays
 
 KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
 """Fast DDS profile of the kit's process and your controller's during a target run."""
@@ -72,33 +72,26 @@ def kit_profile(environ: Mapping[str, str]) -> dict[str, str]:
 
 
 @dataclass(frozen=True)
-class TargetRecord:
+class TargetRecord(StateHistory):
     """A :meth:`TargetGloveSim.run_targets`: row k is step k + 1 of the run (SI, MCP/PIP/DIP).
+
+    The :class:`~exodigit_nodes.testing.records.StateHistory` fields hold the state at the end
+    of each step, as published; ``t`` is the plant's stamp there.
 
     Attributes
     ----------
+    command : ndarray, shape (n, 3)
+        The command that drove each step: your answer to the state before, Pa.
     initial : SimState
         The state the run started from (the rest state after the plant's ``reset``), which
         your controller answered first.
-    t : ndarray, shape (n,)
-        Simulated time at the end of each step, s (the plant's stamps).
-    q, qdot, pressure, forces, lengths : ndarray, shape (n, 3)
-        The state at the end of each step, as published (rad, rad/s, Pa, N, m).
-    command : ndarray, shape (n, 3)
-        The command that drove each step: your answer to the state before, Pa.
     target : ndarray, shape (n, 3)
         The target the kit had delivered when your controller answered the state before (the
         target of the step), rad.
     """
 
-    initial: SimState
-    t: NDArray[np.float64]
-    q: NDArray[np.float64]
-    qdot: NDArray[np.float64]
-    pressure: NDArray[np.float64]
-    forces: NDArray[np.float64]
-    lengths: NDArray[np.float64]
     command: NDArray[np.float64]
+    initial: SimState
     target: NDArray[np.float64]
 
 
