@@ -5,7 +5,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 from exodigit_nodes.logic.lifetime import StopRequest, exit_status
@@ -131,11 +130,9 @@ def test_a_process_that_ignores_sigint_is_terminated_and_reported(tmp_path):
     supervisor = Supervisor(os.environ, log_dir=tmp_path)
     supervisor.start('stubborn', [sys.executable, '-c', STUBBORN])
     assert wait_until(lambda: ready(supervisor, 'stubborn'), WAIT)
-    started = time.monotonic()
     (exit_,) = supervisor.stop(['stubborn'], grace=0.5)
-    assert time.monotonic() - started < 3.0
     assert exit_.forced and not exit_.clean
-    assert exit_.returncode == -signal.SIGTERM
+    assert exit_.returncode == -signal.SIGTERM  # SIGTERM ended it: SIGKILL was not needed
     assert 'killed by SIGTERM (did not stop on SIGINT)' in exit_.describe()
 
 

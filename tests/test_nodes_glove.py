@@ -145,12 +145,15 @@ def test_vector_topics_carry_one_joint_dimension_of_size_3(glove):
         assert len(message.data) == 3
 
 
-def test_joint_states_are_named_and_stamped(glove):
+def test_joint_states_are_named_and_stamped_with_the_system_clock(glove):
     _, inboxes = glove
-    message = inboxes['joint_states'].latest()
+    _, message, info = inboxes['joint_states'].records()[-1]
     assert list(message.name) == ['mcp', 'pip', 'dip']
     stamp = message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
-    assert abs(stamp - time.time()) < 5.0
+    # The plant's clock is the system clock here (no use_sim_time), as is DDS's time of sending:
+    # the two agree to the time the plant took from stamping to sending, not by a simulated
+    # time's 1.7e9 s.
+    assert abs(stamp - info['source_timestamp'] * 1e-9) < 1.0
 
 
 def test_staircase_joint_states_equal_the_model_solve_of_the_chamber_pressures(glove, model):
@@ -224,10 +227,17 @@ def test_commands_stay_inside_the_pressure_and_rate_limits(glove):
     _, inboxes = glove
     mark = time.monotonic()  # what other tests did to the limits before is theirs
     assert wait_until(lambda: len(inboxes['pressure_command'].messages(mark)) >= 100, 10.0)
-    commands = np.array([m.data for m in inboxes['pressure_command'].messages(mark)])
+    records = [(m, info) for t, m, info in inboxes['pressure_command'].records() if t > mark]
+    commands = np.array([m.data for m, _ in records])
     assert np.isfinite(commands).all()
     assert commands.min() >= 0.0 and commands.max() <= MAX_PRESSURE
-    largest_step = np.abs(np.diff(commands, axis=0)).max()
+    # The rate limit holds between consecutive commands (a probe that falls behind under load
+    # can lose some: its reader keeps the last 10, and a lost command's neighbours are two
+    # periods apart).
+    numbers = np.array([info['publication_sequence_number'] for _, info in records])
+    consecutive = np.diff(numbers) == 1
+    assert consecutive.sum() >= 50
+    largest_step = np.abs(np.diff(commands, axis=0))[consecutive].max()
     assert largest_step <= MAX_PRESSURE_RATE / RATE_HZ * (1 + 1e-12)
 
 
