@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import time
 from array import array
-from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -37,12 +36,13 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState, SimulationSettings
+from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState
 
 from ..logic.inputs import InvalidInputError, joint_vector
-from ..logic.pacing import TIME_SETTING_NAMES, TimeSettings, known_node
+from ..logic.pacing import TIME_SETTING_NAMES, known_node
 from ..logic.parameters import describe_files
 from ..logic.plant_report import StepCounts, plant_report
+from ..logic.plant_settings import PlantSettings, plant_settings
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
 from .markers import GloveMarkers
@@ -67,18 +67,6 @@ LATE_FACTOR = 1.5
 """A wall-clock cycle is late when it starts more than this many periods after the previous."""
 MAX_EFFORT = 10.0
 """Largest |patient effort| accepted, N·m (a finger joint makes well under 1 N·m)."""
-
-
-@dataclass(frozen=True)
-class PlantSettings:
-    """The plant's run-time settings (SI), from its parameters."""
-
-    simulation: SimulationSettings
-    command_timeout: float
-    effort_timeout: float
-    frame_id: str
-    marker_rate_hz: float
-    time: TimeSettings
 
 
 class Plant(GloveNode):
@@ -171,32 +159,7 @@ class Plant(GloveNode):
 
     def make_settings(self, values) -> PlantSettings:
         """Plant settings from checked parameters (ValueError naming the parameter)."""
-        if values['clock'] != 'sim':
-            for name in ('lockstep', 'start_paused'):
-                if values[name]:
-                    raise ValueError(f'{name} needs clock sim (only simulated time can wait)')
-        return PlantSettings(
-            simulation=SimulationSettings(
-                rate_hz=values['rate_hz'],
-                pressure_time_constant=values['pressure_time_constant'],
-                max_supply_pressure=values['max_supply_pressure'],
-                angle_noise_std=values['angle_noise_std'],
-                pressure_noise_std=values['pressure_noise_std'],
-                seed=values['seed'],
-            ),
-            command_timeout=values['command_timeout'],
-            effort_timeout=values['effort_timeout'],
-            frame_id=values['frame_id'],
-            marker_rate_hz=values['marker_rate_hz'],
-            time=TimeSettings(
-                real_time_factor=values['real_time_factor'],
-                lockstep=values['lockstep'],
-                lockstep_timeout=values['lockstep_timeout'],
-                start_paused=values['start_paused'],
-                pause_at=values['pause_at'],
-                run_until=values['run_until'],
-            ),
-        )
+        return plant_settings(values)
 
     def apply(self, settings: PlantSettings, changed: set[str]) -> None:
         """Use new settings from the next step on."""
