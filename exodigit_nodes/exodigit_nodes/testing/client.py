@@ -42,7 +42,8 @@ ESTIMATE_GRACE = 1.0
 """How long the start-up waits for a just-started estimator's estimate of the first state, s
 (it may not have been listening yet; a later step always has one)."""
 POLL = 0.05
-"""Longest single wait of the client's executor, s."""
+"""Longest single wait of the client's executor, and how often a wait checks that the glove's
+processes still run, s."""
 PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
 """Plant parameters the kit changes from the node's defaults: no chamber lag, no markers."""
 FIXED_PLANT = {
@@ -411,13 +412,17 @@ class GloveSim:
         return response
 
     def _wait(self, condition, what: str):
-        deadline = time.monotonic() + self.timeout
+        started = time.monotonic()
+        deadline, next_check = started + self.timeout, started + POLL
         while True:
             value = condition()
             if value:
                 return value
-            self._check_alive(what)
-            if time.monotonic() > deadline:
+            now = time.monotonic()
+            if now >= next_check or now > deadline:  # not each poll: a step takes under 1 ms
+                self._check_alive(what)
+                next_check = now + POLL
+            if now > deadline:
                 raise GloveSimError(
                     f'waited {self.timeout:g} s for {what} in {self.namespace}; node logs in '
                     f'{self.log_dir}'

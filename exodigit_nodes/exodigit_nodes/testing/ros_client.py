@@ -122,7 +122,12 @@ class GloveClient(Node):
         )
 
     def other_controllers(self) -> list[str]:
-        """Names of the other nodes that publish this glove's ``pressure_command``."""
+        """Names of the other nodes that publish this glove's ``pressure_command``.
+
+        The graph's count of publishers first: it is cheap, and asked before every ``step``.
+        """
+        if self.count_publishers(self.publisher.topic_name) <= 1:  # ours alone
+            return []
         me = (self.get_name(), self.get_namespace())
         return [
             f'{info.node_namespace.rstrip("/")}/{info.node_name}'
