@@ -44,6 +44,25 @@ print('ready', flush=True)
 while True:
     time.sleep(0.01)
 """
+# A node that is still importing when SIGINT comes: the import work runs where Python ignores
+# exceptions (a weakref callback, as importlib's module locks have), then it handles the stop
+# signals as every exodigit process does, and exits 0 at once if a stop was asked, 3 if not.
+IMPORTING = """
+import sys, time, weakref
+from exodigit_nodes.logic.lifetime import StopRequest
+class Module: pass
+def imports(_):
+    time.sleep(1.5)
+module = Module()
+reference = weakref.ref(module, imports)
+print('ready', flush=True)
+del module
+stop = StopRequest()
+deadline = time.monotonic() + 5.0
+while not stop.requested and time.monotonic() < deadline:
+    time.sleep(0.01)
+sys.exit(0 if stop.requested else 3)
+"""
 STUBBORN = """
 import signal, time
 signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -104,6 +123,15 @@ def test_a_process_still_starting_when_sigint_comes_stops_cleanly(tmp_path):
     (exit_,) = supervisor.stop(['plant'])
     assert exit_.returncode == -signal.SIGINT
     assert exit_.clean
+
+
+def test_a_sigint_while_a_node_imports_is_held_until_it_handles_it(tmp_path):
+    # A KeyboardInterrupt raised inside the import work would be swallowed and the SIGINT lost.
+    supervisor = Supervisor(os.environ, log_dir=tmp_path)
+    supervisor.start('plant', [sys.executable, '-c', IMPORTING], defer_sigint=True)
+    assert wait_until(lambda: ready(supervisor, 'plant'), WAIT)
+    (exit_,) = supervisor.stop(['plant'], grace=WAIT)
+    assert exit_.returncode == 0 and not exit_.forced, exit_.describe()
 
 
 def test_children_are_interrupted_when_the_supervisor_is_killed(tmp_path):

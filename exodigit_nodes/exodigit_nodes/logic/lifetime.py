@@ -67,7 +67,9 @@ class StopRequest:
         """Handle the stop signals (again: loading rclpy's C extension takes SIGINT over).
 
         Also when SIGINT was ignored (a shell starts background commands that way) or blocked
-        (a child of a Ray worker inherits its blocked SIGINT): they are unblocked in this thread.
+        (a child of a Ray worker inherits its blocked SIGINT; the supervisor holds it blocked
+        in its children until now): they are unblocked in this thread, and a SIGINT that came
+        meanwhile is handled here.
         """
         for signum in STOP_SIGNALS:
             signal.signal(signum, self)

@@ -139,7 +139,7 @@ def run_session(session: Session, env: dict) -> int:
     failures, stops = [], []
     try:
         for name, command in session.processes:
-            supervisor.start(name, command)
+            supervisor.start(name, command, defer_sigint=True)  # exodigit nodes, recorder
         use_profile()
         rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor()

@@ -66,7 +66,7 @@ class Exit:
         return text + (' (did not stop on SIGINT)' if self.forced else '')
 
 
-def _child_setup(parent: int) -> Callable[[], None]:
+def _child_setup(parent: int, *, defer_sigint: bool) -> Callable[[], None]:
     """A pre-exec hook: SIGINT acts in the child, and reaches it if ``parent`` dies.
 
     A shell starts background commands with SIGINT ignored, and an ignored signal stays ignored
@@ -75,6 +75,12 @@ def _child_setup(parent: int) -> Callable[[], None]:
     signals unblocked: a Ray worker blocks SIGINT, a child inherits the blocked signals, and a
     child of a Ray task (the testing kit's gloves) would take no SIGINT at all, only the SIGTERM
     that follows it after the grace period.
+
+    With ``defer_sigint`` SIGINT is blocked instead, for a child that unblocks it once it handles
+    it (:meth:`~exodigit_nodes.logic.lifetime.StopRequest.install`): a SIGINT that comes while
+    it still imports waits for that. Python's default handler would raise KeyboardInterrupt
+    wherever the child is, and code that runs during imports can swallow it (``Exception
+    ignored in: <function _get_module_lock.<locals>.cb>``): the child then ran on until SIGTERM.
 
     The children run in their own sessions, so neither a terminal hang-up nor a killed
     supervisor would otherwise reach them: on Linux they get SIGINT when ``parent`` dies, even by
@@ -85,6 +91,8 @@ def _child_setup(parent: int) -> Callable[[], None]:
     def hook() -> None:
         signal.signal(signal.SIGINT, signal.SIG_DFL)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+        if defer_sigint:
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         if not stop_with_parent(signal.SIGINT, parent):  # it died before the hook ran
             os._exit(1)
 
@@ -108,6 +116,9 @@ class Child:
         A separate file for its stderr.
     cwd : pathlib.Path or None
         Working directory (default this process's).
+    defer_sigint : bool
+        The command handles SIGINT with a :class:`~exodigit_nodes.logic.lifetime.StopRequest`
+        (every exodigit node and runner): SIGINT is held until it does (:func:`_child_setup`).
 
     Notes
     -----
@@ -123,6 +134,8 @@ class Child:
         log: Path | None = None,
         errors: Path | None = None,
         cwd: Path | None = None,
+        *,
+        defer_sigint: bool = False,
     ) -> None:
         self.name = name
         self.log_path = log
@@ -144,7 +157,7 @@ class Child:
                 stdout=out,
                 stderr=err,
                 start_new_session=True,
-                preexec_fn=_child_setup(os.getpid()),
+                preexec_fn=_child_setup(os.getpid(), defer_sigint=defer_sigint),
             )
         self.pid = self.popen.pid
         """Its process id, also its process group's."""
@@ -229,11 +242,13 @@ class Supervisor:
         self._log_dir = log_dir
         self._children: dict[str, Child] = {}
 
-    def start(self, name: str, argv: Sequence[str]) -> None:
-        """Start ``argv`` as process ``name`` in a new session."""
+    def start(self, name: str, argv: Sequence[str], *, defer_sigint: bool = False) -> None:
+        """Start ``argv`` as process ``name`` in a new session (``defer_sigint``: see Child)."""
         if name in self._children:
             raise ValueError(f'a process named {name!r} was already started')
-        self._children[name] = Child(name, argv, self._env, log=self.log_path(name))
+        self._children[name] = Child(
+            name, argv, self._env, log=self.log_path(name), defer_sigint=defer_sigint
+        )
 
     def log_path(self, name: str) -> Path | None:
         """Where the output of process ``name`` goes (None: the terminal)."""

@@ -166,6 +166,7 @@ class NodeProcess(Child):
             log=workdir / f'{label}.out',
             errors=workdir / f'{label}.err',
             cwd=workdir,
+            defer_sigint=True,
         )
         self.stdout_path = self.log_path
         self.stderr_path = self.errors_path
