@@ -19,6 +19,9 @@ from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
 from exodigit_nodes.nodes.qos import RECORD_QOS
 from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
 
+DRAIN_LIMIT = 10.0
+"""Longest time a monitor takes its backlog after the nodes stopped, s (:meth:`drain`)."""
+
 
 def status_node(status_name: str, namespace: str, nodes) -> str | None:
     """The node of ``nodes`` in ``namespace`` a diagnostic status name belongs to, if any.
@@ -48,6 +51,8 @@ class GloveMonitor(Node):
         a plant step.
     pause_service : str
         The ``set_paused`` service of the glove's simulated time (a hand's is the hand's).
+    **node_options
+        Passed to :class:`rclpy.node.Node` (``context``).
     """
 
     def __init__(
@@ -57,10 +62,13 @@ class GloveMonitor(Node):
         on_sample: Callable[[Sample], None],
         *,
         pause_service: str = SET_PAUSED,
+        **node_options,
     ):
-        super().__init__('glove_monitor', namespace=namespace)
+        super().__init__('glove_monitor', namespace=namespace, **node_options)
         self._signals = signals
         self._on_sample = on_sample
+        self.taken = 0
+        """Messages this monitor has taken so far (signals and /diagnostics)."""
         self._inputs = []
         for topic in SIGNALS:
             if topic == 'joint_states':
@@ -98,6 +106,20 @@ class GloveMonitor(Node):
             for namespace, _, name in names
         )
 
+    def drain(self, spin: Callable[[], None], limit: float = DRAIN_LIMIT) -> None:
+        """Take what our readers still hold, with ``spin`` (one pass of our executor).
+
+        After the nodes stopped: a monitor that fell behind on a loaded machine holds seconds of
+        their last steps (the chambers' zero pressure among them), and nothing more comes. Stops
+        at the first pass that takes nothing, or after ``limit`` s.
+        """
+        deadline = time.monotonic() + limit
+        while time.monotonic() < deadline:
+            taken = self.taken
+            spin()
+            if self.taken == taken:
+                return
+
     def resume_plant(self) -> bool:
         """Ask a plant started paused to run (``set_paused`` false); False if not there yet."""
         if not self._pause_client.service_is_ready():
@@ -116,6 +138,7 @@ class GloveMonitor(Node):
         self._update('joint_states', message.position, info, stamp)
 
     def _update(self, topic: str, values, info: dict, stamp: float | None = None) -> None:
+        self.taken += 1
         values = np.asarray(values, dtype=float)
         if values.shape != (len(JOINT_LABELS),):
             return  # another publisher's malformed message: the nodes report those, not us
@@ -123,6 +146,7 @@ class GloveMonitor(Node):
             self._on_sample(sample)
 
     def _on_diagnostics(self, message: DiagnosticArray) -> None:
+        self.taken += 1
         worst: dict[str, tuple[int, str]] = {}
         for status in message.status:
             node = status_node(status.name, self.get_namespace(), self._signals.health)

@@ -195,6 +195,8 @@ def run_session(session: Session, env: dict) -> int:
         )
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(session.stop_order, idle=spin)
+        for monitor in monitors:
+            monitor.drain(spin)
         for glove, glove_signals in zip(session.gloves, signals, strict=True):
             for sample in glove_signals.flush():  # the nodes are gone: the last step is complete
                 glove.record.write(sample)
