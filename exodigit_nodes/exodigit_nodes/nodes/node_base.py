@@ -27,6 +27,7 @@ from rcl_interfaces.msg import (
     ParameterType,
     SetParametersResult,
 )
+from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -35,6 +36,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from exodigit_model import GloveModel, ParameterError, load_params
 
+from ..logic.backlog import take_backlog
 from ..logic.inputs import InvalidInputError, RejectionTally
 from ..logic.lifetime import StopRequest, stop_with_parent
 from ..logic.parameters import ParamSpec, ParamTable
@@ -44,6 +46,10 @@ from .qos import WRITER_QOS
 
 LOG_THROTTLE = 2.0
 """Shortest time between two repeats of a warning logged from a loop or callback, s."""
+ACK_LIMIT = 2.0
+"""Longest time a stopping process waits for its readers' acknowledgements, s (:func:`deliver`)."""
+POLL_PERIOD = 0.01
+"""How often :func:`deliver` looks at a publisher's matches again, s."""
 DROP_WARNING = 5.0
 """How long after the latest dropped input message the diagnostics stay at WARN, s."""
 
@@ -295,6 +301,7 @@ def serve(
     last_words: Callable[[Node], None],
     duration: float = math.inf,
     refused: tuple[type[Exception], ...] = (ConfigurationError,),
+    taken: Callable[[Node], int] | None = None,
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
 
@@ -304,7 +311,11 @@ def serve(
     SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
     loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C code;
     ``last_words(node)`` then runs for each node, in the order built, while every node still
-    exists. Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (an
+    exists. A node that records (``taken``: how many messages it has taken) first takes what its
+    readers still hold (:func:`..logic.backlog.take_backlog`). Before the nodes are destroyed,
+    each publisher waits until every reader it has matched acknowledged what it sent (at most
+    ``ACK_LIMIT`` s in all): a reader behind on a loaded machine still gets the last steps.
+    Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (an
     exception of ``refused``: one line on stderr, no traceback), 1 when the process that started it
     is gone already. The process stops as on SIGINT when that process dies (:mod:`.lifetime`):
     ``ros2 launch`` killed alone does not leave the nodes running.
@@ -336,6 +347,11 @@ def serve(
         deadline = time.monotonic() + duration
         while not stop.requested and time.monotonic() < deadline:
             main.spin_once(timeout_sec=SPIN_PERIOD)
+        if taken is not None:  # what has arrived; nodes still running may send on meanwhile
+            take_backlog(
+                lambda: main.spin_once(timeout_sec=0.0),
+                lambda: sum(taken(node) for node in nodes),
+            )
     except refused as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
@@ -351,10 +367,39 @@ def serve(
             helper.join()
         for node in nodes:
             last_words(node)
+        deliver(nodes)
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return code
+
+
+def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
+    """Wait until every reader of the nodes' publishers has acknowledged what they sent.
+
+    Every reader the graph lists: one the graph lists but the publisher has not matched yet
+    (discovery is per pair of processes) is waited for too, and then gets the publisher's
+    history (transient-local, :data:`.qos.WRITER_QOS`). At most ``limit`` s in all; nothing
+    after an external shutdown (nothing can be sent then).
+    """
+    deadline = time.monotonic() + limit
+    try:
+        for node in nodes:
+            for publisher in node.publishers:
+                if not node.context.ok():
+                    return
+                listed = node.count_subscribers(publisher.topic_name)
+                while publisher.get_subscription_count() < listed:
+                    if time.monotonic() >= deadline:
+                        return
+                    time.sleep(POLL_PERIOD)
+                left = deadline - time.monotonic()
+                if left <= 0.0:
+                    return
+                publisher.wait_for_all_acked(Duration(seconds=left))
+    except RuntimeError:  # rclpy's RCLError: the code embedding the nodes shut rclpy down
+        if rclpy.ok():
+            raise
 
 
 def _spin_until_shutdown(executor) -> None:

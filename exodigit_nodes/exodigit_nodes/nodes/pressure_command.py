@@ -36,7 +36,6 @@ from exodigit_model.control import (
     Staircase,
 )
 from rclpy.clock import Clock, ClockType
-from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -61,8 +60,6 @@ from .qos import READER_QOS, WRITER_QOS
 
 MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
-ZERO_ACK_TIMEOUT = 0.5
-"""How long the final zero command waits to be acknowledged by subscribers, s."""
 ESTIMATOR_POLL = 0.05
 """Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
 
@@ -321,10 +318,9 @@ class PressureCommand(GloveNode):
         self.publisher.publish(fill(self.command_message, self.sent))
 
     def on_shutdown(self) -> None:
-        """Send zero pressure and wait (briefly) until subscribers have it."""
+        """Send zero pressure; the process then waits until subscribers have it (``deliver``)."""
         self.sent = np.zeros(3)
         self.publisher.publish(fill(self.command_message, self.sent))
-        self.publisher.wait_for_all_acked(Duration(seconds=ZERO_ACK_TIMEOUT))
         self.get_logger().info('stopping: sent zero pressure')
 
     def report(self) -> None:

@@ -10,9 +10,12 @@ for a whole hand), to every glove topic of docs/spec/ros.md (``chamber_pressure`
 ``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
 ``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
 ``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to
-``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive,
-stamped with the node clock (simulated time under ``use_sim_time``), to the bag folder ``DIR``
-with the ``rosbags`` library.
+``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive to the
+bag folder ``DIR`` with the ``rosbags`` library, each stamped with the time it was sent (its DDS
+source timestamp, the system clock) or, under ``use_sim_time``, with the node clock (simulated
+time) when it arrived. Send times keep a plant step's messages together in the bag even when
+they arrived late or in bursts: from a recorder behind on a loaded machine, or as the history a
+publisher keeps for a reader that matched late (docs/spec/ros.md, "QoS").
 The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
 Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
 written); a topic nobody publishes is listed with 0 messages.
@@ -35,7 +38,7 @@ from visualization_msgs.msg import MarkerArray
 
 from . import messages
 from .node_base import ConfigurationError, serve
-from .qos import RECORD_QOS
+from .qos import record_profile
 
 TOPICS = {
     messages.CHAMBER_PRESSURE: Float64MultiArray,
@@ -128,10 +131,11 @@ class Recorder(Node):
     ``gloves``: sub-namespaces of its namespace whose topics it records, each to a bag of its own,
     ``output/<glove>`` (a hand's fingers; ``exodigit plot`` reads one glove a bag); the default
     ``('',)``: the namespace itself, to ``output``. /diagnostics and /clock go to every bag.
+    ``node_options`` go to :class:`rclpy.node.Node` (``context``, ``namespace``).
     """
 
-    def __init__(self, output: Path, gloves: tuple[str, ...] = ('',)) -> None:
-        super().__init__('recorder')
+    def __init__(self, output: Path, gloves: tuple[str, ...] = ('',), **node_options) -> None:
+        super().__init__('recorder', **node_options)
         if gloves != ('',):
             if '' in gloves or len(set(gloves)) != len(gloves):
                 raise RecorderError(f'--gloves {",".join(gloves)}: give distinct names')
@@ -146,12 +150,13 @@ class Recorder(Node):
                 name = f'{glove}/{topic}' if glove and topic not in SHARED else topic
                 routes.setdefault(name, (message_class, []))[1].append(glove)
         self._names = {}
+        self._taken = 0
         for name, (message_class, _) in routes.items():
             subscription = self.create_subscription(
                 message_class,
                 name,
                 self._callback_for(name),
-                RECORD_QOS,
+                record_profile(name),
                 raw=True,
             )
             self._names[name] = subscription.topic_name
@@ -176,9 +181,13 @@ class Recorder(Node):
         """
         heard = False
 
-        def record(data: bytes) -> None:
+        def record(data: bytes, info: dict) -> None:
             nonlocal heard
-            stamp = self.get_clock().now().nanoseconds
+            self._taken += 1
+            clock = self.get_clock()
+            stamp = info['source_timestamp']
+            if clock.ros_time_is_active or not stamp:
+                stamp = clock.now().nanoseconds
             for glove in self._routes[topic]:
                 self.bags[glove].write(self._names[topic], stamp, data)
             if not heard:
@@ -186,6 +195,10 @@ class Recorder(Node):
                 self.get_logger().info(f'first message on {self._names[topic]}')
 
         return record
+
+    def taken(self) -> int:
+        """Messages taken so far (each once, whatever the number of bags it went to)."""
+        return self._taken
 
     def close(self) -> None:
         """Close the bags and log what each holds."""
@@ -248,6 +261,7 @@ def main(args: list[str] | None = None) -> int:
         argv,
         lambda: Recorder(Path(options.output), tuple(options.gloves.split(','))),
         last_words,
+        taken=Recorder.taken,
         duration=options.duration if options.duration > 0 else math.inf,
         refused=(ConfigurationError, RecorderError),
     )

@@ -14,13 +14,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
+from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.logic.inputs import sent_seconds
 from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
-from exodigit_nodes.nodes.qos import RECORD_QOS
+from exodigit_nodes.nodes.qos import RECORD_ANY_QOS, RECORD_QOS
 from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
-
-DRAIN_LIMIT = 10.0
-"""Longest time a monitor takes its backlog after the nodes stopped, s (:meth:`drain`)."""
 
 
 def status_node(status_name: str, namespace: str, nodes) -> str | None:
@@ -78,7 +76,9 @@ class GloveMonitor(Node):
             self._inputs.append(
                 self.create_subscription(message_type, topic, callback, RECORD_QOS)
             )
-        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
+        self.create_subscription(
+            DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_ANY_QOS
+        )
         self._pause_client = self.create_client(SetBool, pause_service)
 
     def connected(self, topics) -> bool:
@@ -92,8 +92,10 @@ class GloveMonitor(Node):
     def listened_by(self, nodes, topics) -> bool:
         """Whether each node of ``nodes`` (``/hand/recorder``) subscribes each of ``topics``.
 
-        Read from the ROS graph: the plant then waits for such a subscriber to be matched before
-        it steps (its ``readers_matched``), so it misses no step.
+        Read from the ROS graph. The plant may not have matched such a subscriber yet when it
+        steps (discovery is per pair of processes): the subscriber then gets those steps from
+        the plant's history when they match (transient-local, :data:`.qos.WRITER_QOS`), and the
+        plant waits for it as it stops (:func:`..nodes.node_base.deliver`).
         """
         names = [node.rpartition('/') for node in nodes]
         return all(
@@ -106,19 +108,13 @@ class GloveMonitor(Node):
             for namespace, _, name in names
         )
 
-    def drain(self, spin: Callable[[], None], limit: float = DRAIN_LIMIT) -> None:
-        """Take what our readers still hold, with ``spin`` (one pass of our executor).
+    def drain(self, spin: Callable[[], None]) -> None:
+        """Take what our readers still hold once the nodes stopped (:func:`.take_backlog`).
 
-        After the nodes stopped: a monitor that fell behind on a loaded machine holds seconds of
-        their last steps (the chambers' zero pressure among them), and nothing more comes. Stops
-        at the first pass that takes nothing, or after ``limit`` s.
+        ``spin`` is one pass of our executor. A monitor that fell behind holds seconds of the
+        nodes' last steps, the chambers' zero pressure among them.
         """
-        deadline = time.monotonic() + limit
-        while time.monotonic() < deadline:
-            taken = self.taken
-            spin()
-            if self.taken == taken:
-                return
+        take_backlog(spin, lambda: self.taken)
 
     def resume_plant(self) -> bool:
         """Ask a plant started paused to run (``set_paused`` false); False if not there yet."""

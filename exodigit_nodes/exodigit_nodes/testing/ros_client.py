@@ -30,7 +30,7 @@ from ..nodes.messages import (
     joint_vector_message,
     set_double_request,
 )
-from ..nodes.qos import RECORD_QOS, WRITER_QOS
+from ..nodes.qos import RECORD_ANY_QOS, RECORD_QOS, WRITER_QOS
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -72,7 +72,7 @@ class GloveClient(Node):
             ),
         ]
         self.command_subscription = self.create_subscription(
-            Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_QOS
+            Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_ANY_QOS
         )
         self.command_message = joint_vector_message()
         self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
