@@ -50,30 +50,41 @@ def test_a_node_stops_when_the_process_that_started_it_is_killed(ros_domain, tmp
 
 
 #: Runs one finger of ``hand_nodes`` in a program that shuts rclpy down itself (as code embedding
-#: the nodes may): half a second after the nodes are built, between callbacks (``timer``), or
-#: inside the plant's first publish, so that the publish finds the context gone (``callback``).
+#: the nodes may): half a second after the nodes are built, between callbacks (``timer``);
+#: inside the plant's first publish, so that the publish finds the context gone (``callback``);
+#: or, after a SIGINT, as the command node starts its last words, so that its zero pressure
+#: finds the context gone (``last words``).
 EMBEDDER = """
-import threading, rclpy
+import os, signal, threading, rclpy
 from exodigit_nodes.nodes import hand_nodes
 from exodigit_nodes.nodes.plant import Plant
+from exodigit_nodes.nodes.pressure_command import PressureCommand
 build = hand_nodes.build_hand
 def build_then_shut_down(*args):
     nodes = build(*args)
     if WHERE == 'timer':
         threading.Timer(0.5, rclpy.shutdown).start()
+    if WHERE == 'last words':
+        threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
     return nodes
 publish_state = Plant.publish_state
 def shut_down_then_publish(self, state, stamp):
     if WHERE == 'callback' and self.cycles > 10:
         rclpy.shutdown()
     publish_state(self, state, stamp)
+on_shutdown = PressureCommand.on_shutdown
+def shut_down_then_say(self):
+    rclpy.shutdown()
+    on_shutdown(self)
 hand_nodes.build_hand = build_then_shut_down
 Plant.publish_state = shut_down_then_publish
+if WHERE == 'last words':
+    PressureCommand.on_shutdown = shut_down_then_say
 raise SystemExit(hand_nodes.main(['--fingers', 'index', '--part', 'gloves']))
 """
 
 
-@pytest.mark.parametrize('where', ['timer', 'callback'])
+@pytest.mark.parametrize('where', ['timer', 'callback', 'last words'])
 def test_nodes_shut_down_by_their_embedder_stop_without_last_words(ros_domain, tmp_path, where):
     # The command node's last words publish zero pressure; with the context gone that raised.
     # A callback that publishes as the context goes raised out of the spin loop.
