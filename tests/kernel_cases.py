@@ -223,16 +223,26 @@ def solve_batch() -> list[np.ndarray]:
     return [array for result in results for array in solution(result)]
 
 
+def held(result) -> list[np.ndarray]:
+    """The arrays of a ``hold`` result (and its status as an array)."""
+    return [result.pressure, result.lengths, np.array(result.status)]
+
+
+def estimated(result) -> list[np.ndarray]:
+    """The arrays of an ``estimate`` result (and its status as an array)."""
+    return [result.forces, result.lengths, np.array(result.status)]
+
+
 @case
 def pressure_for_and_hold() -> list[np.ndarray]:
     named = models()
     return [
         named['default'].pressure_for(ANGLES),
-        *named['default'].hold(ANGLES),
-        *named['patient'].hold(ANGLES, SPEED, EFFORT),
+        *held(named['default'].hold(ANGLES)),
+        *held(named['patient'].hold(ANGLES, SPEED, EFFORT)),
         named['stroke'].pressure_for(ANGLES, -SPEED, EFFORT),
-        *named['extensible'].hold(ANGLES),
-        *named['extensible patient'].hold(ANGLES, SPEED, EFFORT),
+        *held(named['extensible'].hold(ANGLES)),
+        *held(named['extensible patient'].hold(ANGLES, SPEED, EFFORT)),
         named['mixed'].pressure_for(ANGLES, SPEED),
     ]
 
@@ -242,10 +252,10 @@ def estimate() -> list[np.ndarray]:
     named = models()
     return [
         named['default'].estimate_forces(ANGLES, PRESSURE),
-        *named['default'].estimate(ANGLES, PRESSURE),
-        *named['extensible'].estimate(ANGLES, PRESSURE),
+        *estimated(named['default'].estimate(ANGLES, PRESSURE)),
+        *estimated(named['extensible'].estimate(ANGLES, PRESSURE)),
         named['extensible'].estimate_forces(ANGLES, OTHER_PRESSURE),
-        *named['mixed'].estimate(ANGLES, PRESSURE),
+        *estimated(named['mixed'].estimate(ANGLES, PRESSURE)),
     ]
 
 

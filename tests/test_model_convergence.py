@@ -32,9 +32,12 @@ failures the exploration found are pinned by the regressions at the end.
 
 import math
 import re
+import warnings
 
 import numpy as np
 import pytest
+from exodigit_model.solver import MIN_STRETCH
+from exodigit_model.validity import BEYOND_SUPPLY, OUTSIDE_STRETCH
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from model_reference import SEGMENT_LENGTH_KEYS
@@ -43,6 +46,7 @@ from exodigit_model import (
     PATIENT_PRESETS,
     GloveModel,
     GloveSimulation,
+    OutsideModelWarning,
     SimulationSettings,
     load_params,
     params_from_dict,
@@ -260,16 +264,23 @@ def check_every_api(model, p, p_before, force_scale=1.0):
         flags = batch.in_valid_range[row], batch.in_range_of_motion[row]
         assert_flags(model, batch.q[row], batch.lengths[row], *flags)
 
-    pressure, lengths = model.hold(solution.q)  # raises where no strain balances
-    assert_holds(model, solution.q, pressure, lengths)
-    np.testing.assert_array_equal(model.pressure_for(solution.q), pressure)
+    held = model.hold(solution.q)  # raises where no strain balances
+    assert_holds(model, solution.q, held.pressure, held.lengths)
+    assert_flags(model, held.q, held.lengths, held.in_valid_range, held.in_range_of_motion)
+    with warnings.catch_warnings():  # the state may lie outside: the shortcut warns then
+        warnings.simplefilter('ignore', OutsideModelWarning)
+        np.testing.assert_array_equal(model.pressure_for(solution.q), held.pressure)
     if not model.extensible:  # the inverse is unique at constant length (eq 36 for p)
-        np.testing.assert_allclose(pressure, p, rtol=0, atol=1e-9 * SUPPLY)
+        np.testing.assert_allclose(held.pressure, p, rtol=0, atol=1e-9 * SUPPLY)
 
-    forces, lengths = model.estimate(solution.q, p)  # raises where no strain balances
-    assert_same_forces(forces, solution.forces, force_scale)
-    np.testing.assert_allclose(lengths, solution.lengths, rtol=1e-9)
-    np.testing.assert_array_equal(model.estimate_forces(solution.q, p), forces)
+    estimate = model.estimate(solution.q, p)  # raises where no strain balances
+    assert_same_forces(estimate.forces, solution.forces, force_scale)
+    np.testing.assert_allclose(estimate.lengths, solution.lengths, rtol=1e-9)
+    flags = estimate.in_valid_range, estimate.in_range_of_motion
+    assert_flags(model, solution.q, estimate.lengths, *flags)
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', OutsideModelWarning)
+        np.testing.assert_array_equal(model.estimate_forces(solution.q, p), estimate.forces)
 
     settings_ = SimulationSettings(pressure_time_constant=0.0, max_supply_pressure=SUPPLY)
     simulation = GloveSimulation(model, settings_)
@@ -356,14 +367,15 @@ def test_a_scaled_glove_gives_the_same_angles(layers, joints, s, m, p, p_before,
     assert stepped.converged and expected_stepped.converged
     assert_same_angles(stepped.q, expected_stepped.q)
 
-    pressure, lengths = scaled.hold(solution.q)
-    expected_pressure, expected_lengths = reference.hold(expected.q)
-    np.testing.assert_allclose(pressure, m * expected_pressure, rtol=0, atol=1e-9 * m * SUPPLY)
-    np.testing.assert_allclose(lengths, s * expected_lengths, rtol=1e-9)
+    held, expected_held = scaled.hold(solution.q, supply=m * SUPPLY), reference.hold(expected.q)
+    np.testing.assert_allclose(
+        held.pressure, m * expected_held.pressure, rtol=0, atol=1e-9 * m * SUPPLY
+    )
+    np.testing.assert_allclose(held.lengths, s * expected_held.lengths, rtol=1e-9)
 
-    forces, _ = scaled.estimate(solution.q, m * p)
-    expected_forces, _ = reference.estimate(expected.q, p)
-    assert_same_forces(forces, force_scale * expected_forces, force_scale)
+    estimate = scaled.estimate(solution.q, m * p)
+    expected_estimate = reference.estimate(expected.q, p)
+    assert_same_forces(estimate.forces, force_scale * expected_estimate.forces, force_scale)
 
     commands = np.array([p_before, p, p, p])
     run = GloveSimulation(scaled, SimulationSettings(max_supply_pressure=m * SUPPLY)).run(
@@ -447,14 +459,13 @@ def test_the_inverse_of_any_angles_in_the_range_holds_them_or_raises(layers, joi
     low, high = model.range_of_motion
     q = low + np.array(fractions) * (high - low)
     try:
-        pressure, lengths = model.hold(q)
+        held = model.hold(q)
     except ValueError as error:
-        assert str(error).startswith('hold: '), str(
-            error
-        )  # why: test_an_inverse_that_cannot_hold_says_why
+        assert str(error).startswith('hold: '), str(error)  # why: test_an_unholdable_state_...
         return
-    assert np.all(np.isfinite(pressure)) and np.all(np.isfinite(lengths))
-    assert_holds(model, q, pressure, lengths)
+    assert np.all(np.isfinite(held.pressure)) and np.all(np.isfinite(held.lengths))
+    assert_holds(model, q, held.pressure, held.lengths)
+    assert_flags(model, q, held.lengths, held.in_valid_range, held.in_range_of_motion)
 
 
 # -- regressions: what the exploration found -----------------------------------------------------
@@ -477,28 +488,125 @@ def test_the_folded_states_are_model_states(name, layer, p):
     solution = model.solve(p)
     assert_converged(model, solution)
     assert solution.in_valid_range and solution.in_range_of_motion
-    forces, _ = model.estimate(solution.q, p)  # the estimator finds these strains
-    assert_same_forces(forces, solution.forces, 1.0)
+    estimate = model.estimate(solution.q, p)  # the estimator finds these strains
+    assert_same_forces(estimate.forces, solution.forces, 1.0)
 
 
 @pytest.mark.parametrize(('name', 'layer', 'p'), FOLDED_STATES)
 def test_hold_finds_the_strains_of_a_state_the_forward_solve_reaches(name, layer, p):
     model = preset_glove(name, (layer, math.inf, math.inf))
     solution = model.solve(p)
-    pressure, lengths = model.hold(solution.q)
-    assert_holds(model, solution.q, pressure, lengths)
+    held = model.hold(solution.q)
+    assert_holds(model, solution.q, held.pressure, held.lengths)
 
 
-CONDITION = re.compile(r'stretch|range of motion|suction|negative pressure|compress', re.I)
-"""Words that name why the inverse cannot hold angles (the validated stretch, ...)."""
+# -- where the inverse leaves the model, and where it cannot answer ---------------------------
 
 
-def test_an_inverse_that_cannot_hold_says_why():
+def test_the_inverse_flags_a_root_outside_the_validated_model():
+    # Issue 27: with no layer stiffness, holding the DIP at 60 degrees is a true balance but it
+    # stretches the DIP's bottom face about 3.3 times and asks for megapascals; hold said none
+    # of that.
     model = glove((0.0, 0.0, 0.0))
     q = np.radians([10.0, 10.0, 60.0])
-    try:
-        pressure, lengths = model.hold(q)
-    except ValueError as error:
-        assert CONDITION.search(str(error)), str(error)
-    else:
-        assert_holds(model, q, pressure, lengths)
+    held = model.hold(q)
+    assert_holds(model, q, held.pressure, held.lengths)  # a true root, not a solver failure
+    valid, moving = expected_flags(model.params, q, held.lengths)
+    assert not valid and moving  # outside the validated stretch, inside the range of motion
+    assert held.pressure.max() > SUPPLY  # beyond the supply
+    assert not held.in_valid_range and held.in_range_of_motion and not held.within_supply
+    assert held.status == OUTSIDE_STRETCH + BEYOND_SUPPLY, held.message
+    assert 'stretch' in held.message and 'supply' in held.message, held.message
+    with pytest.warns(OutsideModelWarning, match=r'^pressure_for: .*stretch.*supply'):
+        np.testing.assert_array_equal(model.pressure_for(q), held.pressure)
+
+    estimate = model.estimate(q, held.pressure)  # the estimator at that state says as much
+    assert not estimate.in_valid_range and estimate.status == OUTSIDE_STRETCH, estimate.message
+    with pytest.warns(OutsideModelWarning, match=r'^estimate_forces: .*stretch'):
+        model.estimate_forces(q, held.pressure)
+    rows = model.estimate_batch(np.stack([q, np.zeros(3)]), np.stack([held.pressure, np.zeros(3)]))
+    np.testing.assert_array_equal(rows.status, [OUTSIDE_STRETCH, 0])
+    with pytest.warns(OutsideModelWarning, match=r'^estimate_forces_batch: .*stretch'):
+        model.estimate_forces_batch(np.stack([q, np.zeros(3)]), np.stack([held.pressure] * 2))
+
+
+def test_the_inverse_inside_the_model_says_so_and_does_not_warn():
+    model = glove((0.0, math.inf, 100.0))
+    solution = model.solve([30e3, 20e3, 10e3])
+    assert_converged(model, solution)
+    assert expected_flags(model.params, solution.q, solution.lengths) == (True, True)
+    held = model.hold(solution.q)
+    assert held.status == 0 and held.message == 'inside the validated model'
+    with warnings.catch_warnings():
+        warnings.simplefilter('error', OutsideModelWarning)
+        model.pressure_for(solution.q)
+        model.estimate_forces(solution.q, held.pressure)
+
+
+UNHOLDABLE_DIP = -0.5
+"""A DIP angle that no bottom-face strain of an E_L = 0 DIP segment holds, rad: bent backwards
+half a radian (its range of motion starts at 0)."""
+OUT_OF_BALANCE = re.compile(
+    r'^hold: no bottom-face strain balances the segments at q = .* \(the (?P<segment>\w+) '
+    r'segment stopped (?P<left>\S+) N·m out of balance at bottom stretch (?P<bottom>\S+), '
+    r'top (?P<top>\S+): (inside|outside) the validated range'
+)
+"""What hold's ValueError must say: the segment, the balance it was left out by and its
+stretches."""
+
+
+def dip_strain_balance(model, q, strain):
+    """The DIP's strain balance g(ε) of hold, N·m, from the forward residual alone.
+
+    (12.4) and ℓ̂ × (12.5) of the DIP (residual rows 2 and 5) are linear in its pressure: the
+    pressure that zeroes (12.4) at bottom strain ``strain``, put into (12.5), leaves g. A root of
+    g is a state hold must find.
+    """
+    lengths = model.constants.arc_lengths * np.array([1.0, 1.0, 1.0 + strain])
+    vented = model.residual(q, np.zeros(3), lengths=lengths)
+    slope = model.residual(q, np.array([0.0, 0.0, 1.0]), lengths=lengths) - vented  # per Pa
+    pressure = -vented[2] / slope[2]
+    return vented[5] + slope[5] * pressure
+
+
+def test_an_unholdable_state_raises_naming_segment_residual_and_stretches():
+    model = glove((math.inf, math.inf, 0.0))
+    q = np.array([0.0, 0.0, UNHOLDABLE_DIP])
+    # Why no strain holds it: over the material law's whole domain (every fibre stretch >=
+    # MIN_STRETCH, up to a bottom stretch of 100) the balance never changes sign. This fails if
+    # the state ever becomes holdable.
+    per_angle = model.constants.strain_per_angle[2]
+    lowest = max(MIN_STRETCH, MIN_STRETCH - UNHOLDABLE_DIP * per_angle) - 1.0
+    strains = lowest + np.geomspace(1e-9, 100.0, 400)
+    balance = np.array([dip_strain_balance(model, q, strain) for strain in strains])
+    assert np.all(balance < 0.0), strains[balance >= 0.0]
+
+    with pytest.raises(ValueError) as raised:
+        model.hold(q)
+    said = OUT_OF_BALANCE.match(str(raised.value))
+    assert said, str(raised.value)
+    assert said['segment'] == 'dip'
+    bottom, top = float(said['bottom']), float(said['top'])
+    assert top == pytest.approx(
+        bottom + UNHOLDABLE_DIP * dip_height(model) / dip_rest(model), abs=1e-3
+    )
+    left = dip_strain_balance(model, q, bottom - 1.0)  # the residual it names is the balance's
+    assert float(said['left']) == pytest.approx(left, rel=5e-3)
+    with pytest.raises(ValueError, match=r'^hold: .*the dip segment'):
+        model.pressure_for(q)
+
+
+def dip_height(model):
+    """b + h + r0 + t of the DIP segment, m (the top fibre's height, docs/spec/model.md (12.1))."""
+    segment = model.params.exo_digit.segments[2]
+    return (
+        segment.base_thickness
+        + segment.wall_height
+        + segment.inner_radius
+        + segment.wall_thickness
+    )
+
+
+def dip_rest(model):
+    """ℓ̂ of the DIP segment, m."""
+    return model.params.exo_digit.segments[2].arc_length

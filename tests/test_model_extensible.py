@@ -154,16 +154,15 @@ def test_a_stiffening_layer_converges_to_the_constant_length_model():
     assert errors[1] / errors[2] == pytest.approx(100.0, rel=0.1)  # first order in 1/E_L
 
 
-def test_the_specifications_figures_for_the_mcp_module():
-    # docs/spec/model.md §12: 52.6 vs 50.5 mm at E_L = 0; 47.6 vs 46.7 mm at E_L = 100 N (50 kPa,
-    # MCP).
-    for stiffness, on_finger, free in ((0.0, 52.6, 50.5), (100.0, 47.6, 46.7)):
+def test_the_mcp_module_is_longer_on_the_finger_than_free():
+    # The paper's observation (docs/spec/model.md §12), at 50 kPa on the MCP segment; the
+    # lengths the spec prints are pinned in tests/test_docs_figures.py.
+    for stiffness in (0.0, 100.0):
         model = extensible(stiffness, None, None)
         finger = model.solve([50e3, 0.0, 0.0])
         alone = model.solve([50e3, 0.0, 0.0], free=True)
-        assert 1e3 * finger.lengths[0] == pytest.approx(on_finger, abs=0.05)
-        assert 1e3 * alone.lengths[0] == pytest.approx(free, abs=0.05)
-        assert finger.lengths[0] > alone.lengths[0]  # longer on the finger, as the paper saw
+        assert finger.converged and alone.converged
+        assert finger.lengths[0] > alone.lengths[0] > model.constants.arc_lengths[0]
 
 
 @pytest.mark.parametrize('free', [False, True])
@@ -202,13 +201,14 @@ def test_a_batch_equals_single_solves():
 def test_inverse_and_estimator_round_trip(model):
     p = np.array([40e3, 30e3, 20e3])
     solution = model.solve(p)
-    pressure, lengths = model.hold(solution.q)
-    np.testing.assert_allclose(pressure, p, rtol=1e-9)
-    np.testing.assert_allclose(lengths, solution.lengths, atol=LENGTH_TOLERANCE)
-    forces, estimated = model.estimate(solution.q, p)
-    np.testing.assert_allclose(forces, solution.forces, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(estimated, solution.lengths, atol=LENGTH_TOLERANCE)
-    np.testing.assert_allclose(model.estimate_forces_batch([solution.q], [p])[0], forces)
+    held = model.hold(solution.q)
+    np.testing.assert_allclose(held.pressure, p, rtol=1e-9)
+    np.testing.assert_allclose(held.lengths, solution.lengths, atol=LENGTH_TOLERANCE)
+    estimate = model.estimate(solution.q, p)
+    np.testing.assert_allclose(estimate.forces, solution.forces, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(estimate.lengths, solution.lengths, atol=LENGTH_TOLERANCE)
+    batch = model.estimate_forces_batch([solution.q], [p])[0]
+    np.testing.assert_allclose(batch, estimate.forces)
 
 
 def test_the_valid_range_is_judged_over_the_whole_section():

@@ -12,6 +12,7 @@ in time, and the joiner that pairs the samples of a glove's streams by time.
 
 from .chambers import ChamberSettings
 from .identification import StiffnessFit, fit_stiffness
+from .inverse import BatchEstimate, Estimate, Hold
 from .joining import Joined, Joiner, join_indices
 from .model import BatchSolution, GloveModel, GlovePose, Solution
 from .params import (
@@ -30,12 +31,15 @@ from .params import (
     patient_file,
 )
 from .simulation import GloveSimulation, GloveState, SimulationSettings
+from .validity import OutsideModelWarning
 
 __all__ = [
     'JOINT_NAMES',
     'PATIENT_PRESETS',
+    'BatchEstimate',
     'BatchSolution',
     'ChamberSettings',
+    'Estimate',
     'ExoDigit',
     'Finger',
     'FingerJoint',
@@ -44,9 +48,11 @@ __all__ = [
     'GlovePose',
     'GloveSimulation',
     'GloveState',
+    'Hold',
     'Joined',
     'Joiner',
     'Material',
+    'OutsideModelWarning',
     'ParameterError',
     'Segment',
     'SimulationSettings',

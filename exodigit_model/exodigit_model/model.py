@@ -7,8 +7,11 @@ units, joints in the order MCP, PIP, DIP:
 - the patient: :meth:`GloveModel.finger_torque` (τ_H of docs/spec/model.md eq 11.1);
 - forward: :meth:`GloveModel.solve` (eq 36 / 11.4 for q given p, static or stepped in time),
   :meth:`GloveModel.solve_batch`, :meth:`GloveModel.solve_free` (no finger, paper §3.3);
-- inverse: :meth:`GloveModel.pressure_for` (p for desired q, exact);
-- estimation: :meth:`GloveModel.estimate_forces` (robot side, needs no finger model),
+- inverse: :meth:`GloveModel.hold` (p and the bottom-face lengths for desired q, with whether
+  they lie inside the validated model: :class:`.inverse.Hold`), :meth:`GloveModel.pressure_for`;
+- estimation: :meth:`GloveModel.estimate` (robot side, needs no finger model; an
+  :class:`.inverse.Estimate`), :meth:`GloveModel.estimate_batch`,
+  :meth:`GloveModel.estimate_forces`,
   :meth:`GloveModel.estimate_finger_torque`, :meth:`GloveModel.finger_forces` (finger side),
   :meth:`GloveModel.fit_stiffness` (stiffness and rest angle of an effective linear patient).
 """
@@ -22,7 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .chambers import ChamberSettings
 from .identification import StiffnessFit, fit_stiffness
+from .inverse import BatchEstimate, Estimate, Hold
 from .kernels.constants import DEGREE, PIECES, GloveConstants, pack
 from .kernels.inverse import contact_torques, estimate_rows, hold, robot_contact_torques
 from .kernels.kinematics import chord_terms, finger_points, frames
@@ -41,10 +46,18 @@ from .patient import finger_rows
 from .section import SectionQuadrature, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS
 from .structural import torque_tables
+from .validity import (
+    VALID_STRETCH,
+    state_warnings,
+    validity_message,
+    validity_status,
+    warn_outside,
+    within_supply,
+)
 
-VALID_STRETCH = (0.95, 1.5)
-"""Fibre stretches the model is validated for (paper §2.1.3; docs/spec/model.md §12: a bottom face
-slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
+SUPPLY = ChamberSettings.max_supply_pressure
+"""The supply pressure the inverse checks its pressures against by default, Pa (the chambers'
+default ``max_supply_pressure``, docs/spec/model.md §13)."""
 
 
 @dataclass(frozen=True)
@@ -100,21 +113,6 @@ class Solution:
     def warnings(self) -> list[str]:
         """Why this state is not to be trusted as a model result (empty when it is)."""
         return state_warnings(self.converged, self.in_valid_range, self.in_range_of_motion)
-
-
-def state_warnings(converged: bool, in_valid_range: bool, in_range_of_motion: bool) -> list[str]:
-    """One sentence per way a state leaves the model (the tools and nodes say them)."""
-    low, high = VALID_STRETCH
-    messages = []
-    if not converged:
-        messages.append('the solve did not converge')
-    if not in_valid_range:
-        messages.append(
-            f'a fibre stretch is outside the validated range {low:g} <= lambda <= {high:g}'
-        )
-    if not in_range_of_motion:
-        messages.append("a joint is outside the finger's range of motion")
-    return messages
 
 
 @dataclass(frozen=True)
@@ -588,31 +586,80 @@ class GloveModel:
         """Pressures that hold the glove at angles ``q`` on the finger, Pa (eq 11.4 for p).
 
         p = B_R^{-1} ((J_R*)ᵀ (J_H*)^{-T} τ_H(q, q̇, u) − τ_s(q)); exact, no iteration (with
-        extensible segments the bottom strains are solved for too: :meth:`hold`). The result
-        may be negative where holding ``q`` would need suction.
+        extensible segments the bottom strains are solved for too): ``hold(q, qdot,
+        effort).pressure``. The result may be negative where holding ``q`` would need suction.
+
+        Warns
+        -----
+        OutsideModelWarning
+            If the answer leaves the validated model (a fibre stretch, the range of motion or
+            the supply range, :mod:`.validity`); :meth:`hold` says which without warning.
         """
-        return self.hold(q, qdot, effort)[0]
+        held = self.hold(q, qdot, effort)
+        warn_outside('pressure_for', held.status, held.supply)
+        return held.pressure
 
     def hold(
-        self, q: ArrayLike, qdot: ArrayLike | None = None, effort: ArrayLike | None = None
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        self,
+        q: ArrayLike,
+        qdot: ArrayLike | None = None,
+        effort: ArrayLike | None = None,
+        *,
+        supply: float = SUPPLY,
+    ) -> Hold:
         """The inverse: pressures (Pa) and bottom-face lengths ℓ (m) that hold angles ``q``.
 
         Constant-length segments: exact. Extensible ones (docs/spec/model.md §12): (12.4) gives p
         for given strains exactly, and (12.5) with that p is solved for the strains (Newton
         with their analytic Jacobian, :mod:`.kernels.inverse`).
 
+        Parameters
+        ----------
+        q : array_like, shape (3,)
+            Angles to hold, rad.
+        qdot : array_like, shape (3,), optional
+            Joint speeds, rad/s (None: at rest).
+        effort : array_like, shape (3,), optional
+            The patient's voluntary effort u, N·m (None: none).
+        supply : float
+            The supply pressure the answer's pressures are checked against, Pa.
+
+        Returns
+        -------
+        Hold
+            The pressures and lengths, with ``status`` and ``message`` saying whether they lie
+            inside the validated stretch, the range of motion and [0, ``supply``].
+
         Raises
         ------
         ValueError
-            If no bottom-face strain balances the segments (extensible segments only).
+            If no bottom-face strain balances the segments (extensible segments only): the
+            message names the segment left most out of balance, its residual and its stretches.
         """
         angles = as_joint_vector('q', q)
         motion, _ = self._motion(effort=effort, qdot=qdot)
         converged, strain, pressure, left = hold(self.packed, angles, motion)
         if not converged:
             raise ValueError(self._unbalanced('hold', angles, strain, left))
-        return pressure, self.constants.arc_lengths * (1.0 + strain)
+        valid, moving_range = self._validity(angles[None], strain[None])
+        enough = within_supply(pressure, supply)
+        status = validity_status(valid[0], moving_range[0], enough)
+        return Hold(
+            q=angles,
+            pressure=pressure,
+            lengths=self.constants.arc_lengths * (1.0 + strain),
+            status=status,
+            message=validity_message(status, supply),
+            in_valid_range=bool(valid[0]),
+            in_range_of_motion=bool(moving_range[0]),
+            within_supply=enough,
+            supply=supply,
+        )
+
+    def _validity(self, angles: NDArray, strains: NDArray) -> tuple[NDArray, NDArray]:
+        """Per row of angles and bottom strains (N, 3): in_valid_range, in_range_of_motion."""
+        x = np.concatenate([angles, strains], axis=1) if self.extensible else angles
+        return validity_rows(self.packed, np.ascontiguousarray(x), *VALID_STRETCH)
 
     def _unbalanced(self, what: str, q: NDArray, strain: NDArray, left: NDArray) -> str:
         """Why the strain balance of ``what`` failed: the segment left most out of balance."""
@@ -642,17 +689,25 @@ class GloveModel:
         """Robot-side contact forces f = (J_R*)^{-T} (τ_s(q) + B_R p), N (docs/spec/model.md §7).
 
         Needs no finger model: from measured angles and pressures only (with extensible
-        segments the bottom strains are solved for too: :meth:`estimate`).
-        """
-        return self.estimate(q, p)[0]
+        segments the bottom strains are solved for too): ``estimate(q, p).forces``.
 
-    def estimate(
-        self, q: ArrayLike, p: ArrayLike
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        Warns
+        -----
+        OutsideModelWarning
+            If the state leaves the validated model (a fibre stretch or the range of motion);
+            :meth:`estimate` says which without warning.
+        """
+        estimate = self.estimate(q, p)
+        warn_outside('estimate_forces', estimate.status)
+        return estimate.forces
+
+    def estimate(self, q: ArrayLike, p: ArrayLike) -> Estimate:
         """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).
 
         From measured angles and pressures, no finger model: (12.4) gives f for given strains,
-        (12.5) with that f is solved for the strains (docs/spec/model.md §12).
+        (12.5) with that f is solved for the strains (docs/spec/model.md §12). The result's
+        ``status`` and ``message`` say whether the state lies inside the validated stretch and
+        the (nominal) finger's range of motion.
 
         Raises
         ------
@@ -660,21 +715,54 @@ class GloveModel:
             If no bottom-face strain balances the segments (extensible segments only).
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        converged, strains, forces, left = estimate_rows(self.packed, angles[None], pressure[None])
-        if not converged[0]:
-            raise ValueError(self._unbalanced('estimate', angles, strains[0], left[0]))
-        return forces[0], self.constants.arc_lengths * (1.0 + strains[0])
+        rows = self.estimate_batch(angles[None], pressure[None])
+        status = int(rows.status[0])
+        return Estimate(
+            q=angles,
+            pressure=pressure,
+            forces=rows.forces[0],
+            lengths=rows.lengths[0],
+            status=status,
+            message=validity_message(status),
+            in_valid_range=bool(rows.in_valid_range[0]),
+            in_range_of_motion=bool(rows.in_range_of_motion[0]),
+        )
 
-    def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
-        """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N."""
+    def estimate_batch(self, Q: ArrayLike, P: ArrayLike) -> BatchEstimate:
+        """:meth:`estimate` for rows of angles and pressures (N, 3), with per-row masks.
+
+        Raises
+        ------
+        ValueError
+            If no bottom-face strain balances the segments in some row (the first is named).
+        """
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         _require_shape('P', pressure, 'Q', angles.shape)
         converged, strains, forces, left = estimate_rows(self.packed, angles, pressure)
         if not np.all(converged):
             row = int(np.argmin(converged))
             message = self._unbalanced('estimate', angles[row], strains[row], left[row])
-            raise ValueError(f'{message} (row {row})')
-        return forces
+            raise ValueError(message if len(angles) == 1 else f'{message} (row {row})')
+        valid, moving_range = self._validity(angles, strains)
+        return BatchEstimate(
+            forces=forces,
+            lengths=self.constants.arc_lengths * (1.0 + strains),
+            status=validity_status(valid, moving_range),
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
+        )
+
+    def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
+        """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N.
+
+        Warns
+        -----
+        OutsideModelWarning
+            If a row leaves the validated model (:meth:`estimate_batch` says which rows).
+        """
+        rows = self.estimate_batch(Q, P)
+        warn_outside('estimate_forces_batch', int(np.bitwise_or.reduce(rows.status)))
+        return rows.forces
 
     def contact_torque(self, q: ArrayLike, forces: ArrayLike) -> NDArray[np.float64]:
         """(J_H*)ᵀ f: the joint torque contact forces f (N) apply to the finger, N·m (eq 34).
