@@ -1,4 +1,4 @@
-"""The estimator's bookkeeping: pairing angles with pressures, and a sliding identification window.
+"""The estimator's bookkeeping: pairing, an identification window, estimates outside the model.
 
 Angles (``joint_states``) and pressures (``chamber_pressure``) are paired by the times they were
 sent, with the rule of :mod:`exodigit_model.joining`: each pressure leads, and pairs with the
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from exodigit_model import Joined, Joiner, StiffnessFit, fit_stiffness
+from exodigit_model import Estimate, Joined, Joiner, StiffnessFit, fit_stiffness
 
 ANGLES = 'joint_states'
 PRESSURE = 'chamber_pressure'
@@ -140,3 +140,42 @@ class StiffnessWindow:
             If the window is empty or a joint never moved in it.
         """
         return fit_stiffness(self._angles[: self.count], self._torque[: self.count])
+
+
+class ValidityTally:
+    """Estimates outside the validated model, for the estimator's /diagnostics.
+
+    The robot-side estimate of a state outside the validated fibre stretch or the nominal
+    finger's range of motion (:mod:`exodigit_model.validity`) is still published, but it is an
+    extrapolation: each report since which one came is a WARN that says how many and why.
+    """
+
+    def __init__(self) -> None:
+        self.outside = 0
+        """Estimates outside the model since the node started."""
+        self.new_outside = 0
+        """Of those, how many since the last report."""
+        self.latest = ''
+        """The latest such estimate's message (empty before any)."""
+
+    def add(self, estimate: Estimate) -> None:
+        """Count ``estimate`` if it lies outside the validated model."""
+        if estimate.status != 0:
+            self.outside += 1
+            self.new_outside += 1
+            self.latest = estimate.message
+
+    def report(self) -> tuple[list[str], dict[str, str]]:
+        """The problems since the last report (a WARN when any) and the values to show.
+
+        Starts the next period: an estimate back inside the model ends the warning at the next
+        report.
+        """
+        problems = []
+        if self.new_outside:
+            problems.append(
+                f'{self.new_outside} estimates outside the validated model since the last '
+                f'report (latest: {self.latest})'
+            )
+        self.new_outside = 0
+        return problems, {'estimates outside the model': str(self.outside)}
