@@ -119,6 +119,10 @@ class Child:
     defer_sigint : bool
         The command handles SIGINT with a :class:`~exodigit_nodes.logic.lifetime.StopRequest`
         (every exodigit node and runner): SIGINT is held until it does (:func:`_child_setup`).
+    pipes : bool
+        Its standard input and output are pipes to this process (``popen.stdin``,
+        ``popen.stdout``), for a child that is sent work and answers (a trial's worker); its
+        stderr still goes to ``errors`` or ``log``. Otherwise its standard input is empty.
 
     Notes
     -----
@@ -136,6 +140,7 @@ class Child:
         cwd: Path | None = None,
         *,
         defer_sigint: bool = False,
+        pipes: bool = False,
     ) -> None:
         self.name = name
         self.log_path = log
@@ -149,11 +154,13 @@ class Child:
             if errors is not None:
                 errors.parent.mkdir(parents=True, exist_ok=True)
                 err = files.enter_context(open(errors, 'wb'))
+            if pipes:
+                out, err = subprocess.PIPE, out if err is subprocess.STDOUT else err
             self.popen = subprocess.Popen(
                 list(argv),
                 cwd=cwd,
                 env=dict(env),
-                stdin=subprocess.DEVNULL,
+                stdin=subprocess.PIPE if pipes else subprocess.DEVNULL,
                 stdout=out,
                 stderr=err,
                 start_new_session=True,

@@ -14,8 +14,6 @@ from __future__ import annotations
 import contextlib
 import os
 import pickle
-import signal
-import subprocess
 import sys
 import time
 from collections.abc import Mapping
@@ -24,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..logic.lifetime import stop_with_parent
+from ..runner.supervisor import Child
 from .client import GloveSimError
 from .target_run import TargetGloveSim, TargetRecord
 
@@ -100,26 +98,28 @@ def run_patient(job: PatientJob) -> PatientRun:
 
 
 class Worker:
-    """A worker process that runs :func:`run_patient` for the jobs it is sent, one at a time."""
+    """A worker process that runs :func:`run_patient` for the jobs it is sent, one at a time.
+
+    A :class:`~exodigit_nodes.runner.supervisor.Child`: a session of its own (Ctrl-C reaches
+    the engine, which stops the workers), SIGINT if the engine dies, SIGINT-SIGTERM-SIGKILL to
+    stop.
+    """
 
     def __init__(self) -> None:
-        self.process = subprocess.Popen(
-            [sys.executable, '-m', __name__],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            start_new_session=True,  # Ctrl-C reaches the engine, which stops the workers
-            preexec_fn=lambda: stop_with_parent(signal.SIGTERM),
+        self.child = Child(
+            'trial worker', [sys.executable, '-m', __name__], os.environ, pipes=True
         )
 
     def run(self, job: PatientJob) -> PatientRun:
         """``run_patient(job)`` in the worker; a worker that dies is ``status`` 1."""
         started = time.monotonic()
+        process = self.child.popen
         try:
-            pickle.dump(job, self.process.stdin)
-            self.process.stdin.flush()
-            return pickle.load(self.process.stdout)
+            pickle.dump(job, process.stdin)
+            process.stdin.flush()
+            return pickle.load(process.stdout)
         except (OSError, EOFError, pickle.UnpicklingError):
-            code = self.process.wait()
+            code = self.child.wait()
             return PatientRun(
                 job.patient,
                 1,
@@ -130,27 +130,16 @@ class Worker:
             )
 
     def close(self, *, at_once: bool = False) -> None:
-        """End the worker: no more jobs, then SIGINT (it stops its glove), then SIGKILL.
+        """End the worker: no more jobs, then SIGINT (it stops its glove), SIGTERM, SIGKILL.
 
         Without more jobs it exits after the current one; SIGINT comes after
         :data:`WORKER_STOP`, or at once with ``at_once``.
         """
         with contextlib.suppress(OSError):
-            self.process.stdin.close()
-        if not at_once and self._ended():
-            return
-        for signum in (signal.SIGINT, signal.SIGKILL):
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.process.pid, signum)
-            if self._ended():
-                return
-
-    def _ended(self) -> bool:
-        try:
-            self.process.wait(WORKER_STOP)
-        except subprocess.TimeoutExpired:
-            return False
-        return True
+            self.child.popen.stdin.close()
+        if at_once or self.child.wait(WORKER_STOP) is None:
+            self.child.stop(grace=WORKER_STOP)
+        self.child.popen.stdout.close()
 
 
 def worker_main() -> None:
