@@ -595,9 +595,11 @@ class GloveModel:
             If the answer leaves the validated model (a fibre stretch, the range of motion or
             the supply range, :mod:`.validity`); :meth:`hold` says which without warning.
         """
-        held = self.hold(q, qdot, effort)
-        warn_outside('pressure_for', held.status, held.supply)
-        return held.pressure
+        _, pressure, _, valid, moving_range, enough = self._held(q, qdot, effort, SUPPLY)
+        if not (valid and moving_range and enough):  # the status only then: a hot path
+            status = validity_status(valid, moving_range, enough)
+            warn_outside('pressure_for', status, SUPPLY)
+        return pressure
 
     def hold(
         self,
@@ -636,6 +638,22 @@ class GloveModel:
             If no bottom-face strain balances the segments (extensible segments only): the
             message names the segment left most out of balance, its residual and its stretches.
         """
+        angles, pressure, strain, valid, moving_range, enough = self._held(q, qdot, effort, supply)
+        status = validity_status(valid, moving_range, enough)
+        return Hold(
+            q=angles,
+            pressure=pressure,
+            lengths=self.constants.arc_lengths * (1.0 + strain),
+            status=status,
+            message=validity_message(status, supply),
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
+            within_supply=enough,
+            supply=supply,
+        )
+
+    def _held(self, q, qdot, effort, supply: float) -> tuple:
+        """Angles, pressures, bottom strains and the three validity flags of :meth:`hold`."""
         angles = as_joint_vector('q', q)
         motion, _ = self._motion(effort=effort, qdot=qdot)
         converged, strain, pressure, left = hold(self.packed, angles, motion)
@@ -643,18 +661,7 @@ class GloveModel:
             raise ValueError(self._unbalanced('hold', angles, strain, left))
         valid, moving_range = self._validity(angles[None], strain[None])
         enough = within_supply(pressure, supply)
-        status = validity_status(valid[0], moving_range[0], enough)
-        return Hold(
-            q=angles,
-            pressure=pressure,
-            lengths=self.constants.arc_lengths * (1.0 + strain),
-            status=status,
-            message=validity_message(status, supply),
-            in_valid_range=bool(valid[0]),
-            in_range_of_motion=bool(moving_range[0]),
-            within_supply=enough,
-            supply=supply,
-        )
+        return angles, pressure, strain, bool(valid[0]), bool(moving_range[0]), enough
 
     def _validity(self, angles: NDArray, strains: NDArray) -> tuple[NDArray, NDArray]:
         """Per row of angles and bottom strains (N, 3): in_valid_range, in_range_of_motion."""
@@ -697,9 +704,11 @@ class GloveModel:
             If the state leaves the validated model (a fibre stretch or the range of motion);
             :meth:`estimate` says which without warning.
         """
-        estimate = self.estimate(q, p)
-        warn_outside('estimate_forces', estimate.status)
-        return estimate.forces
+        angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
+        forces, _, valid, moving_range = self._estimated(angles[None], pressure[None])
+        if not (valid[0] and moving_range[0]):  # the status only then: this is the hot path
+            warn_outside('estimate_forces', validity_status(bool(valid[0]), bool(moving_range[0])))
+        return forces[0]
 
     def estimate(self, q: ArrayLike, p: ArrayLike) -> Estimate:
         """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).
@@ -715,17 +724,17 @@ class GloveModel:
             If no bottom-face strain balances the segments (extensible segments only).
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        rows = self.estimate_batch(angles[None], pressure[None])
-        status = int(rows.status[0])
+        forces, strains, valid, moving_range = self._estimated(angles[None], pressure[None])
+        status = validity_status(bool(valid[0]), bool(moving_range[0]))
         return Estimate(
             q=angles,
             pressure=pressure,
-            forces=rows.forces[0],
-            lengths=rows.lengths[0],
+            forces=forces[0],
+            lengths=self.constants.arc_lengths * (1.0 + strains[0]),
             status=status,
             message=validity_message(status),
-            in_valid_range=bool(rows.in_valid_range[0]),
-            in_range_of_motion=bool(rows.in_range_of_motion[0]),
+            in_valid_range=bool(valid[0]),
+            in_range_of_motion=bool(moving_range[0]),
         )
 
     def estimate_batch(self, Q: ArrayLike, P: ArrayLike) -> BatchEstimate:
@@ -738,12 +747,7 @@ class GloveModel:
         """
         angles, pressure = as_joint_rows('Q', Q), as_joint_rows('P', P)
         _require_shape('P', pressure, 'Q', angles.shape)
-        converged, strains, forces, left = estimate_rows(self.packed, angles, pressure)
-        if not np.all(converged):
-            row = int(np.argmin(converged))
-            message = self._unbalanced('estimate', angles[row], strains[row], left[row])
-            raise ValueError(message if len(angles) == 1 else f'{message} (row {row})')
-        valid, moving_range = self._validity(angles, strains)
+        forces, strains, valid, moving_range = self._estimated(angles, pressure)
         return BatchEstimate(
             forces=forces,
             lengths=self.constants.arc_lengths * (1.0 + strains),
@@ -751,6 +755,18 @@ class GloveModel:
             in_valid_range=valid,
             in_range_of_motion=moving_range,
         )
+
+    def _estimated(self, angles: NDArray, pressure: NDArray) -> tuple[NDArray, ...]:
+        """Forces, bottom strains and the two validity masks of checked rows (N, 3).
+
+        ValueError where no bottom-face strain balances the segments (the first row named).
+        """
+        converged, strains, forces, left = estimate_rows(self.packed, angles, pressure)
+        if not converged.all():
+            row = int(np.argmin(converged))
+            message = self._unbalanced('estimate', angles[row], strains[row], left[row])
+            raise ValueError(message if len(angles) == 1 else f'{message} (row {row})')
+        return (forces, strains, *self._validity(angles, strains))
 
     def estimate_forces_batch(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
         """:meth:`estimate_forces` for rows of angles and pressures, shape (N, 3), N.

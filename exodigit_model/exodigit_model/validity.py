@@ -19,6 +19,7 @@ sentences :func:`state_warnings` gives for a forward solve.
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -66,12 +67,19 @@ def validity_status(
 
     One answer (bools: an int) or one per row (arrays of bools: an int array).
     """
+    flags = (in_valid_range, in_range_of_motion, within_supply)
+    if not any(isinstance(flag, np.ndarray) for flag in flags):  # one answer (the hot path)
+        return (
+            OUTSIDE_STRETCH * (not in_valid_range)
+            + OUTSIDE_RANGE_OF_MOTION * (not in_range_of_motion)
+            + BEYOND_SUPPLY * (not within_supply)
+        )
     status = (
         OUTSIDE_STRETCH * np.logical_not(in_valid_range)
         + OUTSIDE_RANGE_OF_MOTION * np.logical_not(in_range_of_motion)
         + BEYOND_SUPPLY * np.logical_not(within_supply)
     )
-    return int(status) if np.ndim(status) == 0 else status
+    return status
 
 
 def validity_message(status: int, supply: float | None = None) -> str:
@@ -107,11 +115,13 @@ def within_supply(pressure: NDArray[np.float64], supply: float) -> bool | NDArra
     ValueError
         If ``supply`` is not a finite number > 0.
     """
-    if not (isinstance(supply, int | float) and np.isfinite(supply) and supply > 0.0):
+    if not (isinstance(supply, int | float) and math.isfinite(supply) and supply > 0.0):
         raise ValueError(f'supply = {supply!r}: must be a finite pressure > 0 Pa')
     margin = SUPPLY_ROUNDING * supply
-    inside = (pressure >= -margin) & (pressure <= supply + margin)
-    return bool(inside.all()) if pressure.ndim == 1 else inside.all(axis=1)
+    if pressure.ndim == 1:  # one state (the hot path): plain floats beat ufuncs on three
+        values = pressure.tolist()
+        return min(values) >= -margin and max(values) <= supply + margin
+    return ((pressure >= -margin) & (pressure <= supply + margin)).all(axis=1)
 
 
 def warn_outside(what: str, status: int, supply: float | None = None) -> None:
