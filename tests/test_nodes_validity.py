@@ -1,7 +1,10 @@
 """The estimator's tally of estimates outside the validated model (its /diagnostics WARN)."""
 
 import numpy as np
-from exodigit_nodes.logic.estimation import ValidityTally
+from diagnostic_msgs.msg import DiagnosticStatus
+from exodigit_nodes.logic.estimation import Pair, ValidityTally
+from exodigit_nodes.nodes.estimator import Estimator
+from reliability_inprocess import InProcessNode
 
 from exodigit_model import GloveModel
 
@@ -31,3 +34,24 @@ def test_an_estimate_outside_the_model_warns_until_a_report_has_said_so():
     assert "a joint is outside the finger's range of motion" in problems[0]
     assert values == {'estimates outside the model': '2'}
     assert tally.report() == ([], {'estimates outside the model': '2'})  # said once
+
+
+def test_the_estimator_node_publishes_an_estimate_outside_the_model_and_warns_once(probe):
+    inside, outside = inside_and_outside()
+    made = InProcessNode(Estimator, {}, probe)
+    try:
+        for estimate in (inside, outside):
+            made.node.publish_estimate(Pair(estimate.q, estimate.pressure))
+        made.node.report()
+        made.node.report()  # nothing outside since the last report
+        forces = [message.data for message in made.published['estimated_contact_forces']]
+        np.testing.assert_allclose(forces, [inside.forces, outside.forces], rtol=1e-12)
+        first, second = (m.status[0] for m in made.published['/diagnostics'])
+        assert first.level == DiagnosticStatus.WARN
+        assert '1 estimates outside the validated model' in first.message
+        assert "a joint is outside the finger's range of motion" in first.message
+        assert second.level == DiagnosticStatus.OK
+        values = {kv.key: kv.value for kv in second.values}
+        assert values['estimates outside the model'] == '1'
+    finally:
+        made.close()

@@ -20,7 +20,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ..logic.estimation import Pair, SamplePairer, StiffnessWindow
+from ..logic.estimation import Pair, SamplePairer, StiffnessWindow, ValidityTally
 from ..logic.inputs import (
     InvalidInputError,
     joint_positions,
@@ -60,6 +60,7 @@ class Estimator(GloveNode):
         self.pairer = SamplePairer(self.values['pairing_tolerance'])
         self.window = StiffnessWindow(self.values['identification_window'])
         self.pairs = 0
+        self.validity = ValidityTally()
         self.forces = np.zeros(3)
         self.fit = None
         self.fit_problem = 'no identification yet'
@@ -134,13 +135,18 @@ class Estimator(GloveNode):
 
     def publish_estimate(self, pair: Pair) -> None:
         """Publish the forces (N) and finger torque (N·m) of a pair; keep it to identify."""
-        forces = self.model.estimate_forces(pair.angles, pair.pressure)
+        try:
+            estimate = self.model.estimate(pair.angles, pair.pressure)
+        except ValueError as error:  # extensible segments: no bottom strain balances them
+            raise InvalidInputError('no estimate', str(error)) from None
+        forces = estimate.forces
         torque = self.model.contact_torque(pair.angles, forces)
         if not (np.isfinite(forces).all() and np.isfinite(torque).all()):
             raise InvalidInputError(
                 'non-finite result', f'no finite force estimate at q={pair.angles.tolist()}'
             )
         self.pairs += 1
+        self.validity.add(estimate)
         self.forces = forces
         self.force_publisher.publish(fill(self.force_message, forces))
         self.torque_publisher.publish(fill(self.torque_message, torque))
@@ -163,12 +169,17 @@ class Estimator(GloveNode):
         self.rest_publisher.publish(fill(self.rest_message, fit.rest_angle))
 
     def report(self) -> None:
-        """One /diagnostics status: pairs made, latest forces, identified stiffness."""
+        """One /diagnostics status: pairs made, latest forces, identified stiffness.
+
+        WARN while estimates leave the validated model (:class:`.ValidityTally`).
+        """
+        problems, validity = self.validity.report()
         values = {
             'pairs estimated': str(self.pairs),
             'estimated contact forces (N)': str(self.forces.tolist()),
             'window samples': str(self.window.count),
             'unpaired samples': str(self.pairer.unpaired),
+            **validity,
         }
         if self.fit is not None:
             values['finger stiffness (N·m/rad)'] = str(self.fit.stiffness.tolist())
@@ -178,8 +189,9 @@ class Estimator(GloveNode):
                 self.fit.rest_angle_standard_error.tolist()
             )
             values['fit RMSE (N·m)'] = str(self.fit.rmse.tolist())
-        text = 'running' if not self.fit_problem else f'running; K_H: {self.fit_problem}'
-        self.publish_status(DiagnosticStatus.OK, text, values)
+        level = DiagnosticStatus.WARN if problems else DiagnosticStatus.OK
+        notes = [*problems, f'K_H: {self.fit_problem}'] if self.fit_problem else problems
+        self.publish_status(level, '; '.join(['running', *notes]), values)
 
 
 def main(args: list[str] | None = None) -> int:
