@@ -144,7 +144,7 @@ def test_every_finger_is_estimated_once_per_step(session):
         assert len(messages[f'{finger}/estimated_contact_forces']) == STEPS
 
 
-def test_a_time_setting_set_on_one_finger_is_not_undone_by_another(session):
+def test_a_time_setting_set_on_one_finger_is_the_whole_hands(session):
     # The fingers share one simulated time: a finger whose own time setting changes must not
     # push its stale copies of the others (real_time_factor 2 set on one finger, then the
     # lockstep timeout on another, used to put the factor back to 0).
@@ -165,6 +165,9 @@ def test_a_time_setting_set_on_one_finger_is_not_undone_by_another(session):
     report = diagnostics.wait_for(lambda m: factor_set(m) is not None, TIMEOUT, since)
     assert report is not None, 'no simulation report from the second finger'
     assert factor_set(report) == '2'
+    # and every finger's parameters say what the hand's time is, whichever finger was told
+    for plant in (first, second):
+        assert probe.get_parameters(plant, ['real_time_factor', 'lockstep_timeout']) == [2.0, 3.0]
 
 
 def hand_config():

@@ -31,6 +31,7 @@ from array import array
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
@@ -183,9 +184,21 @@ class Plant(GloveNode):
             name: getattr(settings.time, name) for name in changed & TIME_SETTING_NAMES
         }
         if self.time is not None and time_changes:
-            # Only what changed: the time may be a hand's, shared with other fingers' plants
-            # whose own copies of the other settings are not this one's.
+            # Only what changed: the time may be a hand's, shared with other fingers' plants.
             self.time.configure(**time_changes)
+            for member in self.time.members:  # they show the hand's time settings too
+                if member is not self:
+                    member.follow_time(time_changes)
+
+    def follow_time(self, changes: dict) -> None:
+        """Take time settings another plant of our shared (a hand's) time was set to.
+
+        Our parameters then say what the time does, whichever finger was told; setting them
+        applies nothing new (the time has the values already), so nothing goes round.
+        """
+        stale = {name: value for name, value in changes.items() if self.values[name] != value}
+        if stale:
+            self.set_parameters([Parameter(name, value=value) for name, value in stale.items()])
 
     # -- inputs ----------------------------------------------------------------------------
 

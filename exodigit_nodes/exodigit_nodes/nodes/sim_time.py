@@ -74,6 +74,9 @@ class Member(Protocol):
     def get_logger(self):
         """The member's rclpy logger."""
 
+    def follow_time(self, changes: dict) -> None:
+        """Show time settings another member was set to (name: value) as its own."""
+
 
 class SimulatedTime:
     """The simulated clock of its members, served by the node ``owner``.
