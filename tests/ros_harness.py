@@ -14,9 +14,6 @@ Used by every test that needs ROS (tests/conftest.py gives fixtures around it). 
   topics (:class:`Inbox`), publish, call services, set and get other nodes' parameters
   (rcl_interfaces SetParameters/GetParameters), list topics. Its context is the only one the
   test process opens (:meth:`RosProbe.local_node` gives in-process tests their nodes).
-* :meth:`RosProbe.hold` keeps a plant in simulated time within a few steps of what the probe has
-  received (as the runners do, :mod:`exodigit_nodes.runner.horizon`), so a test that counts every
-  step of a plant at real-time factor 0 loses none to a reader held back for a heartbeat.
 * :func:`wait_until` polls a condition with a timeout: tests never sleep a fixed time.
 
 Example::
@@ -42,7 +39,7 @@ from typing import Any
 
 import rclpy
 from exodigit_nodes.nodes.dds import use_profile
-from exodigit_nodes.runner.horizon import Horizon, RepeatedCall
+from exodigit_nodes.runner.horizon import RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
     DomainLease,
@@ -286,18 +283,6 @@ class RosProbe:
     def services(self) -> dict[str, list[str]]:
         """Every service seen on the graph and its types."""
         return dict(self.node.get_service_names_and_types())
-
-    def hold(self, plant: str, *, period: float, end: float = 0.0) -> Horizon:
-        """A :class:`~exodigit_nodes.runner.horizon.Horizon` on ``plant`` (fully qualified name).
-
-        Call its ``ready()`` until True before the plant runs, then ``follow(t)`` with the newest
-        stamp t (s) up to which every inbox the test counts has received each step; ``end`` is the
-        simulated time it never holds the plant past (0 = open).
-        """
-        with self._lock:
-            horizon = Horizon(self.node, plant, period=period)
-        horizon.start(end)
-        return horizon
 
     # services and parameters
 
