@@ -3,6 +3,7 @@
 import os
 
 import pytest
+import rclpy
 from ros_harness import NodeLauncher, RosProbe, claim_domain
 
 # Nothing this test session starts may multicast discovery on the network interface.
@@ -32,3 +33,12 @@ def launcher(ros_domain, tmp_path_factory):
     nodes = NodeLauncher(ros_domain, tmp_path_factory.mktemp('nodes'))
     yield nodes
     nodes.stop_all()
+
+
+@pytest.fixture
+def ros_context(ros_domain):
+    """An rclpy context of its own in the session's domain, for nodes a test builds in process."""
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=ros_domain)
+    yield context
+    rclpy.try_shutdown(context=context)
