@@ -142,6 +142,7 @@ def profile(spec: TrialSpec, steps: int) -> None:
             pressure=state.pressure,
             limited=limiter_acted(controller, count),
             solver_warning=~state.converged,
+            outside_model=~(state.in_valid_range & state.in_range_of_motion),
         )
         end = time.process_time()
         spent['controller'] += middle - start

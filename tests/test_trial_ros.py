@@ -23,7 +23,7 @@ ROUNDING = 1e-9
 """Relative (and absolute, in the metric's unit) agreement of the kit's metrics with the
 in-process trial's: six orders above the rounding measured, far below what one step's stale
 target would change (about 1e-4 rad of tracking RMSE)."""
-NOT_REPORTED = ('limiter_steps', 'solver_warning_steps')
+NOT_REPORTED = ('limiter_steps', 'solver_warning_steps', 'outside_model_steps')
 """What a ROS node and the plant's topics do not say: 0 in a kit trial."""
 NODE = [sys.executable, '-m', 'exodigit_nodes.nodes.pressure_command']
 

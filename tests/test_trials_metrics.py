@@ -72,6 +72,7 @@ PRESSURE = np.array(
 )
 LIMITED = np.array([[False, False], [True, False], [True, False], [False, False]])
 WARNING = np.array([[False, True], [False, False], [False, False], [False, True]])
+OUTSIDE = np.array([[True, False], [True, False], [False, False], [True, True]])
 
 EXPECTED = {
     # max − min of q: p0 MCP 0.4 − 0, PIP 0, DIP 1 − 0; p1 MCP 0.9 − 0.3, PIP 0.1 − (−0.1), DIP 0
@@ -106,6 +107,8 @@ EXPECTED = {
     # steps the limiter acted: p0 2, p1 0; steps without convergence: p0 0, p1 2
     'limiter_steps': [2.0, 0.0],
     'solver_warning_steps': [0.0, 2.0],
+    # steps outside the validated model: p0 steps 1, 2, 4; p1 step 4
+    'outside_model_steps': [3.0, 1.0],
 }
 
 
@@ -118,6 +121,7 @@ def record_steps(steps):
         'pressure': PRESSURE[steps],
         'limited': LIMITED[steps],
         'solver_warning': WARNING[steps],
+        'outside_model': OUTSIDE[steps],
     }
 
 
@@ -169,7 +173,7 @@ def test_a_force_exactly_at_the_limit_is_not_over_it_and_one_just_above_is():
     at = MetricAccumulator(1, MetricSettings(rate_hz=RATE, force_limit=LIMIT))
     above = MetricAccumulator(1, MetricSettings(rate_hz=RATE, force_limit=LIMIT))
     step = {'q': np.zeros((1, 3)), 'target': np.zeros(3), 'pressure': np.zeros((1, 3))}
-    flags = {'limited': False, 'solver_warning': False}
+    flags = {'limited': False, 'solver_warning': False, 'outside_model': False}
     at.update(forces=np.array([[0.0, -LIMIT, LIMIT]]), **step, **flags)
     above.update(forces=np.array([[0.0, np.nextafter(-LIMIT, -np.inf), 0.0]]), **step, **flags)
     assert at.result().values['time_over_force_s'][0] == 0.0
@@ -254,6 +258,7 @@ def test_a_finger_covering_the_functional_range_scores_one_and_a_still_one_zero(
             pressure=np.zeros((2, 3)),
             limited=False,
             solver_warning=False,
+            outside_model=False,
         )
     fraction = accumulator.result().values['functional_rom_fraction']
     np.testing.assert_array_equal(fraction, [[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
@@ -343,6 +348,7 @@ def test_patients_of_shards_concatenate_to_the_whole_trial():
         ({'limited': np.zeros(2)}, 'limited must be bool'),
         ({'limited': np.zeros(3, bool)}, r'limited must have shape \(2,\)'),
         ({'solver_warning': np.zeros((2, 2), bool)}, 'solver_warning must have shape'),
+        ({'outside_model': np.zeros(2, int)}, 'outside_model must be bool'),
         (
             {'q': np.array([[0.0, 0.0, 0.0], [0.0, np.nan, 0.0]])},
             'q is not finite: nan at step 0 of the update, patient 1, pip',
@@ -410,6 +416,7 @@ def metrics_with_peak_forces(values):
         pressure=np.zeros((len(values), 3)),
         limited=False,
         solver_warning=False,
+        outside_model=False,
     )
     return accumulator.result()
 

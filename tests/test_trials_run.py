@@ -76,6 +76,7 @@ def test_a_population_of_one_is_a_direct_simulation_bit_for_bit():
             pressure=state.pressure,
             limited=controller.last.acted.any(axis=1),
             solver_warning=~state.converged,
+            outside_model=~(state.in_valid_range & state.in_range_of_motion),
         )
         angles.append(state.q[0])
     assert_same(result.metrics, metrics.result())
@@ -130,6 +131,60 @@ def test_full_supply_fails_a_force_rule_a_gentle_controller_passes(factory, stat
     if status:
         worst = int(np.argmax(result.metrics.column('peak_force_n')))
         assert result.worst_patient() == result.rules[0].worst_patient == worst
+
+
+# Fingers that differ only in how far the MCP may flex (rom_max, rad); no stop torque, so a
+# glove that flexes the MCP past it goes on (the defaults of default_params.yaml otherwise).
+LOW_MCP_RANGE = """
+joints:
+  - {rom_max: {kind: uniform, low: 0.1, high: 0.8}, rom_torque: 0.0}
+  - {}
+  - {}
+"""
+
+
+@pytest.mark.parametrize(
+    ('population', 'pressure', 'way_out'),
+    [
+        ('low_mcp_range', 5e3, None),  # the MCP flexes about 0.05 rad in the 0.4 s
+        ('low_mcp_range', 50e3, 'range of motion'),  # about 0.55 rad
+        ('stroke_severe', 100e3, 'stretch'),  # flexed fingers flexed on: top fibres past 1.5
+    ],
+)
+def test_steps_outside_the_model_are_counted_from_each_patients_angles(
+    population, pressure, way_out, tmp_path
+):
+    if population == 'low_mcp_range':
+        path = tmp_path / 'low_mcp_range.yaml'
+        path.write_text(LOW_MCP_RANGE)
+        population = str(path)
+    controller = ControllerSpec(
+        'controller', 'trial_controllers:full_supply', {'pressure': pressure}
+    )
+    trial = spec(population=population, controller=controller)
+    result = run_trial(trial)
+    # Independent of the stepper's flags: each recorded step's angles against the patient's
+    # range of motion, and the fibre stretches of those angles (12.1) against the validated
+    # range; the default glove is inextensible, so the stretches follow from q alone.
+    glove = trial.glove_params()
+    assert not any(segment.extensible for segment in glove.exo_digit.segments)
+    model = GloveModel(glove)
+    low, high = (result.patients.arrays[key] for key in ('rom_min', 'rom_max'))
+    ways = {'stretch': [], 'range of motion': []}
+    for patient in range(trial.patients):
+        q = record_patient(trial, patient).q
+        ways['stretch'].append(~model.in_valid_range(q))
+        ways['range of motion'].append(((q < low[patient]) | (q > high[patient])).any(axis=1))
+    stretched, past = (np.array(steps) for steps in ways.values())  # (patient, step)
+    np.testing.assert_array_equal(
+        result.metrics.values['outside_model_steps'], np.count_nonzero(stretched | past, axis=1)
+    )
+    for name, steps in ways.items():
+        left = np.any(steps, axis=1)
+        if name == way_out:  # some patients left the model this way, some did not
+            assert 0 < np.count_nonzero(left) < len(left), name
+        else:
+            assert not left.any(), name
 
 
 def test_a_user_controller_reports_its_limiter_per_glove():

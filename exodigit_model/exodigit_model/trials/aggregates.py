@@ -9,7 +9,8 @@ patients who fared worst by it; everything is a plain ``dict``/``list``/``float`
 >>> from exodigit_model.trials import MetricAccumulator, summarize
 >>> metrics = MetricAccumulator(3)
 >>> metrics.update(q=np.zeros((3, 3)), target=np.zeros(3), forces=np.arange(9.0).reshape(3, 3),
-...                pressure=np.zeros((3, 3)), limited=False, solver_warning=False)
+...                pressure=np.zeros((3, 3)), limited=False, solver_warning=False,
+...                outside_model=False)
 >>> summary = summarize(metrics.result(), worst=1)
 >>> summary['metrics']['peak_force_n']['worst']
 [{'patient': 2, 'value': 8.0}]

@@ -16,7 +16,8 @@ the chamber pressure p (Pa).
 >>> metrics = MetricAccumulator(2)
 >>> for q in (0.0, 0.5):
 ...     metrics.update(q=np.full((2, 3), q), target=np.zeros(3), forces=np.ones((2, 3)),
-...                    pressure=np.zeros((2, 3)), limited=False, solver_warning=False)
+...                    pressure=np.zeros((2, 3)), limited=False, solver_warning=False,
+...                    outside_model=False)
 >>> metrics.result().values['rom_rad'][0].tolist()
 [0.5, 0.5, 0.5]
 """
@@ -124,6 +125,14 @@ METRICS: tuple[Metric, ...] = (
         False,
         'high',
         'steps whose solve did not converge (the glove kept its last good state)',
+    ),
+    Metric(
+        'outside_model_steps',
+        'steps',
+        False,
+        'high',
+        'steps whose state left the validated model: a fibre stretch outside the validated '
+        'range or a joint outside its range of motion',
     ),
 )
 """Every per-patient metric, in the order of the CSV columns."""
@@ -304,6 +313,7 @@ class MetricAccumulator:
         self._over_force = np.zeros(count, dtype=np.int64)
         self._limited = np.zeros(count, dtype=np.int64)
         self._warnings = np.zeros(count, dtype=np.int64)
+        self._outside = np.zeros(count, dtype=np.int64)
 
     def update(
         self,
@@ -314,6 +324,7 @@ class MetricAccumulator:
         pressure: ArrayLike,
         limited: ArrayLike,
         solver_warning: ArrayLike,
+        outside_model: ArrayLike,
     ) -> None:
         """Add one step of the batch, or a chunk of T steps (a leading axis of T).
 
@@ -331,6 +342,9 @@ class MetricAccumulator:
             Whether the safety limiter changed the patient's command in the step.
         solver_warning : array_like of bool, shape like ``limited``
             Whether the patient's solve did not converge in the step.
+        outside_model : array_like of bool, shape like ``limited``
+            Whether the patient's state after the step lies outside the validated model: not
+            ``in_valid_range and in_range_of_motion`` (docs/spec/model.md §7).
 
         Raises
         ------
@@ -345,6 +359,7 @@ class MetricAccumulator:
         pressure = self._rows('pressure', pressure, steps)
         limited = self._flags('limited', limited, steps)
         solver_warning = self._flags('solver_warning', solver_warning, steps)
+        outside_model = self._flags('outside_model', outside_model, steps)
 
         # Elementwise work on (N, 3) arrays, never broadcasting a (3,) row over them: numpy
         # runs such a broadcast (and any reduction over the last axis of 3) in inner loops of
@@ -373,6 +388,7 @@ class MetricAccumulator:
         np.maximum(self._peak_pressure, _reduce(np.maximum, pressure), out=self._peak_pressure)
         self._limited += np.count_nonzero(limited, axis=0)
         self._warnings += np.count_nonzero(solver_warning, axis=0)
+        self._outside += np.count_nonzero(outside_model, axis=0)
         self.steps += steps
 
     def result(self) -> PatientMetrics:
@@ -407,6 +423,7 @@ class MetricAccumulator:
             'peak_pressure_pa': self._peak_pressure.copy(),
             'limiter_steps': self._limited.astype(float),
             'solver_warning_steps': self._warnings.astype(float),
+            'outside_model_steps': self._outside.astype(float),
         }
         return PatientMetrics(_read_only(values), steps, self.settings)
 

@@ -11,7 +11,8 @@ joint for the rule decides). :meth:`Rule.evaluate` gives a :class:`RuleResult` w
 >>> from exodigit_model.trials import MetricAccumulator, Rule
 >>> metrics = MetricAccumulator(4)
 >>> metrics.update(q=np.zeros((4, 3)), target=np.zeros(3), forces=np.full((4, 3), 2.0),
-...                pressure=np.zeros((4, 3)), limited=False, solver_warning=False)
+...                pressure=np.zeros((4, 3)), limited=False, solver_warning=False,
+...                outside_model=False)
 >>> result = Rule.parse('peak_force_n < 2 for 50%').evaluate(metrics.result())
 >>> result.passed, result.status
 (False, 1)

@@ -167,6 +167,7 @@ def _session(
             pressure=state.pressure,
             limited=limited,
             solver_warning=~state.converged,
+            outside_model=~(state.in_valid_range & state.in_range_of_motion),
         )
         if rows is not None:
             flags = np.broadcast_to(limited, (count,))

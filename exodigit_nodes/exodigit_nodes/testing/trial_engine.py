@@ -105,8 +105,9 @@ def patient_metrics(spec: TrialSpec, record: TargetRecord) -> PatientMetrics:
     Each step counts with the published angles (true ones without the plant's angle noise),
     the target the kit delivered for it, the contact forces and the chamber pressures. A ROS
     node does not say when a safety limiter of its own changed its command, and the plant's
-    outputs do not say when a solve did not converge, so ``limiter_steps`` and
-    ``solver_warning_steps`` are 0.
+    state topics do not say when a solve did not converge or the state left the validated model
+    (its ``/diagnostics`` do, once a period, not per step), so ``limiter_steps``,
+    ``solver_warning_steps`` and ``outside_model_steps`` are 0.
     """
     metrics = MetricAccumulator(1, spec.metric_settings())
     steps = len(record.t)
@@ -118,6 +119,7 @@ def patient_metrics(spec: TrialSpec, record: TargetRecord) -> PatientMetrics:
         pressure=record.pressure[:, np.newaxis],
         limited=no,
         solver_warning=no,
+        outside_model=no,
     )
     return metrics.result()
 
