@@ -1,4 +1,9 @@
-"""``exodigit calibrate``: round trips from known parameters plus noise, and refused fits."""
+"""``exodigit calibrate``: round trips from known parameters plus noise, and refused fits.
+
+Every round trip writes its real fit figure (about 0.3 s of matplotlib) and checks the PNG:
+one row of panels per measured quantity. The figure's data is checked panel by panel against
+the CSV and single solves in test_the_fit_figure_shows_each_measured_value_against_the_models.
+"""
 
 import csv
 import math
@@ -9,6 +14,7 @@ import pytest
 from exodigit_model.tools import calibration, figures
 from exodigit_model.tools._deps import ToolError
 from exodigit_model.tools.cli import main
+from PIL import Image
 
 from exodigit_model import JOINT_NAMES, GloveModel, dump_params, load_params, params_from_dict
 
@@ -108,17 +114,14 @@ def check_round_trip(stdout, out, truth, names):
         assert abs(value - true_value) <= STANDARD_ERRORS * error, (name, value, error)
 
 
-@pytest.fixture
-def figures_drawn(monkeypatch):
-    """The fit plots the command would write, recorded instead of drawn: (rows, path) each.
-
-    Drawing one takes matplotlib about a second; test_stiffness_round_trip and
-    test_layer_round_trip write theirs (angle and force rows; and length rows), the other round
-    trips only check that the command asked for it, next to its --out file.
-    """
-    calls = []
-    monkeypatch.setattr(figures, 'fit_figure', lambda rows, path: calls.append((rows, path)))
-    return calls
+def figure_rows(path):
+    """Rows of panels of the fit figure in the PNG at ``path`` (12 in wide, 3.8 in a row)."""
+    with Image.open(path) as image:
+        assert image.format == 'PNG'
+        width, height = image.size
+    row = round(3.8 * figures.DPI)
+    assert width == 12 * figures.DPI and height % row == 0, (width, height)
+    return height // row
 
 
 def test_stiffness_round_trip(tmp_path, capsys):
@@ -143,7 +146,7 @@ def test_stiffness_round_trip(tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert code == 0
     check_round_trip(stdout, out, [0.055, 0.022, 0.012], [f'k_{n}' for n in JOINT_NAMES])
-    assert (tmp_path / 'fit_fit.png').is_file()
+    assert figure_rows(tmp_path / 'fit_fit.png') == 2  # angles, forces
 
 
 def test_stiffness_fit_is_the_models_linear_identification(tmp_path):
@@ -158,12 +161,68 @@ def test_stiffness_fit_is_the_models_linear_identification(tmp_path):
     np.testing.assert_array_equal(result.standard_error, direct.standard_error)
 
 
-def test_material_round_trip(tmp_path, capsys, figures_drawn):
+def test_the_fit_figure_shows_each_measured_value_against_the_models(tmp_path):
+    """Panel by panel: the CSV's values against single solves of the glove before and after.
+
+    Any two gloves do (the figure draws what it is given): the default finger as before, the
+    truth with an extensible MCP as after; MCP lengths only, forces on the finger rows only.
+    """
+    before = true_params(k=(0.04, 0.03, 0.015))
+    after = true_params(layers=(30.0, math.inf, math.inf))
+    rows = with_lengths(after, synthetic_rows(after, 6), measured=(0,))
+    samples = calibration.read_samples(write_csv(tmp_path / 'b.csv', rows, HEADER_WITH_LENGTHS))
+    path = tmp_path / 'fit.png'
+    figure = calibration.write_fit_figure(
+        samples,
+        calibration.predict(GloveModel(before), samples),
+        calibration.predict(GloveModel(after), samples),
+        path,
+    )
+    # what it must show, in display units: measured (the CSV; '' not measured), each model's
+    # single solve of every row
+    measured = np.array([[np.nan if cell == '' else cell for cell in row[3:12]] for row in rows])
+    models = {}
+    for name, params in (('before', before), ('fitted', after)):
+        model = GloveModel(params)
+        solutions = [model.solve(np.array(row[:3]) * 1e3, free=row[-1] == 'free') for row in rows]
+        models[name] = np.array(
+            [[*np.degrees(s.q), *s.forces, *(s.lengths * 1e3)] for s in solutions]
+        )
+    quantities = (('angle', 'deg'), ('force', 'N'), ('length', 'mm'))
+    axes = np.reshape(figure.axes, (3, 3))
+    for row, ((quantity, unit), row_axes) in enumerate(zip(quantities, axes, strict=True)):
+        for joint, ax in enumerate(row_axes):
+            column = 3 * row + joint
+            assert ax.get_title() == f'{JOINT_NAMES[joint].upper()} {quantity}'
+            shown = ~np.isnan(measured[:, column])
+            if not shown.any():  # the PIP and DIP lengths
+                assert (quantity, joint) in (('length', 1), ('length', 2))
+                assert not ax.lines and [text.get_text() for text in ax.texts] == ['not measured']
+                continue
+            assert (ax.get_xlabel(), ax.get_ylabel()) == (f'measured ({unit})', f'model ({unit})')
+            diagonal, *points = ax.lines
+            x = measured[shown, column]
+            values = [x]
+            for line, (name, model) in zip(points, models.items(), strict=True):
+                assert line.get_label() == name
+                np.testing.assert_allclose(line.get_xdata(), x, atol=RESIDUAL_TOLERANCE)
+                y = model[shown, column]
+                np.testing.assert_allclose(line.get_ydata(), y, atol=RESIDUAL_TOLERANCE)
+                values.append(y)
+            low, high = np.min(values), np.max(values)
+            np.testing.assert_allclose(
+                diagonal.get_xydata(), [[low, low], [high, high]], atol=RESIDUAL_TOLERANCE
+            )
+    assert np.count_nonzero(~np.isnan(measured[:, 3])) == 4  # forces on the four finger rows
+    assert figure_rows(path) == 3
+
+
+def test_material_round_trip(tmp_path, capsys):
     truth = true_params(k=(0.04, 0.03, 0.015))  # the default stiffness, a different material
     data = write_csv(tmp_path / 'bench.csv', synthetic_rows(truth, 24))
     out = tmp_path / 'material.yaml'
     assert main(['calibrate', str(data), '--fit', 'material', '--out', str(out)]) == 0
-    assert [path for _, path in figures_drawn] == [tmp_path / 'material_fit.png']
+    assert figure_rows(tmp_path / 'material_fit.png') == 2  # angles, forces
     stdout = capsys.readouterr().out
     check_round_trip(stdout, out, [135.0, 12.0, 2.0], ['c1', 'c2', 'c3'])
     before = float(stdout.split('angle RMSE: ')[1].split()[0])
@@ -171,12 +230,12 @@ def test_material_round_trip(tmp_path, capsys, figures_drawn):
     assert after < before and after < 2 * ANGLE_NOISE_DEG
 
 
-def test_both_round_trip(tmp_path, capsys, figures_drawn):
+def test_both_round_trip(tmp_path, capsys):
     truth = true_params()
     data = write_csv(tmp_path / 'bench.csv', synthetic_rows(truth, 24))
     out = tmp_path / 'both.yaml'
     assert main(['calibrate', str(data), '--fit', 'both', '--out', str(out)]) == 0
-    assert [path for _, path in figures_drawn] == [tmp_path / 'both_fit.png']
+    assert figure_rows(tmp_path / 'both_fit.png') == 2  # angles, forces
     stdout = capsys.readouterr().out
     names = ['c1', 'c2', 'c3', *(f'k_{n}' for n in JOINT_NAMES)]
     check_round_trip(stdout, out, [135.0, 12.0, 2.0, 0.055, 0.022, 0.012], names)
@@ -266,24 +325,24 @@ def test_layer_round_trip(tmp_path, capsys):
     ] * 3
     assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
     assert rmse_after(stdout, 'angle') < 2 * ANGLE_NOISE_DEG
-    assert (tmp_path / 'layer_fit.png').is_file()
+    assert figure_rows(tmp_path / 'layer_fit.png') == 3  # angles, forces, lengths
 
 
-def test_layer_and_material_round_trip(tmp_path, capsys, figures_drawn):
+def test_layer_and_material_round_trip(tmp_path, capsys):
     """Yeoh C1..C3 and the MCP layer together; only the MCP length is measured."""
     truth = true_params(k=(0.04, 0.03, 0.015), layers=(30.0, math.inf, math.inf))
     rows = with_lengths(truth, synthetic_rows(truth, 18), measured=(0,))
     code, out = run_calibrate(tmp_path, rows, 'layer+material')
     stdout = capsys.readouterr().out
     assert code == 0
-    assert [path for _, path in figures_drawn] == [tmp_path / 'layer+material_fit.png']
+    assert figure_rows(tmp_path / 'layer+material_fit.png') == 3  # angles, forces, lengths
     check_round_trip(stdout, out, [135.0, 12.0, 2.0, 30.0], ['c1', 'c2', 'c3', 'EL_mcp'])
     segments = load_params(out).exo_digit.segments
     assert [s.layer_axial_stiffness for s in segments[1:]] == [math.inf, math.inf]
     assert rmse_after(stdout, 'length') < 2 * LENGTH_NOISE_MM
 
 
-def test_layer_and_scale_round_trip(tmp_path, capsys, figures_drawn):
+def test_layer_and_scale_round_trip(tmp_path, capsys):
     """One factor on the Yeoh coefficients and the MCP layer, from MCP-only samples."""
     truth = true_params(
         c=(0.5 * 1.1e5, 0.5 * 2e4, 0.0), k=(0.04, 0.03, 0.015), layers=(15.0, math.inf, math.inf)
@@ -300,7 +359,7 @@ def test_layer_and_scale_round_trip(tmp_path, capsys, figures_drawn):
     code, out = run_calibrate(tmp_path, rows, 'layer+scale')
     stdout = capsys.readouterr().out
     assert code == 0
-    assert [path for _, path in figures_drawn] == [tmp_path / 'layer+scale_fit.png']
+    assert figure_rows(tmp_path / 'layer+scale_fit.png') == 2  # angles, lengths (no forces)
     value, error = reported(stdout, 'scale')
     assert abs(value - 0.5) <= STANDARD_ERRORS * error
     value, error = reported(stdout, 'EL_mcp')
@@ -367,13 +426,14 @@ def test_unmeasured_cells_are_skipped_and_empty_rows_refused(tmp_path, capsys):
     assert err.endswith('line 4: nothing measured (no angle, force or length)')
 
 
-def test_the_fig12_worked_example_is_what_the_docs_show(tmp_path, capsys, figures_drawn):
+def test_the_fig12_worked_example_is_what_the_docs_show(tmp_path, capsys):
     """docs/extensible.md: its command writes its YAML, and the glove meets Fig. 12."""
     docs = Path(__file__).resolve().parents[1] / 'docs'
     out = tmp_path / 'fig12.yaml'
     data = str(docs / 'fig12_mcp.csv')
     assert main(['calibrate', data, '--fit', 'layer+scale', '--out', str(out)]) == 0
     capsys.readouterr()
+    assert figure_rows(tmp_path / 'fig12_fit.png') == 2  # angles, lengths
     fitted, shipped = load_params(out), load_params(docs / 'extensible' / 'fig12_calibrated.yaml')
     assert fitted.material.c1 == pytest.approx(shipped.material.c1, rel=1e-6)
     assert fitted.material.c2 == pytest.approx(shipped.material.c2, rel=1e-6)

@@ -31,7 +31,7 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,6 +39,9 @@ from scipy.optimize import least_squares
 
 from .. import JOINT_NAMES, GloveModel, GloveParams, dump_params, load_params, params_from_dict
 from ._deps import ToolError, progress
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 PRESSURE_COLUMNS = tuple(f'p_{name}_kpa' for name in JOINT_NAMES)
 ANGLE_COLUMNS = tuple(f'q_{name}_deg' for name in JOINT_NAMES)
@@ -663,10 +666,31 @@ def _figure_row(
     ]
 
 
-def calibrate_command(data: str, params_path: str | None, mode: str, out: Path) -> None:
-    """``exodigit calibrate``: fit, print the report, write the parameter file and the plot."""
+def write_fit_figure(
+    samples: Samples, before: Prediction, after: Prediction, path: Path
+) -> Figure:
+    """The measured-against-model figure of a fit, written to ``path`` (PNG) and returned.
+
+    One row of panels (one per joint) for each quantity any sample measured: angles (deg),
+    forces (N), lengths (mm); each panel the samples' measured values against ``before`` and
+    ``after`` (:func:`predict` of the model before and after the fit).
+    """
     from .figures import fit_figure
 
+    rows = []
+    if not np.all(np.isnan(samples.angles)):
+        angles = (samples.angles, before.angles, after.angles)
+        rows.append(_figure_row('angle', 'deg', *(np.degrees(a) for a in angles)))
+    if not np.all(np.isnan(samples.forces)):
+        rows.append(_figure_row('force', 'N', samples.forces, before.forces, after.forces))
+    if not np.all(np.isnan(samples.lengths)):
+        lengths = (samples.lengths, before.lengths, after.lengths)
+        rows.append(_figure_row('length', 'mm', *(1e3 * a for a in lengths)))
+    return fit_figure(rows, path)
+
+
+def calibrate_command(data: str, params_path: str | None, mode: str, out: Path) -> None:
+    """``exodigit calibrate``: fit, print the report, write the parameter file and the plot."""
     if out.suffix.lower() not in ('.yaml', '.yml'):
         raise ToolError(f'--out {out}: the parameter file is YAML, name it *.yaml')
     if not out.parent.is_dir():
@@ -682,15 +706,6 @@ def calibrate_command(data: str, params_path: str | None, mode: str, out: Path) 
     if not np.all(after.converged):
         count = np.count_nonzero(~after.converged)
         print(f'warning: {count} samples did not converge after the fit', file=sys.stderr)
-    rows = []
-    if not np.all(np.isnan(samples.angles)):
-        angles = (samples.angles, before.angles, after.angles)
-        rows.append(_figure_row('angle', 'deg', *(np.degrees(a) for a in angles)))
-    if not np.all(np.isnan(samples.forces)):
-        rows.append(_figure_row('force', 'N', samples.forces, before.forces, after.forces))
-    if not np.all(np.isnan(samples.lengths)):
-        lengths = (samples.lengths, before.lengths, after.lengths)
-        rows.append(_figure_row('length', 'mm', *(1e3 * a for a in lengths)))
     plot = out.with_name(f'{out.stem}_fit.png')
-    fit_figure(rows, plot)
+    write_fit_figure(samples, before, after, plot)
     print(f'wrote {out} and {plot}')

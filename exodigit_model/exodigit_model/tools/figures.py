@@ -1,17 +1,22 @@
 """Figures of the tools, styled like the paper's Figs 8-11 (matplotlib, headless).
 
-Axes are labelled in the interface units: kPa, degrees, mm, N.
+Axes are labelled in the interface units: kPa, degrees, mm, N. Each function writes its figure
+to a PNG and returns it, closed (its axes, lines and labels stay readable).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import JOINT_NAMES
 from ._deps import pyplot
 from .curves import Sweep
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 DPI = 100
 """Resolution of every figure written by the tools."""
@@ -37,18 +42,19 @@ def figure_panels(title: str, ncols: int = 3, nrows: int = 1, size=(12.0, 3.8)):
     return figure, axes
 
 
-def save_figure(figure, path: Path) -> None:
-    """Lay ``figure`` out, write it to ``path`` as a PNG and close it."""
+def save_figure(figure: Figure, path: Path) -> Figure:
+    """Lay ``figure`` out, write it to ``path`` as a PNG, close it and return it."""
     figure.tight_layout()
     figure.savefig(path, dpi=DPI)
     pyplot().close(figure)
+    return figure
 
 
 def _find(sweeps: list[Sweep], experiment: str, condition: str) -> Sweep:
     return next(s for s in sweeps if s.experiment == experiment and s.condition == condition)
 
 
-def angle_figure(sweeps: list[Sweep], path: Path) -> None:
+def angle_figure(sweeps: list[Sweep], path: Path) -> Figure:
     """Joint angle against pressure, one panel per joint (Figs 10A-C and 11A-C)."""
     figure, axes = figure_panels('Bending angle against pressure: free and on the finger')
     for joint, ax in enumerate(axes[0]):
@@ -62,10 +68,10 @@ def angle_figure(sweeps: list[Sweep], path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
     axes[0, 0].legend(fontsize='small')
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def force_figure(sweeps: list[Sweep], path: Path) -> None:
+def force_figure(sweeps: list[Sweep], path: Path) -> Figure:
     """Contact force against pressure, one panel per joint (Figs 9 and 11D-F)."""
     figure, axes = figure_panels('Contact force on the finger against pressure')
     for joint, ax in enumerate(axes[0]):
@@ -77,10 +83,10 @@ def force_figure(sweeps: list[Sweep], path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'f {JOINT_LABELS[joint]} (N)')
     axes[0, 0].legend(fontsize='small')
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
+def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> Figure:
     """Bottom-face arc length against pressure, one panel per segment (docs/spec/model.md §12).
 
     Free and on the finger (that module alone) and all chambers on the finger, the rest length
@@ -102,10 +108,10 @@ def length_figure(sweeps: list[Sweep], rest_lengths, path: Path) -> None:
         ax.set_xlabel('pressure (kPa)')
         ax.set_ylabel(f'l {JOINT_LABELS[joint]} (mm)')
     axes[0, 0].legend(fontsize='small')
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def marker_figure(markers: dict, pressure, path: Path) -> None:
+def marker_figure(markers: dict, pressure, path: Path) -> Figure:
     """Paths of markers 3 and 4 as the pressure rises, per module (Fig. 8)."""
     figure, axes = figure_panels(
         'Tip markers 3 (circles) and 4 (squares), module frame', size=(12, 4.2)
@@ -121,10 +127,10 @@ def marker_figure(markers: dict, pressure, path: Path) -> None:
         ax.set_xlabel('x (mm)')
         ax.set_ylabel('y (mm)')
     axes[0, 0].legend(fontsize='small')
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def fit_figure(rows: list, path: Path) -> None:
+def fit_figure(rows: list, path: Path) -> Figure:
     """Measured against model values, before and after a fit.
 
     ``rows`` is a list of figure rows, each a list of panels
@@ -151,10 +157,10 @@ def fit_figure(rows: list, path: Path) -> None:
             ax.set_xlabel(f'measured ({unit})')
             ax.set_ylabel(f'model ({unit})')
     axes[0, 0].legend(fontsize='small')
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def timeseries_figure(series: dict, title: str, path: Path) -> None:
+def timeseries_figure(series: dict, title: str, path: Path) -> Figure:
     """Angles, pressures and forces against time from a recorded bag.
 
     ``series`` maps a quantity (``angles``, ``pressures``, ``forces``) to a list of
@@ -178,10 +184,10 @@ def timeseries_figure(series: dict, title: str, path: Path) -> None:
                 ax.legend(fontsize='small')
             else:
                 ax.text(0.5, 0.5, 'not recorded', ha='center', transform=ax.transAxes)
-    save_figure(figure, path)
+    return save_figure(figure, path)
 
 
-def curve_figure(pressure_kpa, angle_deg, title: str, path: Path) -> None:
+def curve_figure(pressure_kpa, angle_deg, title: str, path: Path) -> Figure:
     """Joint angle against chamber pressure per joint, from recorded samples (like Fig. 11A-C)."""
     figure, axes = figure_panels(title)
     for joint, ax in enumerate(axes[0]):
@@ -189,4 +195,4 @@ def curve_figure(pressure_kpa, angle_deg, title: str, path: Path) -> None:
         ax.set_title(f'{JOINT_LABELS[joint]}')
         ax.set_xlabel('chamber pressure (kPa)')
         ax.set_ylabel(f'q {JOINT_LABELS[joint]} (deg)')
-    save_figure(figure, path)
+    return save_figure(figure, path)
