@@ -1,4 +1,9 @@
-"""``exodigit curves`` and the CLI's help and error paths, checked against independent solves."""
+"""``exodigit curves`` and the CLI's help and error paths, checked against independent solves.
+
+Every ``exodigit curves`` here writes its four real figures (about 0.3 s each); the figures'
+data, labels and titles are checked line by line against single solves and the arc chord of
+docs/spec/model.md eq 4 (the ``drawn`` fixture).
+"""
 
 import csv
 import subprocess
@@ -8,16 +13,17 @@ import numpy as np
 import pytest
 from exodigit_model.tools import figures
 from exodigit_model.tools.cli import EXAMPLES, main
+from exodigit_model.tools.curves import simulate, sweep_markers
 
 from exodigit_model import JOINT_NAMES, GloveModel, load_params, patient_file
 
-#: CSV angles (deg, 9 significant digits) against single solves.
+#: CSV (9 significant digits) and plotted angles, deg, against single solves.
 ANGLE_TOLERANCE_DEG = 1e-6
-#: CSV forces (N, 9 significant digits) against single solves.
+#: CSV (9 significant digits) and plotted forces, N, against single solves.
 FORCE_TOLERANCE_N = 1e-8
 #: Marker positions (mm) against the closed-form arc chord of docs/spec/model.md eq 4.
 MARKER_TOLERANCE_MM = 1e-5
-#: CSV lengths (mm, 9 significant digits) against single solves.
+#: CSV (9 significant digits) and plotted lengths, mm, against single solves.
 LENGTH_TOLERANCE_MM = 1e-6
 
 #: A glove whose MCP and PIP bottom faces stretch (docs/spec/model.md §12), N per unit strain.
@@ -48,15 +54,6 @@ def curves(tmp_path_factory):
     return folder, angles, markers
 
 
-def skip_figures(monkeypatch, *names):
-    """Record the calls of these figures of ``figures`` instead of drawing them (matplotlib,
-    about 0.3 s each): the module's ``curves`` run draws and checks all four."""
-    calls = []
-    for name in names:
-        monkeypatch.setattr(figures, name, lambda *args, name=name: calls.append(name))
-    return calls
-
-
 def read_rows(path):
     with open(path, newline='') as handle:
         return list(csv.DictReader(handle))
@@ -68,11 +65,8 @@ def extensible(tmp_path_factory):
     folder = tmp_path_factory.mktemp('extensible')
     glove = folder / 'glove.yaml'
     glove.write_text(EXTENSIBLE_GLOVE)
-    with pytest.MonkeyPatch.context() as monkeypatch:  # only lengths.png is checked
-        skipped = skip_figures(monkeypatch, 'angle_figure', 'force_figure', 'marker_figure')
-        arguments = ['--params', str(glove), '--out', str(folder), '--pressures', '0:50:25']
-        assert main(['curves', *arguments]) == 0
-    assert skipped == ['angle_figure', 'force_figure', 'marker_figure']
+    arguments = ['--params', str(glove), '--out', str(folder), '--pressures', '0:50:25']
+    assert main(['curves', *arguments]) == 0
     return folder, GloveModel(load_params(glove))
 
 
@@ -115,6 +109,16 @@ def test_free_bending_moves_only_the_pressurised_module(curves):
             assert all(float(row[f'f_{n}_n']) == 0.0 for n in JOINT_NAMES)
 
 
+def arc_markers(angle, length, block):
+    """Markers 3 and 4 of a module bent by ``angle`` (rad), mm: the chord of a circular arc of
+    bottom-face length ``length`` (eq 4), then the block of length ``block`` along its end."""
+    if angle == 0.0:
+        chord = np.array([length, 0.0])
+    else:
+        chord = length / angle * np.array([np.sin(angle), 1 - np.cos(angle)])
+    return chord, chord + block * np.array([np.cos(angle), np.sin(angle)])
+
+
 def test_free_markers_follow_the_arc_chord(curves, model):
     """Markers 3, 4 of a module bent alone: chord of a circular arc (eq 4), then its block."""
     _, _, rows = curves
@@ -124,14 +128,9 @@ def test_free_markers_follow_the_arc_chord(curves, model):
     for row in free_rows:
         module = JOINT_NAMES.index(row['module'])
         q = model.solve(chamber_pressures(row['module'], float(row['pressure_kpa'])), free=True)
-        angle = q.q[module]
         length = segments[module].arc_length * 1e3
         block = 2 * segments[module].block_half_length * 1e3
-        if angle == 0.0:
-            chord = np.array([length, 0.0])
-        else:
-            chord = length / angle * np.array([np.sin(angle), 1 - np.cos(angle)])
-        tip = chord + block * np.array([np.cos(angle), np.sin(angle)])
+        chord, tip = arc_markers(q.q[module], length, block)
         marker3 = [float(row['marker3_x_mm']), float(row['marker3_y_mm'])]
         marker4 = [float(row['marker4_x_mm']), float(row['marker4_y_mm'])]
         np.testing.assert_allclose(marker3, chord, atol=MARKER_TOLERANCE_MM)
@@ -145,11 +144,20 @@ def png_size(path):
     return int.from_bytes(data[16:20], 'big'), int.from_bytes(data[20:24], 'big')
 
 
+#: The figures ``exodigit curves`` writes.
+FIGURES = ('angles.png', 'forces.png', 'lengths.png', 'markers.png')
+
+
+def assert_figures_written(folder, names=FIGURES):
+    """Each of ``names`` in ``folder`` is a PNG of at least 800 x 300 pixels."""
+    for name in names:
+        width, height = png_size(folder / name)
+        assert width >= 800 and height >= 300, name
+
+
 def test_curves_figures_are_written(curves):
     folder, _, _ = curves
-    for name in ('angles.png', 'forces.png', 'lengths.png', 'markers.png'):
-        width, height = png_size(folder / name)
-        assert width >= 800 and height >= 300
+    assert_figures_written(folder)
 
 
 @pytest.mark.parametrize(
@@ -200,10 +208,7 @@ def test_missing_matplotlib_says_what_to_install(tmp_path):
     ]
 
 
-def test_curves_for_a_patient_preset_are_the_patients_solves(tmp_path, capsys, monkeypatch):
-    drawn = skip_figures(
-        monkeypatch, 'angle_figure', 'force_figure', 'length_figure', 'marker_figure'
-    )
+def test_curves_for_a_patient_preset_are_the_patients_solves(tmp_path, capsys):
     assert (
         main(
             [
@@ -218,7 +223,7 @@ def test_curves_for_a_patient_preset_are_the_patients_solves(tmp_path, capsys, m
         )
         == 0
     )
-    assert len(drawn) == 4
+    assert_figures_written(tmp_path)
     patient = GloveModel(load_params(patient_file('stroke_severe')))
     with open(tmp_path / 'angles.csv', newline='') as handle:
         rows = [r for r in csv.DictReader(handle) if r['condition'] == 'finger']
@@ -264,8 +269,7 @@ def test_lengths_csv_equals_single_solves(extensible):
     }
     assert 46.0 < top['free'] < top['finger']
     assert all(float(r['l_dip_mm']) == 15.0 for r in rows)
-    width, height = png_size(folder / 'lengths.png')
-    assert width >= 800 and height >= 300
+    assert_figures_written(folder)
 
 
 def test_extensible_markers_follow_the_arc_chord_at_its_length(extensible):
@@ -278,14 +282,117 @@ def test_extensible_markers_follow_the_arc_chord_at_its_length(extensible):
         module = JOINT_NAMES.index(row['module'])
         pressure = chamber_pressures(row['module'], float(row['pressure_kpa']))
         solution = model.solve(pressure, free=row['condition'] == 'free')
-        angle, length = solution.q[module], solution.lengths[module] * 1e3
-        if angle == 0.0:
-            chord = np.array([length, 0.0])
-        else:
-            chord = length / angle * np.array([np.sin(angle), 1 - np.cos(angle)])
         block = 2 * segments[module].block_half_length * 1e3
-        tip = chord + block * np.array([np.cos(angle), np.sin(angle)])
+        chord, tip = arc_markers(solution.q[module], solution.lengths[module] * 1e3, block)
         marker3 = [float(row['marker3_x_mm']), float(row['marker3_y_mm'])]
         marker4 = [float(row['marker4_x_mm']), float(row['marker4_y_mm'])]
         np.testing.assert_allclose(marker3, chord, atol=MARKER_TOLERANCE_MM)
         np.testing.assert_allclose(marker4, tip, atol=MARKER_TOLERANCE_MM)
+
+
+# -- the figures' data ---------------------------------------------------------------------
+
+#: The paper's Fig. 12 (docs/extensible.md): the MCP module on the finger, (kPa, mm).
+FIG12 = [(0.0, 46.0), (50.0, 62.2)]
+CONDITIONS = ('free', 'finger')
+LABELS = [name.upper() for name in JOINT_NAMES]
+
+
+@pytest.fixture(scope='module')
+def drawn(extensible, tmp_path_factory):
+    """The four figures of ``exodigit curves`` for the extensible glove at 0, 25 and 50 kPa, as
+    the command draws them; (figures by name, model, kPa)."""
+    _, model = extensible
+    folder = tmp_path_factory.mktemp('figures')
+    kpa = np.array([0.0, 25.0, 50.0])
+    sweeps = simulate(model, kpa * 1e3)
+    markers = {
+        (sweep.experiment, sweep.condition): sweep_markers(model, sweep)
+        for sweep in sweeps
+        if sweep.experiment != 'all'
+    }
+    rest = model.constants.arc_lengths
+    drawn = {
+        'angles': figures.angle_figure(sweeps, folder / 'angles.png'),
+        'forces': figures.force_figure(sweeps, folder / 'forces.png'),
+        'lengths': figures.length_figure(sweeps, rest, folder / 'lengths.png'),
+        'markers': figures.marker_figure(markers, kpa * 1e3, folder / 'markers.png'),
+    }
+    assert_figures_written(folder)
+    return drawn, model, kpa
+
+
+def solves(model, experiment, condition, kpa):
+    """Single solves of ``experiment`` (a module alone, or 'all') at each pressure, kPa."""
+    free = condition == 'free'
+    return [model.solve(chamber_pressures(experiment, p), free=free) for p in kpa]
+
+
+def assert_lines(ax, expected, tolerance):
+    """``ax``'s lines are ``expected`` [(x, y), ...], in order, within ``tolerance``."""
+    assert len(ax.lines) == len(expected)
+    for line, (x, y) in zip(ax.lines, expected, strict=True):
+        np.testing.assert_allclose(line.get_xdata(), x, atol=tolerance)
+        np.testing.assert_allclose(line.get_ydata(), y, atol=tolerance)
+
+
+def test_the_angle_figure_is_each_modules_angle_free_on_the_finger_and_all(drawn):
+    figures_by_name, model, kpa = drawn
+    for joint, ax in enumerate(figures_by_name['angles'].axes):
+        name = JOINT_NAMES[joint]
+        runs = [(name, 'free'), (name, 'finger'), ('all', 'finger')]
+        expected = [
+            (kpa, [np.degrees(s.q[joint]) for s in solves(model, *run, kpa)]) for run in runs
+        ]
+        assert_lines(ax, expected, ANGLE_TOLERANCE_DEG)
+        assert ax.get_title() == f'{LABELS[joint]} module'
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ('pressure (kPa)', f'q {LABELS[joint]} (deg)')
+
+
+def test_the_force_figure_is_each_contacts_force_alone_and_all(drawn):
+    figures_by_name, model, kpa = drawn
+    for joint, ax in enumerate(figures_by_name['forces'].axes):
+        runs = [(JOINT_NAMES[joint], 'finger'), ('all', 'finger')]
+        expected = [(kpa, [s.forces[joint] for s in solves(model, *r, kpa)]) for r in runs]
+        assert_lines(ax, expected, FORCE_TOLERANCE_N)
+        assert ax.get_title() == f'{LABELS[joint]} contact'
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ('pressure (kPa)', f'f {LABELS[joint]} (N)')
+        assert np.ptp(ax.lines[0].get_ydata()) > 0.1  # the contact is pressed
+
+
+def test_the_length_figure_is_each_segments_length_its_rest_and_fig12(drawn):
+    figures_by_name, model, kpa = drawn
+    segments = model.params.exo_digit.segments
+    for joint, ax in enumerate(figures_by_name['lengths'].axes):
+        name = JOINT_NAMES[joint]
+        runs = [(name, 'free'), (name, 'finger'), ('all', 'finger')]
+        expected = [(kpa, [s.lengths[joint] * 1e3 for s in solves(model, *r, kpa)]) for r in runs]
+        rest = segments[joint].arc_length * 1e3
+        expected.append(([0.0, 1.0], [rest, rest]))  # a horizontal line across the axes
+        if joint == 0:
+            expected.append(tuple(zip(*FIG12, strict=True)))
+        assert_lines(ax, expected, LENGTH_TOLERANCE_MM)
+        assert ax.get_title() == f'{LABELS[joint]} segment (rest {rest:g} mm)'
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ('pressure (kPa)', f'l {LABELS[joint]} (mm)')
+
+
+def test_the_marker_figure_is_the_arc_chord_and_block_of_each_module(drawn):
+    figures_by_name, model, kpa = drawn
+    segments, base = model.params.exo_digit.segments, model.params.exo_digit
+    for module, ax in enumerate(figures_by_name['markers'].axes):
+        # the block before the module's soft segment: the base block, or the previous module's
+        half = (
+            base.base_block_half_length if module == 0 else segments[module - 1].block_half_length
+        )
+        block = 2 * segments[module].block_half_length * 1e3
+        expected = []
+        for condition in CONDITIONS:
+            paths = [
+                arc_markers(s.q[module], s.lengths[module] * 1e3, block)
+                for s in solves(model, JOINT_NAMES[module], condition, kpa)
+            ]
+            chords, tips = (np.array(points) for points in zip(*paths, strict=True))
+            expected += [chords.T, tips.T, ([-2 * half * 1e3, 0.0], [0.0, 0.0])]
+        assert_lines(ax, expected, MARKER_TOLERANCE_MM)
+        assert ax.get_title() == f'{LABELS[module]} module, 50 kPa max'
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ('x (mm)', 'y (mm)')
