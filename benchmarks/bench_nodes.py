@@ -238,7 +238,7 @@ def sustained_rate(launcher, diagnostics, rate_hz: float, duration: float, windo
 def cpu_at_100_hz(launcher, probe, duration: float, workdir: Path) -> dict[str, float]:
     """% of one core used by each node of a glove at the default 100 Hz, and by a bare node."""
     namespace = f'{NS}_cpu'
-    states = probe.subscribe(f'{namespace}/estimated_contact_forces', Float64MultiArray)
+    states = probe.subscribe(f'{namespace}/estimated_contact_forces', JointState)
     for topic, kind in (
         ('bare_joint_states', JointState),
         ('bare_chamber_pressure', Float64MultiArray),

@@ -21,7 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from reliability_session import MAX_PRESSURE, MAX_SUPPLY, NODES, START_TIMEOUT, GloveSession
+from reliability_session import (
+    MAX_PRESSURE,
+    MAX_SUPPLY,
+    NODES,
+    START_TIMEOUT,
+    TOPICS,
+    GloveSession,
+)
 from ros_harness import wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -299,7 +306,7 @@ class GloveUnderFuzz(GloveSession):
     def publisher(self, topic: str):
         """The probe's publisher on ``topic`` (kept: destroying one races its executor)."""
         if topic not in self.publishers:
-            kind = JointState if topic == 'joint_states' else Float64MultiArray
+            kind = TOPICS.get(topic, Float64MultiArray)
             self.publishers[topic] = self.probe.publisher(f'{self.namespace}/{topic}', kind)
         return self.publishers[topic]
 
@@ -323,6 +330,9 @@ class GloveUnderFuzz(GloveSession):
         before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODES}
         if target.topic == 'joint_states':
             messages = hostile_joint_states(count, '', time.time_ns(), seed)
+        elif TOPICS.get(target.topic) is JointState:  # an estimate: its values are its effort
+            vectors = hostile_vectors(count, target.scale, seed)
+            messages = ((JointState(effort=m.data), bad) for m, bad in vectors)
         else:
             messages = hostile_vectors(count, target.scale, seed)
         started, started_ns = time.monotonic(), time.time_ns()
@@ -369,7 +379,7 @@ class GloveUnderFuzz(GloveSession):
                 stamp = info['source_timestamp']
                 if arrival <= since or any(start <= stamp <= end for start, end in windows):
                     continue
-                if topic == 'joint_states':
+                if isinstance(message, JointState):
                     values = [*message.position, *message.velocity, *message.effort]
                 else:
                     values = message.data

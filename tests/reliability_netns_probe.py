@@ -1,10 +1,11 @@
 """A listener to run inside a network namespace: prints one JSON line per message it receives.
 
 ``python tests/reliability_netns_probe.py TOPIC...`` subscribes (glove QoS) to each topic, typed
-by its name (``joint_states``: JointState, ``/diagnostics``: DiagnosticArray, anything else:
-Float64MultiArray), and writes ``{"topic": ..., "values": [...]}`` for vectors and joint
-positions, ``{"topic": "/diagnostics", "name": ..., "message": ..., "values": {...}}`` for each
-diagnostic status. The two-host test reads these lines from the namespace it cannot enter.
+by its name (``joint_states``: JointState, an estimate: JointState, ``/diagnostics``:
+DiagnosticArray, anything else: Float64MultiArray), and writes ``{"topic": ..., "values": [...]}``
+for vectors, joint positions and estimates (their effort), ``{"topic": "/diagnostics", "name":
+..., "message": ..., "values": {...}}`` for each diagnostic status. The two-host test reads
+these lines from the namespace it cannot enter.
 """
 
 import json
@@ -36,6 +37,8 @@ def listener(topic: str):
         return DiagnosticArray, diagnostics
     if topic.endswith('joint_states'):
         return JointState, lambda m: emit({'topic': topic, 'values': list(m.position)})
+    if topic.endswith(('estimated_contact_forces', 'estimated_finger_torque')):
+        return JointState, lambda m: emit({'topic': topic, 'values': list(m.effort)})
     return Float64MultiArray, lambda m: emit({'topic': topic, 'values': list(m.data)})
 
 

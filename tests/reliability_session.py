@@ -72,7 +72,7 @@ TOPICS = {
     'chamber_pressure': Float64MultiArray,
     'contact_forces': Float64MultiArray,
     'pressure_command': Float64MultiArray,
-    'estimated_contact_forces': Float64MultiArray,
+    'estimated_contact_forces': JointState,  # stamped with its state
     'estimated_finger_stiffness': Float64MultiArray,
 }
 
@@ -169,7 +169,7 @@ class GloveSession:
         """An estimated contact force after ``since`` equals a simulated one (same step)."""
         simulated = [np.asarray(m.data) for m in self.inbox['contact_forces'].messages(since)]
         for estimate in self.inbox['estimated_contact_forces'].messages(since)[-20:]:
-            if any(np.allclose(estimate.data, f, atol=FORCE_TOLERANCE) for f in simulated[-40:]):
+            if any(np.allclose(estimate.effort, f, atol=FORCE_TOLERANCE) for f in simulated[-40:]):
                 return True
         return False
 

@@ -84,6 +84,24 @@ def test_a_sample_joins_the_three_topics_of_one_plant_step_in_any_delivery_order
         assert sample.values['estimated_contact_forces'] is None
 
 
+def test_an_estimate_joins_the_step_its_stamp_names_and_no_other():
+    # The estimator answers from another process: step 0's estimate comes after step 0's
+    # messages, step 1's never comes (a step joined without its estimate has none, not the
+    # latest one), step 2's comes in the middle of step 2's messages.
+    signals = GloveSignals(NODES)
+    estimates = [np.full(3, 0.1 * (k + 1)) for k in range(3)]
+    samples = feed(signals, step_messages(0, 1000.0))
+    signals.update('estimated_contact_forces', estimates[0], stamp=100.0)
+    samples += feed(signals, step_messages(1, 2000.0) + step_messages(2, 3000.0)[:2])
+    signals.update('estimated_contact_forces', estimates[2], stamp=100.0 + 2 * PERIOD)
+    samples += feed(signals, step_messages(2, 3000.0)[2:] + step_messages(3, 4000.0)[:1])
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD, 2 * PERIOD])
+    found = [s.values['estimated_contact_forces'] for s in samples]
+    np.testing.assert_array_equal(found[0], estimates[0])
+    assert found[1] is None
+    np.testing.assert_array_equal(found[2], estimates[2])
+
+
 def test_steps_delivered_topic_by_topic_are_not_mixed():
     # Each topic keeps its own order (DDS), but one topic may run several steps ahead.
     signals = GloveSignals(NODES)
@@ -137,7 +155,7 @@ def test_run_record_csv_holds_display_units_and_empty_cells_for_missing_values(t
     signals = GloveSignals(NODES)
     pressures = [12_345.0, 50_000.0]
     samples = feed(signals, step_messages(0, pressures[0]) + step_messages(1, pressures[1]))
-    signals.update('estimated_contact_forces', [0.5, 0.25, 0.125])
+    signals.update('estimated_contact_forces', [0.5, 0.25, 0.125], stamp=100.0 + PERIOD)
     samples += feed(signals, step_messages(2, 0.0))
     for sample in samples:
         record.write(sample)

@@ -48,8 +48,11 @@ def session(ros_domain, tmp_path_factory):
     for finger in FINGERS:
         ns = f'{NAMESPACE}/{finger}'
         inboxes[f'{finger}/joint_states'] = probe.subscribe(f'{ns}/joint_states', JointState)
-        for topic in ('pressure_command', 'chamber_pressure', 'estimated_contact_forces'):
+        for topic in ('pressure_command', 'chamber_pressure'):
             inboxes[f'{finger}/{topic}'] = probe.subscribe(f'{ns}/{topic}', Float64MultiArray)
+        inboxes[f'{finger}/estimated_contact_forces'] = probe.subscribe(
+            f'{ns}/estimated_contact_forces', JointState
+        )
     process = hand_nodes(
         ros_domain,
         workdir,

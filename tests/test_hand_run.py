@@ -28,6 +28,8 @@ JOINTS = ('mcp', 'pip', 'dip')
 RATE = 100.0
 #: Recorded angles (12 significant digits) against the solve of the recorded pressures, rad.
 ANGLE_TOLERANCE = 1e-9
+#: Recorded estimated forces (3 decimals) against an estimate of the recorded state, N.
+ESTIMATE_DIGITS = 1e-3
 #: Simulated seconds of the session.
 DURATION = 1.0
 #: Seconds for a session to start, run and stop.
@@ -114,7 +116,16 @@ def test_the_hand_stops_cleanly_with_zero_pressure_sent_and_the_estimates_record
         assert f'.{finger}.estimator]' in estimators
         assert f'.{finger}.estimator]' not in log
         table = read_record(out / finger / 'signals.csv')
-        assert np.isfinite(columns(table, 'f_est', 'n')).all(axis=1).any(), finger
+        estimated = columns(table, 'f_est', 'n')
+        rows = np.isfinite(estimated).all(axis=1)
+        assert rows.any(), finger
+        # each row's estimate is its own step's: the robot-side estimate at that row's angles
+        # and pressures (needs no finger model), to the record's rounding
+        model = GloveModel(load_params([hand_config_dir() / f'{finger}.yaml']))
+        q, p = np.radians(columns(table, 'q', 'deg')), columns(table, 'p', 'kpa') * 1e3
+        np.testing.assert_allclose(
+            estimated[rows], model.estimate_forces_batch(q[rows], p[rows]), atol=ESTIMATE_DIGITS
+        )
 
 
 def test_record_gives_each_finger_a_bag_of_every_step(session):

@@ -58,7 +58,7 @@ def start_loop(launcher, probe, namespace):
     inboxes = {
         'joint_states': probe.subscribe(f'{namespace}/joint_states', JointState),
         'estimated_contact_forces': probe.subscribe(
-            f'{namespace}/estimated_contact_forces', Float64MultiArray
+            f'{namespace}/estimated_contact_forces', JointState
         ),
         'pressure_command': probe.subscribe(f'{namespace}/pressure_command', Float64MultiArray),
     }
@@ -112,8 +112,8 @@ def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
     )
     assert all(r.successful for r in results), [r.reason for r in results]
     mark = time.monotonic()
-    assert settles(inboxes['estimated_contact_forces'], 'data', goal, FORCE_SETTLED, mark), (
-        inboxes['estimated_contact_forces'].latest().data
+    assert settles(inboxes['estimated_contact_forces'], 'effort', goal, FORCE_SETTLED, mark), (
+        inboxes['estimated_contact_forces'].latest().effort
     )
     # The forward map is one to one: the command found is the pressure the goal came from.
     np.testing.assert_allclose(inboxes['pressure_command'].latest().data, pressure, rtol=1e-2)

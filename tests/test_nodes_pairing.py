@@ -92,7 +92,7 @@ def estimated_steps(node, model, steps):
     expected = [model.estimate_forces(q, p) for q, p in steps]
     found = []
     for message in node.take().get('estimated_contact_forces', []):
-        errors = [np.abs(np.array(message.data) - f).max() for f in expected]
+        errors = [np.abs(np.array(message.effort) - f).max() for f in expected]
         found.append(int(np.argmin(errors)) if min(errors) <= FORCE_TOLERANCE else None)
     return found
 

@@ -301,7 +301,7 @@ def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estima
     try:
         node.node.listen_once_estimated()
         assert 'joint_states' not in node.subscriptions()
-        estimator = node.node.create_publisher(Float64MultiArray, 'estimated_contact_forces', 10)
+        estimator = node.node.create_publisher(JointState, 'estimated_contact_forces', 10)
         deadline = time.monotonic() + 10.0
         while 'joint_states' not in node.subscriptions() and time.monotonic() < deadline:
             node.node.listen_once_estimated()

@@ -1,10 +1,13 @@
 """The estimator's tally of estimates outside the validated model (its /diagnostics WARN)."""
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_nodes.logic.estimation import Pair, ValidityTally
 from exodigit_nodes.nodes.estimator import Estimator
 from reliability_inprocess import InProcessNode
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 
 from exodigit_model import GloveModel
 
@@ -40,12 +43,21 @@ def test_the_estimator_node_publishes_an_estimate_outside_the_model_and_warns_on
     inside, outside = inside_and_outside()
     made = InProcessNode(Estimator, {}, probe)
     try:
-        for estimate in (inside, outside):
-            made.node.publish_estimate(Pair(estimate.q, estimate.pressure))
+        states = [
+            JointState(
+                header=Header(stamp=Time(sec=k + 1)), name=['mcp', 'pip', 'dip'], position=e.q
+            )
+            for k, e in enumerate((inside, outside))
+        ]
+        for estimate, state in zip((inside, outside), states, strict=True):
+            made.node.publish_estimate(Pair(estimate.q, estimate.pressure, state))
         made.node.report()
         made.node.report()  # nothing outside since the last report
-        forces = [message.data for message in made.published['estimated_contact_forces']]
-        np.testing.assert_allclose(forces, [inside.forces, outside.forces], rtol=1e-12)
+        published = made.published['estimated_contact_forces']
+        np.testing.assert_allclose(
+            [m.effort for m in published], [inside.forces, outside.forces], rtol=1e-12
+        )
+        assert [m.header.stamp.sec for m in published] == [1, 2]  # each its own state's
         first, second = (m.status[0] for m in made.published['/diagnostics'])
         assert first.level == DiagnosticStatus.WARN
         assert '1 estimates outside the validated model' in first.message

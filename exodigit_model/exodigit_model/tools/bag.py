@@ -53,7 +53,14 @@ class Series:
 
 
 def _values(message, signal: str) -> list[float]:
-    return list(message.position if signal == 'joint_states' else message.data)
+    """The joint values of a message: a state's angles, an estimate's efforts, an array's data.
+
+    Estimates are JointStates stamped with their state (docs/spec/ros.md); older bags hold them
+    as arrays.
+    """
+    if signal == 'joint_states':
+        return list(message.position)
+    return list(message.effort if hasattr(message, 'effort') else message.data)
 
 
 def read_bag(path: Path) -> dict[str, Series]:

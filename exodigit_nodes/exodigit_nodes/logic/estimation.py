@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,10 +36,15 @@ publishers on one topic each number their own)."""
 
 @dataclass(frozen=True)
 class Pair:
-    """Angles (rad) and pressures (Pa) of the same plant step."""
+    """Angles (rad) and pressures (Pa) of the same plant step.
+
+    ``state`` is what the node passed along with the angles: the ``joint_states`` message they
+    came in (its stamp and joint names go on the estimates), or None.
+    """
 
     angles: NDArray[np.float64]
     pressure: NDArray[np.float64]
+    state: Any = None
 
 
 class Numbering:
@@ -84,11 +90,14 @@ class SamplePairer:
         return self._joiner.unpaired
 
     def add_angles(
-        self, angles: NDArray[np.float64] | None, sent: float, number: int
+        self, angles: NDArray[np.float64] | None, sent: float, number: int, state: Any = None
     ) -> list[Pair]:
-        """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``."""
-        usable = self._angle_numbers.follows(number)
-        return self._pairs(self._joiner.add(ANGLES, sent, angles if usable else None))
+        """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``.
+
+        ``state`` (the message they came in) is handed on with the pair they make.
+        """
+        usable = self._angle_numbers.follows(number) and angles is not None
+        return self._pairs(self._joiner.add(ANGLES, sent, (angles, state) if usable else None))
 
     def add_pressure(self, pressure: NDArray[np.float64] | None, sent: float) -> list[Pair]:
         """Offer the pressures sent at ``sent`` (s, source timestamp); the pairs they complete."""
@@ -96,11 +105,13 @@ class SamplePairer:
 
     @staticmethod
     def _pairs(groups: list[Joined]) -> list[Pair]:
-        return [
-            Pair(group.values[ANGLES], group.values[PRESSURE])
-            for group in groups
-            if group.values[ANGLES] is not None and group.values[PRESSURE] is not None
-        ]
+        pairs = []
+        for group in groups:
+            offered, pressure = group.values[ANGLES], group.values[PRESSURE]
+            if offered is not None and pressure is not None:
+                angles, state = offered
+                pairs.append(Pair(angles, pressure, state))
+        return pairs
 
 
 class StiffnessWindow:

@@ -5,10 +5,12 @@ they were sent (DDS source timestamps, :mod:`exodigit_model.joining`; refusing s
 samples) and publishes
 ``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (docs/spec/model.md §7, needs no
 finger model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
-with); every ``identification_period``, over the last ``identification_window`` pairs, it fits
-the effective linear patient τ̂_H = k (q − q_r) and publishes its stiffness as
-``estimated_finger_stiffness`` and its rest angle as ``estimated_rest_angle``, with the fit's
-RMSE in ``/diagnostics`` (large when a linear spring does not explain the finger).
+with), each a sensor_msgs/JointState with the stamp, names and angles of the ``joint_states`` it
+was computed from and the values as ``effort``; every ``identification_period``, over the last
+``identification_window`` pairs, it fits the effective linear patient τ̂_H = k (q − q_r) and
+publishes its stiffness as ``estimated_finger_stiffness`` and its rest angle as
+``estimated_rest_angle``, with the fit's RMSE in ``/diagnostics`` (large when a linear spring does
+not explain the finger).
 
 Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.05``.
 """
@@ -38,6 +40,7 @@ from .messages import (
     ESTIMATED_FINGER_TORQUE,
     ESTIMATED_REST_ANGLE,
     JOINT_STATES,
+    estimate_message,
     fill,
     joint_vector_message,
 )
@@ -64,15 +67,13 @@ class Estimator(GloveNode):
         self.forces = np.zeros(3)
         self.fit = None
         self.fit_problem = 'no identification yet'
-        self.force_message = joint_vector_message()
-        self.torque_message = joint_vector_message()
         self.stiffness_message = joint_vector_message()
         self.rest_message = joint_vector_message()
         self.force_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_CONTACT_FORCES, WRITER_QOS
+            JointState, ESTIMATED_CONTACT_FORCES, WRITER_QOS
         )
         self.torque_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_FINGER_TORQUE, WRITER_QOS
+            JointState, ESTIMATED_FINGER_TORQUE, WRITER_QOS
         )
         self.stiffness_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, WRITER_QOS
@@ -114,7 +115,8 @@ class Estimator(GloveNode):
             self.reject(JOINT_STATES, error)
             angles = None
         number = info['publication_sequence_number']
-        self.estimate(self.pairer.add_angles(angles, sent_seconds(info), number), JOINT_STATES)
+        pairs = self.pairer.add_angles(angles, sent_seconds(info), number, message)
+        self.estimate(pairs, JOINT_STATES)
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
         """Offer pressures (Pa) to the pairer at the time they were sent (refused: None)."""
@@ -148,8 +150,8 @@ class Estimator(GloveNode):
         self.pairs += 1
         self.validity.add(estimate)
         self.forces = forces
-        self.force_publisher.publish(fill(self.force_message, forces))
-        self.torque_publisher.publish(fill(self.torque_message, torque))
+        self.force_publisher.publish(estimate_message(pair.state, forces))
+        self.torque_publisher.publish(estimate_message(pair.state, torque))
         self.window.add(pair.angles, torque)
 
     def identify(self) -> None:

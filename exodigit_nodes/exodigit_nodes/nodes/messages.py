@@ -7,6 +7,7 @@ from array import array
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 PRESSURE_COMMAND = 'pressure_command'
@@ -49,6 +50,22 @@ def fill(message: Float64MultiArray, values) -> Float64MultiArray:
     """Put three floats into a message from :func:`joint_vector_message`; returns it."""
     message.data = array('d', values)
     return message
+
+
+def estimate_message(state: JointState, effort) -> JointState:
+    """An estimate of ``state``: values per joint as ``effort`` (N or N·m) with its stamp.
+
+    ``state`` is the ``joint_states`` message the estimate was computed from: its stamp, joint
+    names and angles go on the estimate. The type of ``estimated_contact_forces`` and
+    ``estimated_finger_torque`` (docs/spec/ros.md): a reader pairs each estimate with its state
+    by the stamp.
+    """
+    return JointState(
+        header=state.header,
+        name=state.name,
+        position=state.position,
+        effort=array('d', effort),
+    )
 
 
 def status(

@@ -10,8 +10,8 @@ contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes 
 
 It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
 simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with one command computed
-from that state and its stamp (in ``force`` mode: from that state and the estimate of the same
-step).
+from that state and its stamp (in ``force`` mode: from that state and the estimate stamped with
+the same stamp).
 
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
@@ -122,7 +122,7 @@ class PressureCommand(GloveNode):
         # Subscriptions before the publisher: when the plant sees our commands' publisher, it
         # has (practically always) seen our joint_states subscription announced first.
         self.forces_subscription = self.create_subscription(
-            Float64MultiArray, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
+            JointState, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
         )
         self.estimator_timer = None
         if self.lockstep and self.values['mode'] == 'force':
@@ -234,16 +234,20 @@ class PressureCommand(GloveNode):
             self.pending['angles'] = (stamp, angles)
             self.answer()
 
-    def on_forces(self, message: Float64MultiArray) -> None:
-        """Keep valid estimated contact forces (N) with their arrival time."""
+    def on_forces(self, message: JointState) -> None:
+        """Keep valid estimated contact forces (N, ``effort``) with their arrival time.
+
+        In lockstep also with the stamp of the state they estimate, which pairs them with it.
+        """
         try:
-            forces = joint_vector(message.data, ESTIMATED_CONTACT_FORCES, MAX_FORCE_READING)
+            forces = joint_vector(message.effort, ESTIMATED_CONTACT_FORCES, MAX_FORCE_READING)
+            stamp = stamp_seconds(message.header.stamp)
         except InvalidInputError as error:
             self.reject(ESTIMATED_CONTACT_FORCES, error)
             return
         self.forces = (self.now_seconds(), forces)
         if self.lockstep:
-            self.pending['forces'] = (self.now_seconds(), forces)
+            self.pending['forces'] = (stamp, forces)
             self.answer()
 
     def on_targets(self, message: Float64MultiArray) -> None:
@@ -285,11 +289,17 @@ class PressureCommand(GloveNode):
     def answer(self) -> None:
         """Lockstep: one command for the pending state (and, in force mode, its estimate).
 
-        The state's stamp is the controller's time; dt is the step between two stamps.
+        The state's stamp is the controller's time; dt is the step between two stamps. In force
+        mode the estimate is the one stamped with the state's stamp: an estimate of an earlier
+        state (late, or of a state this node did not answer) is dropped.
         """
         state, forces = self.pending['angles'], self.pending['forces']
-        force_mode = isinstance(self.loop.controller, ForceController)
-        if state is None or (force_mode and forces is None):
+        if isinstance(self.loop.controller, ForceController):
+            if state is not None and forces is not None and forces[0] < state[0]:
+                self.pending['forces'] = forces = None
+            if state is None or forces is None or forces[0] != state[0]:
+                return
+        elif state is None:
             return
         self.pending = {'angles': None, 'forces': None}
         stamp, angles = state

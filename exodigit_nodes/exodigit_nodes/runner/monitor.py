@@ -15,10 +15,10 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
 from exodigit_nodes.logic.backlog import take_backlog
-from exodigit_nodes.logic.inputs import sent_seconds
+from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
 from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
 from exodigit_nodes.nodes.qos import RECORD_ANY_QOS, RECORD_QOS
-from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, GloveSignals, Sample
+from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, STAMPED, GloveSignals, Sample
 
 
 def status_node(status_name: str, namespace: str, nodes) -> str | None:
@@ -71,6 +71,8 @@ class GloveMonitor(Node):
         for topic in SIGNALS:
             if topic == 'joint_states':
                 callback, message_type = self._on_joint_state, JointState
+            elif topic in STAMPED:
+                callback, message_type = self._stamped_callback(topic), JointState
             else:
                 callback, message_type = self._array_callback(topic), Float64MultiArray
             self._inputs.append(
@@ -129,9 +131,14 @@ class GloveMonitor(Node):
 
         return callback
 
+    def _stamped_callback(self, topic: str) -> Callable[[JointState, dict], None]:
+        def callback(message: JointState, info: dict) -> None:
+            self._update(topic, message.effort, info, stamp_seconds(message.header.stamp))
+
+        return callback
+
     def _on_joint_state(self, message: JointState, info: dict) -> None:
-        stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
-        self._update('joint_states', message.position, info, stamp)
+        self._update('joint_states', message.position, info, stamp_seconds(message.header.stamp))
 
     def _update(self, topic: str, values, info: dict, stamp: float | None = None) -> None:
         self.taken += 1

@@ -61,6 +61,8 @@ SIGNALS = {
 #: The plant topics a `Sample` joins, in the order the plant publishes them in a step
 #: (``Plant.publish_state``): the first leads (`exodigit_model.joining`).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
+#: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
+STAMPED = ('estimated_contact_forces',)
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 
@@ -108,8 +110,10 @@ class GloveSignals:
     `exodigit_model.joining`: each step's pressure leads and the angles and forces sent after it,
     before the next step's pressure, are its own. So it never mixes two steps, however the
     messages are delivered or delayed, and a step that lost a message is skipped. A step is
-    joined once the next step's pressure has arrived (or at `flush`). Signals of the other nodes
-    (command, estimates) join with their latest value.
+    joined once the next step's pressure has arrived (or at `flush`). The estimate of `STAMPED`
+    joins the step whose angles carry its stamp (None in a step whose estimate has not arrived
+    when the step is joined); the other signals of the other nodes (command, identified spring)
+    join with their latest value.
 
     Parameters
     ----------
@@ -134,6 +138,7 @@ class GloveSignals:
         """Stamp of the latest joint_states received (its step may not be joined yet), s."""
         self._first_stamp: float | None = None
         self._joiner = Joiner(STEP_ORDER, confirm=True)
+        self._stamped: dict[str, dict[float, np.ndarray]] = {signal: {} for signal in STAMPED}
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -149,7 +154,8 @@ class GloveSignals:
         published : float
             When the message was sent (DDS source timestamp), s; joins plant steps.
         stamp : float, optional
-            Header stamp in seconds (``joint_states`` only): the sample's time.
+            Header stamp in seconds (``joint_states``: the sample's time; a `STAMPED` signal:
+            the stamp of the state it belongs to).
 
         Returns
         -------
@@ -160,6 +166,8 @@ class GloveSignals:
             raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
         values = np.array(values, dtype=float)
         self.latest[signal] = values
+        if signal in STAMPED and stamp is not None and (self.stamp is None or stamp > self.stamp):
+            self._stamped[signal][stamp] = values  # its step is not joined yet
         if signal not in STEP_ORDER:
             return []
         if signal == 'joint_states':
@@ -184,6 +192,10 @@ class GloveSignals:
             self.stamp = stamp
             self.time = stamp - self._first_stamp
             values = {**step.values, 'joint_states': angles}
+            for signal, by_stamp in self._stamped.items():
+                values[signal] = by_stamp.pop(stamp, None)
+                for older in [s for s in by_stamp if s < stamp]:  # of steps lost on the way
+                    del by_stamp[older]
             samples.append(Sample(self.time, {**self.latest, **values}))
         return samples
 

@@ -38,9 +38,6 @@ from .records import SimRecord, SimState, state_arrays
 
 DEFAULT_TIMEOUT = 60.0
 """Longest wall-clock wait for the glove (start-up, a step, a run) before an error, s."""
-ESTIMATE_GRACE = 1.0
-"""How long the start-up waits for a just-started estimator's estimate of the first state, s
-(it may not have been listening yet; a later step always has one)."""
 POLL = 0.05
 """Longest single wait of the client's executor, and how often a wait checks that the glove's
 processes still run, s."""
@@ -133,7 +130,6 @@ class GloveSim:
         self.rate_hz = float(parameters.get('rate_hz', 100.0))
         self._processes: list[NodeProcess] = []
         self._node = None
-        self._estimator = estimator
         try:
             self._start('plant', parameters)
             if estimator:
@@ -144,8 +140,6 @@ class GloveSim:
                 self._start('estimator', estimator_parameters)
             self._connect(estimator)
             self.state = self._reset(with_estimate=False)  # the estimator may join only now
-            if estimator:
-                self._settle_estimates()
         except BaseException:
             self.close()
             raise
@@ -218,20 +212,8 @@ class GloveSim:
         """
         return self._reset(with_estimate=True)
 
-    def _settle_estimates(self, count: int = 1) -> None:
-        """Let ``count`` estimates of states already taken arrive, then drop them.
-
-        Estimates are paired with states in order, so one arriving late (the estimator answers
-        a run's states too) would be paired with a later step. Waits up to ESTIMATE_GRACE.
-        """
-        deadline = time.monotonic() + ESTIMATE_GRACE
-        while self._node.estimate_count() < count and time.monotonic() < deadline:
-            self._executor.spin_once(timeout_sec=POLL)
-        self._node.clear_estimates()
-
     def _reset(self, *, with_estimate: bool) -> SimState:
         self._node.clear_commands()
-        self._node.clear_estimates()
         self._call(self._node.reset_client, self._node.trigger(), 'reset')
         self.state = self._next_state(with_estimate=with_estimate)
         self._external_synced = False
@@ -327,8 +309,6 @@ class GloveSim:
             raise
         self._release_run_until()
         commands = self._node.take_commands(steps)
-        if self._estimator:  # the estimator answers the run's states too
-            self._settle_estimates(steps)
         self._external_synced = True
         self._paused = True  # pause_at stopped the plant at the last state
         self.state = states[-1]

@@ -35,6 +35,11 @@ from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
 
+def stamp_ns(message: JointState) -> int:
+    """The header stamp of a state or an estimate, ns."""
+    return message.header.stamp.sec * 10**9 + message.header.stamp.nanosec
+
+
 class GloveClient(Node):
     """Queues of the glove's outputs, a command publisher and the plant's service clients.
 
@@ -58,8 +63,8 @@ class GloveClient(Node):
             CONTACT_FORCES: deque(),
             SEGMENT_LENGTHS: deque(),
         }
-        if estimator:
-            self.queues[ESTIMATED_CONTACT_FORCES] = deque()
+        self.estimates: deque | None = deque() if estimator else None
+        """The estimator's estimates (stamp in ns, forces in N), oldest first."""
         self.commands: deque = deque()
         self.inputs = [
             self.create_subscription(JointState, JOINT_STATES, self._joint_queue, RECORD_QOS),
@@ -71,6 +76,12 @@ class GloveClient(Node):
                 if topic != JOINT_STATES
             ),
         ]
+        if estimator:
+            self.inputs.append(
+                self.create_subscription(
+                    JointState, ESTIMATED_CONTACT_FORCES, self._estimate_queue, RECORD_QOS
+                )
+            )
         self.command_subscription = self.create_subscription(
             Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_ANY_QOS
         )
@@ -102,6 +113,9 @@ class GloveClient(Node):
 
     def _joint_queue(self, message: JointState) -> None:
         self.queues[JOINT_STATES].append(message)
+
+    def _estimate_queue(self, message: JointState) -> None:
+        self.estimates.append((stamp_ns(message), np.array(message.effort)))
 
     def _vector_queue(self, topic: str | None):
         queue = self.commands if topic is None else self.queues[topic]
@@ -148,25 +162,33 @@ class GloveClient(Node):
     # -- states and commands ---------------------------------------------------------------
 
     def take_state(self, *, with_estimate: bool = True) -> SimState | None:
-        """The oldest complete step (one message of each output), or None if it is not here."""
-        wanted = [t for t in self.queues if with_estimate or t != ESTIMATED_CONTACT_FORCES]
-        if not all(self.queues[topic] for topic in wanted):
+        """The oldest complete step (one message of each output), or None if it is not here.
+
+        ``with_estimate`` (with an estimator): complete only with the estimate stamped with the
+        step's stamp. Estimates of earlier steps are dropped, whether taken or not: one of a
+        run's states that arrives late is never taken for a later step's.
+        """
+        if not all(self.queues.values()):
             return None
+        stamp = stamp_ns(self.queues[JOINT_STATES][0])
+        estimate = None
+        if self.estimates is not None:
+            while self.estimates and self.estimates[0][0] < stamp:
+                self.estimates.popleft()
+            if self.estimates and self.estimates[0][0] == stamp:
+                estimate = self.estimates[0][1]
+            elif with_estimate:
+                return None
         joint = self.queues[JOINT_STATES].popleft()
-        estimate = (
-            self.queues[ESTIMATED_CONTACT_FORCES].popleft()
-            if ESTIMATED_CONTACT_FORCES in wanted
-            else None
-        )
         return SimState(
-            t=(joint.header.stamp.sec * 10**9 + joint.header.stamp.nanosec) / 1e9,
+            t=stamp / 1e9,
             q=np.array(joint.position),
             qdot=np.array(joint.velocity),
             effort=np.array(joint.effort),
             pressure=self.queues[CHAMBER_PRESSURE].popleft(),
             forces=self.queues[CONTACT_FORCES].popleft(),
             lengths=self.queues[SEGMENT_LENGTHS].popleft(),
-            estimated_forces=estimate,
+            estimated_forces=estimate if with_estimate else None,
         )
 
     def send(self, command: np.ndarray) -> None:
@@ -184,14 +206,6 @@ class GloveClient(Node):
     def take_commands(self, count: int) -> list[np.ndarray]:
         """The oldest ``count`` commands heard, removed."""
         return [self.commands.popleft() for _ in range(count)]
-
-    def estimate_count(self) -> int:
-        """Estimates queued."""
-        return len(self.queues.get(ESTIMATED_CONTACT_FORCES, ()))
-
-    def clear_estimates(self) -> None:
-        """Forget queued estimates (a run does not pair them with its states)."""
-        self.queues.get(ESTIMATED_CONTACT_FORCES, deque()).clear()
 
     # -- requests --------------------------------------------------------------------------
 
