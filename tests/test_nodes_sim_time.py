@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from builtin_interfaces.msg import Time
 from exodigit_model.simulation import step_time_ns
 from exodigit_nodes.nodes import sim_time
 from exodigit_nodes.nodes.plant import Plant
@@ -38,7 +39,7 @@ from reliability_inprocess import InProcessNode
 from ros_harness import RosProbe, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, Header
 from std_srvs.srv import SetBool, Trigger
 
 from exodigit_model import GloveSimulation, SimulationSettings
@@ -310,6 +311,27 @@ def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estima
         assert estimator.get_subscription_count() == 1
     finally:
         node.close()
+
+
+def test_a_lockstep_force_controller_answers_with_the_estimate_stamped_with_the_state(probe):
+    # The estimate of an earlier state (late) is not this state's: no answer until its own.
+    made = InProcessNode(
+        PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, probe
+    )
+    try:
+        made.node.listen_to_states()  # as once an estimator is matched
+
+        def stamped(step, **values):
+            header = Header(stamp=Time(sec=1, nanosec=step * 10_000_000))
+            return JointState(header=header, name=['mcp', 'pip', 'dip'], **values)
+
+        made.deliver('joint_states', stamped(2, position=[0.1, 0.1, 0.1]))
+        made.deliver('estimated_contact_forces', stamped(1, effort=[0.0, 0.0, 0.0]))
+        assert made.take().get('pressure_command', []) == []
+        made.deliver('estimated_contact_forces', stamped(2, effort=[0.0, 0.0, 0.0]))
+        assert len(made.take()['pressure_command']) == 1
+    finally:
+        made.close()
 
 
 def service_callback(node: InProcessNode, name: str):
