@@ -318,8 +318,9 @@ def serve(
     ``last_words(node)`` then runs for each node, in the order built, while every node still
     exists. A node that records (``taken``: how many messages it has taken) first takes what its
     readers still hold (:func:`..logic.backlog.take_backlog`). Before the nodes are destroyed,
-    each publisher waits until every reader it has matched acknowledged what it sent (at most
-    ``ACK_LIMIT`` s in all): a reader behind on a loaded machine still gets the last steps.
+    each publisher waits until every reader the graph lists has matched it and acknowledged what
+    it sent (:func:`deliver`, at most ``ACK_LIMIT`` s in all): a reader behind on a loaded
+    machine, or discovered late, still gets the last steps.
     Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (an
     exception of ``refused``: one line on stderr, no traceback), 1 when the process that started it
     is gone already. The process stops as on SIGINT when that process dies (:mod:`.lifetime`):
