@@ -226,12 +226,23 @@ def test_each_estimate_is_of_the_state_its_stamp_names(glove):
 
 
 def test_estimated_finger_stiffness_is_the_finger_stiffness_of_the_model(glove):
-    _, inboxes = glove
+    nodes, inboxes = glove
     expected = [j.stiffness for j in load_params().finger.joints]
     assert inboxes['estimated_finger_stiffness'].wait_count(2, timeout=WAIT)
     np.testing.assert_allclose(
-        inboxes['estimated_finger_stiffness'].latest().data, expected, rtol=1e-6
+        inboxes['estimated_finger_stiffness'].latest().data,
+        expected,
+        rtol=1e-6,
+        err_msg=estimator_report(nodes, inboxes),  # what the estimator said, if it fails
     )
+
+
+def estimator_report(nodes, inboxes):
+    """The estimator's latest /diagnostics values and its log, for a failure message."""
+    name = f'{NS}/estimator'
+    statuses = [s for a in inboxes['diagnostics'].messages() for s in a.status if s.name == name]
+    values = {kv.key: kv.value for kv in statuses[-1].values} if statuses else {}
+    return f'{values}\n{nodes["estimator"].stderr()}'
 
 
 def test_commands_stay_inside_the_pressure_and_rate_limits(glove):
