@@ -84,22 +84,49 @@ def test_a_sample_joins_the_three_topics_of_one_plant_step_in_any_delivery_order
         assert sample.values['estimated_contact_forces'] is None
 
 
-def test_an_estimate_joins_the_step_its_stamp_names_and_no_other():
-    # The estimator answers from another process: step 0's estimate comes after step 0's
-    # messages, step 1's never comes (a step joined without its estimate has none, not the
-    # latest one), step 2's comes in the middle of step 2's messages.
+def estimate(signals, step):
+    """The estimator's estimate of ``step`` (forces 0.1 · (step + 1) N); what it hands on."""
+    return signals.update(
+        'estimated_contact_forces', np.full(3, 0.1 * (step + 1)), stamp=100.0 + PERIOD * step
+    )
+
+
+def test_an_estimate_joins_the_step_its_stamp_names_however_late_it_comes():
+    # The estimator answers from another process. A joined step waits for its estimate until it
+    # comes (step 1's, after step 2's pressure) or a later step's does (step 2's never comes:
+    # step 3's tells), and never takes another step's.
     signals = GloveSignals(NODES)
-    estimates = [np.full(3, 0.1 * (k + 1)) for k in range(3)]
-    samples = feed(signals, step_messages(0, 1000.0))
-    signals.update('estimated_contact_forces', estimates[0], stamp=100.0)
-    samples += feed(signals, step_messages(1, 2000.0) + step_messages(2, 3000.0)[:2])
-    signals.update('estimated_contact_forces', estimates[2], stamp=100.0 + 2 * PERIOD)
-    samples += feed(signals, step_messages(2, 3000.0)[2:] + step_messages(3, 4000.0)[:1])
-    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD, 2 * PERIOD])
+    assert estimate(signals, 0) == []  # before its step is joined
+    samples = feed(signals, step_messages(0, 1000.0) + step_messages(1, 2000.0))
+    assert feed(signals, step_messages(2, 3000.0)[:1]) == []  # step 1 joined, waits
+    samples += estimate(signals, 1)
+    samples += feed(signals, step_messages(2, 3000.0)[1:] + step_messages(3, 4000.0))
+    assert len(samples) == 2  # step 2 waits for an estimate
+    samples += estimate(signals, 3)  # the estimator left step 2 out
+    samples += feed(signals, step_messages(4, 0.0)[:1])
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD, 2 * PERIOD, 3 * PERIOD])
     found = [s.values['estimated_contact_forces'] for s in samples]
-    np.testing.assert_array_equal(found[0], estimates[0])
-    assert found[1] is None
-    np.testing.assert_array_equal(found[2], estimates[2])
+    np.testing.assert_array_equal(found[0], [0.1] * 3)
+    np.testing.assert_array_equal(found[1], [0.2] * 3)
+    assert found[2] is None
+    np.testing.assert_array_equal(found[3], [0.4] * 3)
+
+
+def test_with_an_estimator_the_first_steps_wait_for_its_first_estimate():
+    # Its first estimate is of step 1 (it started late): step 0 goes without one.
+    signals = GloveSignals(NODES, estimated=True)
+    assert feed(signals, step_messages(0, 1000.0) + step_messages(1, 2000.0)[:1]) == []
+    assert feed(signals, step_messages(1, 2000.0)[1:] + step_messages(2, 3000.0)[:1]) == []
+    samples = estimate(signals, 1)
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD])
+    assert samples[0].values['estimated_contact_forces'] is None
+    np.testing.assert_array_equal(samples[1].values['estimated_contact_forces'], [0.2] * 3)
+
+
+def test_without_an_estimator_no_step_waits():
+    signals = GloveSignals(NODES)
+    samples = feed(signals, step_messages(0, 1000.0) + step_messages(1, 2000.0)[:1])
+    assert len(samples) == 1 and samples[0].values['estimated_contact_forces'] is None
 
 
 def test_steps_delivered_topic_by_topic_are_not_mixed():

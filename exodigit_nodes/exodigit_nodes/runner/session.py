@@ -126,14 +126,18 @@ def run_session(session: Session, env: dict) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    from ..nodes.catalog import PLANT_NODE
+    from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
     from .horizon import Horizon
     from .monitor import GloveMonitor
 
     stop.install()  # again: loading rclpy's C extension takes the signals over
     supervisor = Supervisor(env, log_dir=session.log_dir)
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and env.get('TERM') != 'dumb')
-    signals = [GloveSignals(session.nodes, glove.references) for glove in session.gloves]
+    estimated = ESTIMATOR_NODE.executable in session.nodes
+    signals = [
+        GloveSignals(session.nodes, glove.references, estimated=estimated)
+        for glove in session.gloves
+    ]
     executor = None
     monitors = []
     failures, stops = [], []

@@ -5,6 +5,7 @@ SI inside; kPa, degrees and the unit labels appear only in the text this module 
 """
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TextIO
@@ -63,6 +64,9 @@ SIGNALS = {
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
 #: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
 STAMPED = ('estimated_contact_forces',)
+#: Most joined steps held back for their estimates: an estimator that stops answering holds
+#: no more than this.
+ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 
@@ -111,9 +115,11 @@ class GloveSignals:
     before the next step's pressure, are its own. So it never mixes two steps, however the
     messages are delivered or delayed, and a step that lost a message is skipped. A step is
     joined once the next step's pressure has arrived (or at `flush`). The estimate of `STAMPED`
-    joins the step whose angles carry its stamp (None in a step whose estimate has not arrived
-    when the step is joined); the other signals of the other nodes (command, identified spring)
-    join with their latest value.
+    joins the step whose angles carry its stamp: where an estimator runs (``estimated``; else
+    once one has been heard), a joined step waits for its estimate until it, or the estimate of
+    a later step, arrives (the estimator left that step out: None), at most `ESTIMATE_WAIT`
+    steps. The other signals of the other
+    nodes (command, identified spring) join with their latest value.
 
     Parameters
     ----------
@@ -122,9 +128,11 @@ class GloveSignals:
     references : mapping, optional
         Constant values shown beside an identified signal, per topic of `SIGNALS`: label ->
         values (SI), e.g. ``{'estimated_finger_stiffness': {'nominal': k, 'patient': k_true}}``.
+    estimated : bool
+        An estimator runs: steps wait for their estimates from the first one on.
     """
 
-    def __init__(self, nodes, references=None):
+    def __init__(self, nodes, references=None, *, estimated: bool = False):
         self.references = {
             topic: {label: np.asarray(values, dtype=float) for label, values in rows.items()}
             for topic, rows in (references or {}).items()
@@ -139,6 +147,13 @@ class GloveSignals:
         self._first_stamp: float | None = None
         self._joiner = Joiner(STEP_ORDER, confirm=True)
         self._stamped: dict[str, dict[float, np.ndarray]] = {signal: {} for signal in STAMPED}
+        """Per `STAMPED` signal, the values received for steps not yet handed on, by stamp."""
+        self._newest: dict[str, float | None] = dict.fromkeys(
+            STAMPED, -math.inf if estimated else None
+        )
+        """Per `STAMPED` signal, the newest stamp received (None: steps need not wait)."""
+        self._held: deque[tuple[float, Sample]] = deque()
+        """Joined steps waiting for their estimates: (stamp, sample)."""
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -166,8 +181,11 @@ class GloveSignals:
             raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
         values = np.array(values, dtype=float)
         self.latest[signal] = values
-        if signal in STAMPED and stamp is not None and (self.stamp is None or stamp > self.stamp):
-            self._stamped[signal][stamp] = values  # its step is not joined yet
+        if signal in STAMPED and stamp is not None:
+            self._stamped[signal][stamp] = values
+            newest = self._newest[signal]
+            self._newest[signal] = stamp if newest is None else max(stamp, newest)
+            return self._release()
         if signal not in STEP_ORDER:
             return []
         if signal == 'joint_states':
@@ -180,23 +198,40 @@ class GloveSignals:
 
         The latest step is otherwise only completed by the first message of the next one.
         """
-        return self._samples(self._joiner.flush())
+        return self._samples(self._joiner.flush()) + self._release(every=True)
 
     def _samples(self, steps: list[Joined]) -> list[Sample]:
-        """The `Sample` of each joined plant step, timed by its joint_states stamp."""
-        samples = []
+        """Hold the `Sample` of each joined plant step, timed by its joint_states stamp.
+
+        Returns the held samples that need not wait for an estimate (:meth:`_release`).
+        """
         for step in steps:
             angles, stamp = step.values['joint_states']
             if self._first_stamp is None:
                 self._first_stamp = stamp
             self.stamp = stamp
             self.time = stamp - self._first_stamp
-            values = {**step.values, 'joint_states': angles}
+            values = {**self.latest, **step.values, 'joint_states': angles}
+            self._held.append((stamp, Sample(self.time, values)))
+        return self._release()
+
+    def _release(self, *, every: bool = False) -> list[Sample]:
+        """The held samples, oldest first, whose estimates are in or will not come."""
+        samples = []
+        while self._held:
+            stamp, sample = self._held[0]
+            waiting = any(
+                newest is not None and newest < stamp and stamp not in self._stamped[signal]
+                for signal, newest in self._newest.items()
+            )
+            if waiting and not every and len(self._held) <= ESTIMATE_WAIT:
+                break
+            self._held.popleft()
             for signal, by_stamp in self._stamped.items():
-                values[signal] = by_stamp.pop(stamp, None)
-                for older in [s for s in by_stamp if s < stamp]:  # of steps lost on the way
+                sample.values[signal] = by_stamp.pop(stamp, None)
+                for older in [s for s in by_stamp if s < stamp]:  # of steps never joined
                     del by_stamp[older]
-            samples.append(Sample(self.time, {**self.latest, **values}))
+            samples.append(sample)
         return samples
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
