@@ -27,6 +27,22 @@ print('ready', flush=True)
 while True:
     time.sleep(0.01)
 """
+# A POLITE child that, told to stop, exits only once the file named by its third argument
+# exists: the supervisor's ``idle`` callback creates it while it waits for the child.
+WAITS_FOR_IDLE = """
+import os, signal, sys, time
+name, log, go = sys.argv[1:4]
+def stop(*_):
+    with open(log, 'a') as f:
+        f.write(f'{name} {time.monotonic()}\\n')
+    while not os.path.exists(go):
+        time.sleep(0.01)
+    sys.exit(0)
+signal.signal(signal.SIGINT, stop)
+print('ready', flush=True)
+while True:
+    time.sleep(0.01)
+"""
 # A supervisor of one POLITE child that prints the child's pid and waits to be killed.
 PARENT = """
 import os, sys, time
@@ -95,17 +111,22 @@ def ready(supervisor, name):
     return 'ready' in supervisor.log_path(name).read_text()
 
 
-def test_processes_stop_in_the_given_order_with_sigint(tmp_path):
-    order_log = tmp_path / 'order.log'
+def test_processes_stop_in_the_given_order_with_sigint_and_idle_runs_meanwhile(tmp_path):
+    order_log, go = tmp_path / 'order.log', tmp_path / 'go'
     supervisor = Supervisor(os.environ, log_dir=tmp_path / 'logs')
     for name in ('plant', 'estimator', 'pressure_command'):
-        supervisor.start(name, [sys.executable, '-c', POLITE, name, str(order_log)])
+        supervisor.start(name, [sys.executable, '-c', WAITS_FOR_IDLE, name, str(order_log), go])
     assert wait_until(lambda: all(ready(supervisor, n) for n in supervisor.names), WAIT)
     pids = [supervisor.pid(name) for name in supervisor.names]
     # each child leads its own session, apart from the test's
     assert all(os.getsid(pid) == pid != os.getsid(0) for pid in pids)
     idle_calls = []
-    exits = supervisor.stop(['pressure_command', 'plant'], idle=lambda: idle_calls.append(1))
+
+    def idle():
+        idle_calls.append(1)
+        go.touch()
+
+    exits = supervisor.stop(['pressure_command', 'plant'], idle=idle)
     assert [e.name for e in exits] == ['pressure_command', 'plant', 'estimator']
     assert all(e.clean for e in exits)
     logged = [line.split()[0] for line in order_log.read_text().splitlines()]
