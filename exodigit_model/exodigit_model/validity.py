@@ -67,19 +67,12 @@ def validity_status(
 
     One answer (bools: an int) or one per row (arrays of bools: an int array).
     """
-    flags = (in_valid_range, in_range_of_motion, within_supply)
-    if not any(isinstance(flag, np.ndarray) for flag in flags):  # one answer (the hot path)
-        return (
-            OUTSIDE_STRETCH * (not in_valid_range)
-            + OUTSIDE_RANGE_OF_MOTION * (not in_range_of_motion)
-            + BEYOND_SUPPLY * (not within_supply)
-        )
     status = (
         OUTSIDE_STRETCH * np.logical_not(in_valid_range)
         + OUTSIDE_RANGE_OF_MOTION * np.logical_not(in_range_of_motion)
         + BEYOND_SUPPLY * np.logical_not(within_supply)
     )
-    return status
+    return int(status) if np.ndim(status) == 0 else status
 
 
 def validity_message(status: int, supply: float | None = None) -> str:
