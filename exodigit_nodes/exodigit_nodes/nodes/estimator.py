@@ -33,6 +33,7 @@ from ..logic.inputs import (
 )
 from ..logic.parameters import describe_files
 from .catalog import ESTIMATOR_NODE
+from .message_info import WithInfo
 from .messages import (
     CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
@@ -81,11 +82,15 @@ class Estimator(GloveNode):
         self.rest_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_REST_ANGLE, WRITER_QOS
         )
-        # Pressures first: when both topics have messages waiting, the executor takes them in
-        # this order, the order the plant sends a step in, so the pairer knows a step's pressure
-        # before its angles (and a lost sample's partner before the next step's).
-        self.create_subscription(Float64MultiArray, CHAMBER_PRESSURE, self.on_pressure, READER_QOS)
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, READER_QOS)
+        # The EventsExecutor takes messages in the order they arrived, the order the plant sends
+        # a step in (pressure, then angles), so the pairer knows a step's pressure before its
+        # angles (and a lost sample's partner before the next step's).
+        self.create_subscription(
+            Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), READER_QOS
+        )
+        self.create_subscription(
+            JointState, JOINT_STATES, WithInfo(self.on_joint_states), READER_QOS
+        )
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )

@@ -16,9 +16,7 @@ whole hand, and with ``--lockstep`` each step waits for every finger's controlle
 
 ROS arguments after ``--ros-args`` apply to every node (``-p rate_hz:=200``, or
 ``--params-file`` with ``/**:`` parameters); the per-finger values above win over them.
-The plants and controllers spin on rclpy's EventsExecutor, the estimators (their callbacks take
-message info, which that executor cannot give in rclpy 7.1) on a SingleThreadedExecutor, in a
-second thread when both are in the process. Ctrl-C / SIGTERM: every command node sends zero
+Every node spins on rclpy's EventsExecutor. Ctrl-C / SIGTERM: every command node sends zero
 pressure, then all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
 (one line on stderr).
 
@@ -46,15 +44,6 @@ from .run_options import add_options
 from .sim_time import SimulatedTime
 
 
-class HandClock(Node):
-    """The node that owns the hand's simulated time (/clock, set_paused, step).
-
-    It spins with the plants (rclpy's EventsExecutor): its timer steps them.
-    """
-
-    events_executor = True
-
-
 def build_hand(config: HandConfig, part: str = 'all') -> list[Node]:
     """The nodes of ``part`` of the hand: the owner of its simulated time (clock sim) first.
 
@@ -63,7 +52,7 @@ def build_hand(config: HandConfig, part: str = 'all') -> list[Node]:
     nodes: list[Node] = []
     shared = None
     if config.clock == 'sim' and PLANT_NODE in PARTS[part]:
-        owner = HandClock('hand', namespace=config.namespace)
+        owner = Node('hand', namespace=config.namespace)  # owns /clock, set_paused, step
         shared = SimulatedTime(owner, config.time)
         nodes.append(owner)
     classes = [entry.node_class() for entry in config.node_entries(part)]

@@ -8,12 +8,10 @@ the post-set callback applies (ros2/demos, ``set_parameters_callback.py``).
 
 from __future__ import annotations
 
-import contextlib
 import gc
 import math
 import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -29,7 +27,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -126,10 +124,6 @@ class GloveNode(Node):
 
     executable: str
     table: ParamTable
-    events_executor = False
-    """Spin with rclpy's C++ EventsExecutor (about a third less CPU than the Python
-    SingleThreadedExecutor at 100 Hz, measured here). Only for nodes whose callbacks do not take
-    message info: in rclpy 7.1.6 such callbacks crash it ("null argument to internal routine")."""
 
     def __init__(self, **node_options) -> None:
         super().__init__(self.executable, **node_options)
@@ -294,11 +288,6 @@ def last_words(node: Node) -> None:
                 raise
 
 
-def executor_class(node: Node) -> type:
-    """The C++ EventsExecutor for a node that can take it, else the SingleThreadedExecutor."""
-    return EventsExecutor if getattr(node, 'events_executor', False) else SingleThreadedExecutor
-
-
 def serve(
     program: str,
     args: list[str] | None,
@@ -310,9 +299,9 @@ def serve(
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
 
-    Nodes whose class allows it (``events_executor``) spin on one EventsExecutor in this thread;
-    the others on one SingleThreadedExecutor, in a second thread when both kinds are there
-    (``hand_nodes --part all``: plants and controllers on the first, estimators on the second).
+    The nodes spin on one rclpy EventsExecutor (C++; about a third less CPU than the Python
+    SingleThreadedExecutor at 100 Hz, measured here) in this thread; callbacks that take message
+    info are :class:`.message_info.WithInfo`.
     SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
     loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C code;
     ``last_words(node)`` then runs for each node, in the order built, while every node still
@@ -331,9 +320,6 @@ def serve(
         print(f'{program}: the process that started it is gone; not starting', file=sys.stderr)
         return 1
     nodes: list[Node] = []
-    executors: dict[type, Any] = {}
-    others: list = []
-    helper = None
     code = 0
     try:
         try:
@@ -343,19 +329,15 @@ def serve(
             raise ConfigurationError(' '.join(str(error).split())) from None
         made = make_nodes()
         nodes = made if isinstance(made, list) else [made]
+        executor = EventsExecutor()
         for node in nodes:
-            kind = executor_class(node)
-            executors.setdefault(kind, kind()).add_node(node)
-        main, *others = executors.values()
-        if others:
-            helper = threading.Thread(target=_spin_until_shutdown, args=others, daemon=True)
-            helper.start()
+            executor.add_node(node)
         deadline = time.monotonic() + duration
         while not stop.requested and time.monotonic() < deadline:
-            main.spin_once(timeout_sec=SPIN_PERIOD)
+            executor.spin_once(timeout_sec=SPIN_PERIOD)
         if taken is not None:  # what has arrived; nodes still running may send on meanwhile
             take_backlog(
-                lambda: main.spin_once(timeout_sec=0.0),
+                lambda: executor.spin_once(timeout_sec=0.0),
                 lambda: sum(taken(node) for node in nodes),
             )
     except refused as error:
@@ -368,9 +350,6 @@ def serve(
             raise
     finally:
         stop.ignore()
-        if helper is not None:
-            others[0].shutdown()
-            helper.join()
         for node in nodes:
             last_words(node)
         deliver(nodes)
@@ -406,9 +385,3 @@ def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
     except RuntimeError:  # rclpy's RCLError: the code embedding the nodes shut rclpy down
         if rclpy.ok():
             raise
-
-
-def _spin_until_shutdown(executor) -> None:
-    """Spin ``executor`` (a second thread) until it is shut down."""
-    with contextlib.suppress(ExternalShutdownException):
-        executor.spin()

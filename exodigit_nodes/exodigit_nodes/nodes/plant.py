@@ -73,7 +73,6 @@ MAX_EFFORT = 10.0
 class Plant(GloveNode):
     """The glove plant node: wires ROS to :class:`exodigit_model.GloveSimulation`."""
 
-    events_executor = True
     executable = PLANT_NODE.executable
     table = PLANT_NODE.table
 

@@ -97,7 +97,6 @@ class CommandSettings:
 class PressureCommand(GloveNode):
     """The command node: wires ROS to a controller and :class:`.SafetyLimiter`."""
 
-    events_executor = True
     executable = PRESSURE_COMMAND_NODE.executable
     table = PRESSURE_COMMAND_NODE.table
 

@@ -37,6 +37,7 @@ from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
+from .message_info import WithInfo
 from .node_base import ConfigurationError, serve
 from .qos import record_profile
 
@@ -155,7 +156,7 @@ class Recorder(Node):
             subscription = self.create_subscription(
                 message_class,
                 name,
-                self._callback_for(name),
+                WithInfo(self._callback_for(name)),
                 record_profile(name),
                 raw=True,
             )

@@ -16,6 +16,7 @@ from std_srvs.srv import SetBool
 
 from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
+from exodigit_nodes.nodes.message_info import WithInfo
 from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
 from exodigit_nodes.nodes.qos import RECORD_ANY_QOS, RECORD_QOS
 from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, STAMPED, GloveSignals, Sample
@@ -76,7 +77,7 @@ class GloveMonitor(Node):
             else:
                 callback, message_type = self._array_callback(topic), Float64MultiArray
             self._inputs.append(
-                self.create_subscription(message_type, topic, callback, RECORD_QOS)
+                self.create_subscription(message_type, topic, WithInfo(callback), RECORD_QOS)
             )
         self.create_subscription(
             DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_ANY_QOS

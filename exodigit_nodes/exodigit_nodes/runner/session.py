@@ -123,7 +123,7 @@ def run_session(session: Session, env: dict) -> int:
     """Start, watch, stop and report one session; the exit code (0 clean, 1 a process failed)."""
     stop = StopRequest()  # from here on, Ctrl-C means a clean stop
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
 
     from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
@@ -146,7 +146,7 @@ def run_session(session: Session, env: dict) -> int:
             supervisor.start(name, command, defer_sigint=True)  # exodigit nodes, recorder
         use_profile()
         rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
-        executor = SingleThreadedExecutor()
+        executor = EventsExecutor()
         for glove, glove_signals in zip(session.gloves, signals, strict=True):
             monitor = GloveMonitor(
                 glove_signals,
