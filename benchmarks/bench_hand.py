@@ -3,11 +3,10 @@
 Each finger (thumb, index, middle, ring, little) runs in its own namespace ``/hand/<finger>``
 with joint prefix ``<finger>_`` and its own model file (``exodigit_nodes/config/hand``): a plant,
 a ``pressure_command`` in ``sine`` mode and an ``estimator``, all at ``--rate`` Hz. With
-``--layout split`` (default) a hand is two ``hand_nodes`` processes as the hand runner and
-launch file start it (plants and controllers on the EventsExecutor; the estimators);
-``--layout one-process`` puts both in one process (the estimators on a second thread);
-``--layout processes`` starts the three nodes of every finger as 15 processes (the layout
-before issue 11). ``--hands 2`` runs two hands (``/hand`` and ``/hand2``), ``--busy``
+``--layout one-process`` (default) a hand is one ``hand_nodes`` process, as the hand runner and
+launch file start it (every node on one EventsExecutor); ``--layout processes`` starts the three
+nodes of every finger as 15 processes (the layout before issue 11, kept for comparison).
+``--hands 2`` runs two hands (``/hand`` and ``/hand2``), ``--busy``
 keeps one core busy with another process meanwhile. A monitor node in this process listens for
 ``--duration`` seconds and prints, per process, CPU % of one core (and its own, so a starved
 monitor shows), and per finger:
@@ -144,20 +143,14 @@ def start_hands(launcher: NodeLauncher, args: argparse.Namespace) -> dict:
         }
     everyone = {'rate_hz': args.rate, 'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
     sim = ['--clock', 'sim', '--lockstep', '--real-time-factor', '0'] if args.lockstep else []
-    parts = {'one-process': ['all'], 'split': ['gloves', 'estimators']}[args.layout]
-    if args.no_estimator:
-        parts = ['gloves']
+    estimator = ['--estimator', 'false'] if args.no_estimator else []
     return {
-        f'hand_nodes {hand} {part}': launcher.start(
+        f'hand_nodes {hand}': launcher.start(
             'hand_nodes',
             everyone,
-            arguments=[
-                *('--fingers', ','.join(args.fingers), '--namespace', hand, *sim),
-                *('--part', part),
-            ],
+            arguments=['--fingers', ','.join(args.fingers), '--namespace', hand, *sim, *estimator],
         )
         for hand in hand_namespaces(args)
-        for part in parts
     }
 
 
@@ -386,10 +379,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         '--layout',
-        choices=('split', 'one-process', 'processes'),
-        default='split',
-        help='per hand: two hand_nodes processes, gloves and estimators (default, as the hand '
-        'runner starts it); one hand_nodes process; or three processes per glove',
+        choices=('one-process', 'processes'),
+        default='one-process',
+        help='per hand: one hand_nodes process (default, as the hand runner starts it), or three '
+        'processes per glove',
     )
     parser.add_argument('--hands', type=int, default=1, help='number of hands (default 1)')
     parser.add_argument(
@@ -404,7 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         '--no-estimator',
         action='store_true',
-        help='the plants and controllers alone (split and one-process layouts)',
+        help='the plants and controllers alone (one-process layout)',
     )
     parser.add_argument('--log-dir', default='runs/bench_hand', help='node logs go here')
     parser.add_argument('--json', help='also write the figures to this file')
@@ -415,8 +408,8 @@ def main(argv=None) -> int:
     """Run the benchmark and print the figures."""
     args = build_parser().parse_args(argv)
     unknown = sorted(set(args.fingers) - set(FINGERS))
-    lockstep_layout = args.lockstep and args.layout == 'processes'
-    if unknown or args.duration <= 0 or args.rate <= 0 or args.hands < 1 or lockstep_layout:
+    one_process_only = (args.lockstep or args.no_estimator) and args.layout == 'processes'
+    if unknown or args.duration <= 0 or args.rate <= 0 or args.hands < 1 or one_process_only:
         print(f'bench_hand: bad arguments (unknown fingers {unknown})', file=sys.stderr)
         return 2
     lease = claim_domain()

@@ -180,7 +180,6 @@ def hand_config():
         (['--fingers', 'index,pinky'], '--fingers index,pinky: give distinct names from thumb,'),
         (['--fingers', 'index,index'], '--fingers index,index: give distinct names'),
         (['--lockstep'], '--lockstep, --start-paused and --real-time-factor need --clock sim'),
-        (['--part', 'estimators', '--estimator', 'false'], '--part estimators with --estimator'),
         (['--namespace', '/1hand'], "--namespace '/1hand': must be absolute, each name starting"),
     ],
 )

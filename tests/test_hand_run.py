@@ -3,9 +3,9 @@
 One session, read by the tests that need a running hand: two fingers in lockstep for one simulated
 second. Every finger's record has exactly one row per step and its angles are what that finger's
 own model file gives for the recorded pressures (an independent solve, not the node's code path
-over DDS); the estimators run in the hand's second process and, with the controllers in ``force``
-mode, their estimates reach the records; each finger has a bag of every step (``--record``); at
-the stop every command node sends zero pressure.
+over DDS); the estimators run in the hand's one process beside the plants and, with the
+controllers in ``force`` mode, their estimates reach the records; each finger has a bag of every
+step (``--record``); at the stop every command node sends zero pressure.
 Refusals of bad input are ``main`` calls in this process, and one run of the command for its exit
 status."""
 
@@ -108,13 +108,15 @@ def test_the_hand_stops_cleanly_with_zero_pressure_sent_and_the_estimates_record
     result, out = session
     assert result.returncode == 0, result.stderr
     assert 'Traceback' not in result.stderr
+    assert sorted(path.name for path in (out / 'logs').iterdir()) == [
+        'hand_nodes.log',
+        'recorder.log',
+    ]
     log = (out / 'logs' / 'hand_nodes.log').read_text()
     assert log.count('sent zero pressure') == len(FINGERS)  # every finger's command node
-    # the estimators run in a process of their own, and their estimates reached the records
-    estimators = (out / 'logs' / 'hand_estimators.log').read_text()
+    # the estimators run in the one process, and their estimates reached the records
     for finger in FINGERS:
-        assert f'.{finger}.estimator]' in estimators
-        assert f'.{finger}.estimator]' not in log
+        assert f'.{finger}.estimator]' in log
         table = read_record(out / finger / 'signals.csv')
         estimated = columns(table, 'f_est', 'n')
         rows = np.isfinite(estimated).all(axis=1)

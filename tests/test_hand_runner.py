@@ -129,26 +129,23 @@ def test_the_glove_runs_each_node_as_its_own_process_and_stops_the_command_node_
 
 
 @pytest.mark.parametrize('estimator', ['true', 'false'])
-def test_a_hand_runs_its_fingers_in_the_hand_nodes_parts(session_of, estimator):
-    session = session_of(HAND, '--fingers', 'index,ring', '--estimator', estimator)
-    commands = dict(session.processes)
-    parts = {'hand_nodes': 'gloves', 'hand_estimators': 'estimators'}
-    if estimator == 'false':
-        del parts['hand_estimators']
-    assert list(commands) == list(parts) == list(session.stop_order)  # the controllers first
+def test_a_hand_runs_its_fingers_in_one_hand_nodes_process(session_of, tmp_path, estimator):
+    arguments = ('--fingers', 'index,ring', '--estimator', estimator)
+    ros_params = tmp_path / 'fast.yaml'
+    ros_params.write_text('/**:\n  ros__parameters:\n    rate_hz: 200.0\n')
+    session = session_of(HAND, *arguments, '--ros-params', str(ros_params))
+    ((name, command),) = session.processes
+    assert name == 'hand_nodes' and session.stop_order == ('hand_nodes',)
+    assert command[1:3] == ['-m', 'exodigit_nodes.nodes.hand_nodes']
+    nodes = EXECUTABLES if estimator == 'true' else ('plant', 'pressure_command')
+    assert session.runs == {'hand_nodes': nodes} and session.nodes == nodes
     # hand_nodes reads its command line back as this hand (its own parser, from the one table)
+    ros_args = command.index('--ros-args')
+    assert command[ros_args:] == ['--ros-args', '--params-file', str(ros_params)]
     parser = argparse.ArgumentParser()
     add_options(parser, command_options('hand_nodes'))
-    parser.add_argument('--part')
-    for name, part in parts.items():
-        arguments = commands[name][3:]
-        assert commands[name][1:3] == ['-m', 'exodigit_nodes.nodes.hand_nodes']
-        read = parser.parse_args(arguments)
-        assert read.part == part
-        assert (
-            hand_config(read)
-            == configured(HAND, '--fingers', 'index,ring', '--estimator', estimator).hand
-        )
+    read = parser.parse_args(command[3:ros_args])
+    assert hand_config(read) == configured(HAND, *arguments).hand
     assert session.pause_service == '/hand/set_paused'
 
 
@@ -192,7 +189,7 @@ def test_a_layout_that_cannot_hold_the_hand_is_refused():
     with pytest.raises(ValueError, match='lone glove'):
         hand_runner.RunConfig('hand', HandConfig(), hand_runner.NODE_PROCESSES)
     with pytest.raises(ValueError, match='fingers'):
-        hand_runner.RunConfig('glove', HandConfig(fingers=()), hand_runner.HAND_PROCESSES)
+        hand_runner.RunConfig('glove', HandConfig(fingers=()), hand_runner.HAND_PROCESS)
 
 
 # -- refusals -----------------------------------------------------------------------------------

@@ -80,7 +80,7 @@ hand_nodes.build_hand = build_then_shut_down
 Plant.publish_state = shut_down_then_publish
 if WHERE == 'last words':
     PressureCommand.on_shutdown = shut_down_then_say
-raise SystemExit(hand_nodes.main(['--fingers', 'index', '--part', 'gloves']))
+raise SystemExit(hand_nodes.main(['--fingers', 'index']))
 """
 
 

@@ -1,8 +1,8 @@
-"""launch/hand.launch.py against recording stand-ins of the launch API: it starts two
-``hand_nodes`` processes (a console script of setup.py), ``--part gloves`` and, unless
-``estimator:=false``, ``--part estimators``, without a node-name or namespace remap, declares
-exactly the hand's options, and the command lines it builds for given launch arguments are read
-by ``hand_nodes``' own parser as the same hand."""
+"""launch/hand.launch.py against recording stand-ins of the launch API: it starts one
+``hand_nodes`` process (a console script of setup.py) without a node-name or namespace remap,
+fails the launch when that process fails, declares exactly the hand's options, and the command
+line it builds for given launch arguments (``estimator:=false`` too) is read by ``hand_nodes``'
+own parser as the same hand."""
 
 import runpy
 import sys
@@ -12,13 +12,12 @@ from pathlib import Path
 import pytest
 from exodigit_nodes.nodes.hand_config import command_options, hand_config
 from exodigit_nodes.nodes.hand_nodes import build_parser
-from test_packaging_launch import Recorded, console_scripts
+from test_packaging_launch import FakeEvent, Recorded, console_scripts
 
 LAUNCH_FILE = Path(__file__).resolve().parents[1] / 'exodigit_nodes' / 'launch' / 'hand.launch.py'
 API = {
     'launch': ['LaunchDescription'],
-    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
-    'launch.conditions': ['IfCondition'],
+    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler'],
     'launch.event_handlers': ['OnProcessExit'],
     'launch.substitutions': ['LaunchConfiguration'],
     'launch_ros': [],
@@ -44,19 +43,14 @@ def entities(api):
     return description.args[0]
 
 
-def processes(entities, api) -> dict:
-    """The launched processes by the ``--part`` they are given."""
-    nodes = [e for e in entities if isinstance(e, api.Node)]
-    parts = {}
-    for node in nodes:
-        arguments = node.kwargs['arguments']
-        parts[arguments[arguments.index('--part') + 1]] = node
-    assert len(parts) == len(nodes)
-    return parts
+def hand_process(entities, api):
+    """The one launched process."""
+    (node,) = [e for e in entities if isinstance(e, api.Node)]
+    return node
 
 
-def command_line(entities, api, part, **arguments) -> list[str]:
-    """The arguments of the ``--part`` process for ``name:=value`` launch arguments."""
+def command_line(entities, api, **arguments) -> list[str]:
+    """The arguments of the process for ``name:=value`` launch arguments."""
     declared = {e.args[0]: e.kwargs for e in entities if isinstance(e, api.DeclareLaunchArgument)}
     values = {
         name: arguments.pop(name, kwargs['default_value']) for name, kwargs in declared.items()
@@ -66,25 +60,43 @@ def command_line(entities, api, part, **arguments) -> list[str]:
         assert value in (declared[name]['choices'] or [value]), (name, value)
     return [
         values[item.args[0]] if isinstance(item, api.LaunchConfiguration) else item
-        for item in processes(entities, api)[part].kwargs['arguments']
+        for item in hand_process(entities, api).kwargs['arguments']
     ]
 
 
-def test_two_hand_nodes_processes_of_setup_py_without_remaps(entities, api):
-    parts = processes(entities, api)
-    assert sorted(parts) == ['estimators', 'gloves']
-    for node in parts.values():
-        assert node.kwargs['executable'] == 'hand_nodes' in console_scripts()
-        assert 'name' not in node.kwargs and 'namespace' not in node.kwargs  # renames every node
-    assert 'condition' not in parts['gloves'].kwargs
-    (condition,) = parts['estimators'].kwargs['condition'].args
-    assert isinstance(condition, api.LaunchConfiguration) and condition.args == ('estimator',)
+def test_one_hand_nodes_process_of_setup_py_without_remaps(entities, api):
+    node = hand_process(entities, api)
+    assert node.kwargs['executable'] == 'hand_nodes' in console_scripts()
+    assert 'name' not in node.kwargs and 'namespace' not in node.kwargs  # renames every node
+    assert 'condition' not in node.kwargs  # estimator:=false is an option of the process
 
 
-def test_a_failed_process_of_either_part_ends_the_launch(entities, api):
-    handlers = [e.args[0] for e in entities if isinstance(e, api.RegisterEventHandler)]
-    targets = [handler.kwargs['target_action'] for handler in handlers]
-    assert sorted(map(id, targets)) == sorted(map(id, processes(entities, api).values()))
+def exit_handler(entities, api):
+    """The on_exit of the one exit handler, which must watch the hand's process."""
+    (handler,) = [e.args[0] for e in entities if isinstance(e, api.RegisterEventHandler)]
+    assert handler.kwargs['target_action'] is hand_process(entities, api)
+    return handler.kwargs['on_exit']
+
+
+@pytest.mark.parametrize(('returncode', 'words'), [(-9, 'SIGKILL'), (1, 'code 1')])
+def test_a_failed_hand_process_fails_the_launch(entities, api, returncode, words):
+    # launch turns an exception raised in an event handler into a shutdown and return code 1.
+    on_exit = exit_handler(entities, api)
+    for is_shutdown in (False, True):  # also when it dies while the launch stops
+        with pytest.raises(Exception, match=f'hand_nodes-1 .*{words}'):
+            on_exit(
+                FakeEvent(returncode, 'hand_nodes-1'),
+                types.SimpleNamespace(is_shutdown=is_shutdown),
+            )
+
+
+def test_a_clean_exit_of_the_hand_process_ends_the_launch_without_error(entities, api):
+    on_exit = exit_handler(entities, api)
+    for is_shutdown in (False, True):
+        assert (
+            on_exit(FakeEvent(0, 'hand_nodes-1'), types.SimpleNamespace(is_shutdown=is_shutdown))
+            is None
+        )
 
 
 def test_the_launch_arguments_are_the_hand_options(entities, api):
@@ -102,10 +114,8 @@ def test_the_launch_arguments_are_the_hand_options(entities, api):
         {'clock': 'sim', 'lockstep': 'true', 'real_time_factor': '0.0', 'estimator': 'false'},
     ],
 )
-@pytest.mark.parametrize('part', ['gloves', 'estimators'])
-def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api, arguments, part):
-    parsed = build_parser().parse_args(command_line(entities, api, part, **arguments))
-    assert parsed.part == part
+def test_hand_nodes_reads_the_launch_command_line_as_the_same_hand(entities, api, arguments):
+    parsed = build_parser().parse_args(command_line(entities, api, **arguments))
     config = hand_config(parsed)
     options = {o.name: o.default for o in command_options('hand_nodes')} | arguments
     assert config.fingers == tuple(options['fingers'].split(','))

@@ -1,15 +1,15 @@
 """Run a simulated hand from one command, with a live summary and one run record per finger.
 
-The one runner (:mod:`.runner.hand_runner`) with ``hand_nodes`` twice (:mod:`.nodes.hand_nodes`):
-every finger's plant and pressure_command in one process, every estimator in the other; it shows
-each finger's signals on the terminal, writes ``<finger>/signals.csv`` and
+The one runner (:mod:`.runner.hand_runner`) with one ``hand_nodes`` process
+(:mod:`.nodes.hand_nodes`): every finger's plant, estimator and pressure_command; it shows each
+finger's signals on the terminal, writes ``<finger>/signals.csv`` and
 ``<finger>/signals.png`` into the run directory (and with ``--record`` a rosbag2 bag per finger,
 ``bag/<finger>``) and stops on Ctrl-C or after ``--duration`` seconds (simulated seconds with
 ``--clock sim``): every command node sends zero pressure first. Finger f lives in
 ``<namespace>/<f>`` with joint prefix ``f_`` and the model ``config/hand/<f>.yaml``.
 
 This is what ``make run HAND=1`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
-hand.launch.py`` starts the same processes without the summary.
+hand.launch.py`` starts the same process without the summary.
 """
 
 import sys
@@ -18,10 +18,9 @@ from exodigit_nodes.runner import hand_runner
 
 HAND = hand_runner.Command(
     name='hand',
-    layout=hand_runner.HAND_PROCESSES,
-    description="Run a simulated hand (every finger's plant and pressure_command in one "
-    'process, the estimators in another) with a live summary; write a run record (CSV and '
-    'PNG) per finger.',
+    layout=hand_runner.HAND_PROCESS,
+    description="Run a simulated hand (every finger's plant, estimator and pressure_command in "
+    'one process) with a live summary; write a run record (CSV and PNG) per finger.',
     examples="""examples:
   python -m exodigit_nodes.hand                                  # five fingers until Ctrl-C
   python -m exodigit_nodes.hand --fingers index,middle --duration 20

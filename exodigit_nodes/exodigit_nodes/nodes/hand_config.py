@@ -8,7 +8,7 @@ level: its nodes live in the namespace itself, with no joint prefix, on the mode
 ``--params-file`` (none: the built-in one).
 
 One table of options, :func:`command_options`, serves the glove and hand runners, ``hand_nodes``
-(the process that runs every finger's nodes) and ``launch/hand.launch.py``; its entries and
+(the one process that runs every finger's nodes) and ``launch/hand.launch.py``; its entries and
 checks are in :mod:`.run_options` (the time options are the plant's parameters of the same
 names, ``mode`` is ``pressure_command``'s). :func:`hand_config` reads and checks the parsed
 options of any of them.
@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..logic.options import NOMINAL_PATIENT, UsageError, check_namespace, with_patient
 from ..logic.pacing import TimeSettings
-from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
+from .catalog import ESTIMATOR_NODE, NODES, PLANT_NODE, PRESSURE_COMMAND_NODE
 from .run_options import (
     BOOLEANS,
     TIME_OPTIONS,
@@ -47,18 +47,6 @@ DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
 """The finger the plants simulate by default: the glove's shows the estimator identifying a
 patient who is not the finger it assumes (README, "Running the glove"); a hand's fingers are
 their own files' (README, "A whole hand")."""
-PARTS = {
-    'all': (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE),
-    'gloves': (PLANT_NODE, PRESSURE_COMMAND_NODE),
-    'estimators': (ESTIMATOR_NODE,),
-}
-"""Which nodes of every finger one ``hand_nodes`` process runs (``--part``), in start order.
-
-The hand runner and the launch file start a hand as two processes, ``gloves`` (plants and
-controllers, and the hand's simulated time) and ``estimators``: an estimator takes message info
-(the source timestamps it pairs by), which rclpy 7.1's EventsExecutor cannot give, and five of
-them on a SingleThreadedExecutor take a core of their own at 100 Hz (README, "A whole hand").
-"""
 
 
 def hand_config_dir() -> Path:
@@ -189,11 +177,9 @@ class HandConfig:
         if self.fingers and self.params_file:
             raise UsageError('--params-file: a lone glove has one; every finger has its own')
 
-    def node_entries(self, part: str = 'all'):
-        """The catalog entries of a finger's nodes in ``part`` (:data:`PARTS`), in start order."""
-        return tuple(
-            entry for entry in PARTS[part] if self.estimator or entry is not ESTIMATOR_NODE
-        )
+    def node_entries(self):
+        """The catalog entries of a finger's nodes, in start order (:data:`.catalog.NODES`)."""
+        return tuple(entry for entry in NODES if self.estimator or entry is not ESTIMATOR_NODE)
 
     def gloves(self) -> tuple[Glove, ...]:
         """The gloves of the hand, one per finger (a lone glove: one)."""

@@ -1,13 +1,12 @@
-"""``hand_nodes``: the nodes of every glove of a hand (or one part of them) in one process.
+"""``hand_nodes``: the nodes of every glove of a hand in one process.
 
 For each finger of ``--fingers`` (default the five), in namespace ``<namespace>/<finger>`` with
 joint names ``<finger>_mcp, ...``: a ``plant`` of the finger's model file
 (``config/hand/<finger>.yaml``, with ``--patient`` merged over it), an ``estimator`` and a
 ``pressure_command`` in ``--mode``, both assuming the finger's nominal model. Every finger keeps
 its own topics, services, parameters and /diagnostics, exactly as a glove started node by node;
-only the processes differ. ``--part gloves`` runs only the plants and controllers, ``--part
-estimators`` only the estimators: the runner and the launch file start a hand as these two
-processes (:data:`.hand_config.PARTS` says why).
+only the processes differ. ``--estimator false`` leaves the estimators out. The hand runner and
+the launch file start a hand as this one process (README, "A whole hand", has its speed).
 
 Time: with ``--clock wall`` each plant steps on the system clock. With ``--clock sim`` the hand
 has one simulated time (:class:`.sim_time.SimulatedTime`): every finger steps together, ``/clock``
@@ -16,8 +15,9 @@ whole hand, and with ``--lockstep`` each step waits for every finger's controlle
 
 ROS arguments after ``--ros-args`` apply to every node (``-p rate_hz:=200``, or
 ``--params-file`` with ``/**:`` parameters); the per-finger values above win over them.
-Every node spins on rclpy's EventsExecutor. Ctrl-C / SIGTERM: every command node sends zero
-pressure, then all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
+Every node spins on one rclpy EventsExecutor (the estimators' message-info callbacks through
+:class:`.message_info.WithInfo`). Ctrl-C / SIGTERM: every command node sends zero pressure, then
+all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
 (one line on stderr).
 
 Run: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
@@ -36,26 +36,22 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from ..logic.options import UsageError
-from .catalog import PLANT_NODE
-from .hand_config import PARTS, HandConfig, command_options, hand_config
+from .hand_config import HandConfig, command_options, hand_config
 from .node_base import freeze_start_up, last_words, serve
 from .plant import Plant
 from .run_options import add_options
 from .sim_time import SimulatedTime
 
 
-def build_hand(config: HandConfig, part: str = 'all') -> list[Node]:
-    """The nodes of ``part`` of the hand: the owner of its simulated time (clock sim) first.
-
-    ``gloves`` (plants and controllers) owns the simulated time; ``estimators`` follows it.
-    """
+def build_hand(config: HandConfig) -> list[Node]:
+    """The nodes of the hand in start order: the owner of its simulated time (clock sim) first."""
     nodes: list[Node] = []
     shared = None
-    if config.clock == 'sim' and PLANT_NODE in PARTS[part]:
+    if config.clock == 'sim':
         owner = Node('hand', namespace=config.namespace)  # owns /clock, set_paused, step
         shared = SimulatedTime(owner, config.time)
         nodes.append(owner)
-    classes = [entry.node_class() for entry in config.node_entries(part)]
+    classes = [entry.node_class() for entry in config.node_entries()]
     for glove in config.gloves():
         for node_class in classes:
             options = {'sim_time': shared} if node_class is Plant else {}
@@ -75,19 +71,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='hand_nodes',
         description='Run the plant, estimator and pressure_command of every finger of a hand '
-        '(or one --part of them) in this one process.',
+        'in this one process.',
         epilog='ROS arguments for every node go after --ros-args, e.g. --ros-args -p '
         'rate_hz:=200. Switches (lockstep, estimator...) take true or false; alone they mean '
         'true.',
     )
     add_options(parser, command_options('hand_nodes'))
-    parser.add_argument(
-        '--part',
-        choices=tuple(PARTS),
-        default='all',
-        help="the nodes this process runs: every finger's all three (default), its plant and "
-        'controller (gloves), or its estimator (estimators)',
-    )
     return parser
 
 
@@ -97,14 +86,12 @@ def main(args: list[str] | None = None) -> int:
     try:
         options = build_parser().parse_args(remove_ros_args(argv)[1:])
         config = hand_config(options)
-        if not config.node_entries(options.part):
-            raise UsageError(f'--part {options.part} with --estimator false: no node to run')
     except (UsageError, RuntimeError) as error:
         print(f'hand_nodes: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
 
     def make_nodes() -> list[Node]:
-        nodes = build_hand(config, options.part)
+        nodes = build_hand(config)
         freeze_start_up()
         return nodes
 

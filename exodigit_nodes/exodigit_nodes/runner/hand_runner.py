@@ -15,10 +15,12 @@ The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`)
     ``launch/glove.launch.py`` starts them; stopped command node first, so the chambers get zero
     pressure while the plant still runs. Only for a lone glove: each plant then owns its own
     simulated time, and a hand has one.
-``parts``
-    ``hand_nodes --part gloves`` (every plant and controller, and the hand's simulated time),
-    then ``--part estimators``, as ``launch/hand.launch.py`` starts them; five fingers in fifteen
-    processes would not keep their pace on two cores (README, "A whole hand").
+``hand_nodes``
+    Every node of every finger in one ``hand_nodes`` process, as ``launch/hand.launch.py``
+    starts it: the fingers share one simulated time, and on one EventsExecutor five fingers keep
+    their pace on two cores, where fifteen processes do not (README, "A whole hand"). Its stop
+    gives every command node's zero pressure before any node is destroyed
+    (:func:`..nodes.node_base.serve`).
 
 With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
 a lone glove's to ``<run>/bag``, finger f's to ``<run>/bag/f``; it starts first and stops last.
@@ -48,12 +50,9 @@ from .session import Session, WatchedGlove, identification_references, run_sessi
 
 NODE_PROCESSES = 'nodes'
 """Layout: each node of a lone glove its own process."""
-HAND_PROCESSES = 'parts'
-"""Layout: the ``hand_nodes`` processes of :data:`PART_PROCESSES`."""
-LAYOUTS = (NODE_PROCESSES, HAND_PROCESSES)
-PART_PROCESSES = {'hand_nodes': 'gloves', 'hand_estimators': 'estimators'}
-"""The processes of the ``parts`` layout: name and ``hand_nodes --part``, in start and stop order
-(the controllers' process stops first)."""
+HAND_PROCESS = 'hand_nodes'
+"""Layout: every node of a hand in one ``hand_nodes`` process, also the process's name."""
+LAYOUTS = (NODE_PROCESSES, HAND_PROCESS)
 RECORDER = 'recorder'
 """The rosbag2 recorder's process, node and module name."""
 
@@ -112,7 +111,7 @@ class RunConfig:
             raise ValueError(f'layout {self.layout!r}: one of {", ".join(LAYOUTS)}')
         if self.layout == NODE_PROCESSES and self.hand.fingers:
             raise ValueError('a node per process runs a lone glove only (one plant, one clock)')
-        if self.layout == HAND_PROCESSES and not self.hand.fingers:
+        if self.layout == HAND_PROCESS and not self.hand.fingers:
             raise ValueError('hand_nodes runs the fingers of a hand')
 
 
@@ -229,20 +228,15 @@ def node_processes(config: RunConfig) -> dict[str, list[str]]:
     ros_args = ['--ros-args'] if config.ros_params else []
     for path in config.ros_params:
         ros_args += ['--params-file', path]
-    return {
-        name: [*command, '--part', part, *ros_args]
-        for name, part in PART_PROCESSES.items()
-        if hand.node_entries(part)  # no estimators: one process
-    }
+    return {HAND_PROCESS: [*command, *ros_args]}
 
 
 def nodes_run(config: RunConfig, name: str) -> tuple[str, ...]:
     """The nodes of every glove that process ``name`` runs (none for a recorder)."""
-    hand = config.hand
+    executables = tuple(entry.executable for entry in config.hand.node_entries())
     if config.layout == NODE_PROCESSES:
-        return (name,) if name in {entry.executable for entry in hand.node_entries()} else ()
-    part = PART_PROCESSES.get(name)
-    return tuple(entry.executable for entry in hand.node_entries(part)) if part else ()
+        return (name,) if name in executables else ()
+    return executables if name == HAND_PROCESS else ()
 
 
 def recorder_command(config: RunConfig, bag: Path) -> list[str]:
@@ -274,11 +268,10 @@ def session(config: RunConfig, run_dir: Path) -> Session:
         {RECORDER: recorder_command(config, run_dir / BAG_DIR_NAME)} if config.record else {}
     )
     nodes = node_processes(config)
-    first = reversed(nodes) if config.layout == NODE_PROCESSES else nodes
     return Session(
         program=config.program,
         processes=(*recorders.items(), *nodes.items()),
-        stop_order=(*first, *recorders),
+        stop_order=(*reversed(nodes), *recorders),  # the command nodes first, the plants last
         runs={name: nodes_run(config, name) for name in (*recorders, *nodes)},
         nodes=tuple(entry.executable for entry in hand.node_entries()),
         gloves=watched,
