@@ -2,7 +2,6 @@
 
 import io
 import math
-import struct
 from datetime import datetime
 
 import numpy as np
@@ -10,17 +9,9 @@ import pytest
 from exodigit_nodes.logic.ros_env import discovery_settings
 from exodigit_nodes.runner.run_record import RunRecord, csv_columns, new_run_directory, read_csv
 from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay
+from png_files import png_size
 
 NODES = ('plant', 'estimator', 'pressure_command')
-PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
-
-
-def png_size(path):
-    """(width, height) from the IHDR chunk that must follow the PNG signature."""
-    data = path.read_bytes()
-    assert data[:8] == PNG_SIGNATURE
-    assert data[12:16] == b'IHDR'
-    return struct.unpack('>II', data[16:24])
 
 
 PERIOD = 0.01  # s, plant step in these tests

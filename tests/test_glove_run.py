@@ -11,7 +11,6 @@ in this process; one refusal runs as the command, for its exit status and its li
 import csv
 import os
 import signal
-import struct
 import subprocess
 import sys
 from collections.abc import Callable
@@ -25,6 +24,7 @@ from exodigit_model.tools.bag import read_bag
 from exodigit_nodes.glove import main as glove_main
 from exodigit_nodes.nodes.catalog import NODES as NODE_ENTRIES
 from exodigit_nodes.nodes.hand_config import DEFAULT_PATIENTS
+from png_files import png_size
 from ros_harness import claim_domain, ros_environment, wait_until
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
@@ -97,12 +97,6 @@ def read_record(path):
 
 def joint_columns(table, stem, unit):
     return np.stack([table[f'{stem}_{joint}_{unit}'] for joint in JOINTS], axis=1)
-
-
-def png_size(path):
-    data = path.read_bytes()
-    assert data[:8] == b'\x89PNG\r\n\x1a\n' and data[12:16] == b'IHDR'
-    return struct.unpack('>II', data[16:24])
 
 
 def recorded_rows(path):

@@ -14,6 +14,7 @@ import pytest
 from exodigit_model.tools import figures
 from exodigit_model.tools.cli import EXAMPLES, main
 from exodigit_model.tools.curves import simulate, sweep_markers
+from png_files import png_size
 
 from exodigit_model import JOINT_NAMES, GloveModel, load_params, patient_file
 
@@ -136,12 +137,6 @@ def test_free_markers_follow_the_arc_chord(curves, model):
         np.testing.assert_allclose(marker3, chord, atol=MARKER_TOLERANCE_MM)
         np.testing.assert_allclose(marker4, tip, atol=MARKER_TOLERANCE_MM)
         assert float(row['marker2_x_mm']) == 0.0 and float(row['marker2_y_mm']) == 0.0
-
-
-def png_size(path):
-    data = path.read_bytes()
-    assert data[:8] == b'\x89PNG\r\n\x1a\n'
-    return int.from_bytes(data[16:20], 'big'), int.from_bytes(data[20:24], 'big')
 
 
 #: The figures ``exodigit curves`` writes.
