@@ -75,6 +75,7 @@ class Plant(GloveNode):
 
     executable = PLANT_NODE.executable
     table = PLANT_NODE.table
+    quiet_parameters = frozenset({'run_until'})  # raised every step by the testing kit
 
     def __init__(self, *, sim_time: SimulatedTime | None = None, **node_options) -> None:
         """``sim_time``: the simulated time this plant shares (the hand's); None: its own."""
