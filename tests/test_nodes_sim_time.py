@@ -1,4 +1,4 @@
-"""The plant in simulated time: /clock, lockstep, pause/step, run_until, reset, and the kit.
+"""The plant in simulated time: /clock, lockstep, pause/step, run_until, resets, and the kit.
 
 Over DDS (the wiring, through the testing kit and controller node processes): every expectation
 is exact (lockstep), none is a timing assert: states are compared bit for bit with
@@ -11,9 +11,9 @@ everything relative to the simulated time they find (it never rewinds). A test t
 options or a fresh noise stream gets a glove of its own (``glove_sim``).
 
 In process (`reliability_inprocess.InProcessNode`, the plant's services and timers called
-directly): pause and step, run_until, the lockstep timeout and its recovery, and the waits of a
-service step. That lockstep needs simulated time is refused at start:
-tests/test_nodes_startup.py.
+directly): pause and step, run_until, a new session (``reset_simulation``), the lockstep
+timeout and its recovery, and the waits of a service step. That lockstep needs simulated time is
+refused at start: tests/test_nodes_startup.py.
 """
 
 import itertools
@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
+from exodigit_model.params import patient_file
 from exodigit_model.simulation import step_time_ns
 from exodigit_nodes.nodes import sim_time
 from exodigit_nodes.nodes.plant import Plant
@@ -42,7 +43,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Header
 from std_srvs.srv import SetBool, Trigger
 
-from exodigit_model import GloveSimulation, SimulationSettings
+from exodigit_model import GloveModel, GloveSimulation, SimulationSettings, load_params
 
 CONTROLLER = Path(__file__).with_name('lockstep_controller.py')
 #: Step rate of the shared glove (the plant's default), Hz.
@@ -339,7 +340,7 @@ def service_callback(node: InProcessNode, name: str):
     return next(s.callback for s in node.node.services if s.service_name.endswith(f'/{name}'))
 
 
-@pytest.mark.parametrize('service', ['step', 'reset'])
+@pytest.mark.parametrize('service', ['step', 'reset', 'reset_simulation'])
 def test_a_service_step_waits_for_new_readers_in_the_loop_not_in_the_callback(probe, service):
     # The step is taken once the outputs have matched every subscriber the graph knows (here:
     # not yet, then yes). The callback answers at once instead of sleeping until then, so a
@@ -459,6 +460,33 @@ def test_run_until_holds_the_steps_there_and_raising_it_lets_them_go_on(sim_plan
     assert node.node.set_parameters([Parameter('run_until', value=0.1)])[0].successful
     states += node.take().get('joint_states', []) + run_loop(node)
     assert stamps_ns(states) == [step_time_ns(k, RATE) for k in range(1, 11)]
+
+
+def test_reset_simulation_starts_the_patient_of_the_parameters_at_time_zero(sim_plant):
+    # What the testing kit does between two patients of a trial: set params_file and seed,
+    # then reset_simulation. The new session is what a plant started with them gives, /clock
+    # going back to its first step.
+    node = sim_plant(start_paused='true', angle_noise_std='0.001')
+    node.deliver('pressure_command', Float64MultiArray(data=[30e3, 30e3, 30e3]))
+    for _ in range(5):
+        call(node, 'step', Trigger.Request(), Trigger.Response())
+    patient = str(patient_file('stroke_moderate'))
+    refused = node.node.set_parameters([Parameter('params_file', value='/no/such/patient.yaml')])
+    assert not refused[0].successful and 'params_file' in refused[0].reason
+    changes = [Parameter('params_file', value=patient), Parameter('seed', value=7)]
+    assert all(result.successful for result in node.node.set_parameters(changes))
+    node.take()
+    answer = call(node, 'reset_simulation', Trigger.Request(), Trigger.Response())
+    assert answer.success, answer.message
+    published = node.take()
+    settings = SimulationSettings(pressure_time_constant=0.0, angle_noise_std=0.001, seed=7)
+    expected = GloveSimulation(GloveModel(load_params([patient])), settings).step(np.zeros(3))
+    (state,) = published['joint_states']
+    (clock,) = published['/clock']
+    assert stamps_ns([state]) == [step_time_ns(1, RATE)] == [expected.time_ns]
+    assert clock.clock == state.header.stamp
+    np.testing.assert_array_equal(state.position, expected.q_measured)
+    np.testing.assert_array_equal(published['contact_forces'][0].data, expected.forces)
 
 
 def lockstep_status(node: InProcessNode) -> str:

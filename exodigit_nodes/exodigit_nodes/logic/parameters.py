@@ -173,15 +173,19 @@ class ParamTable:
         return '\n'.join(spec.help_line() for spec in self.specs.values())
 
 
-def params_file_spec(whose: str) -> ParamSpec:
-    """The ``params_file`` parameter of a node that loads the model (``whose`` model it is)."""
+def params_file_spec(whose: str, taken_at: str | None = None) -> ParamSpec:
+    """The ``params_file`` parameter of a node that loads the model (``whose`` model it is).
+
+    Read-only, unless ``taken_at`` says when the node takes a new value (the plant's: at its
+    next ``reset_simulation``).
+    """
     return ParamSpec(
         'params_file',
         '',
         f'Model parameter YAML for {whose} (docs/spec/model.md §10-11): one file, or a list of '
         "files merged in order (e.g. ['my_glove.yaml', 'patient.yaml']); empty = built-in "
-        'defaults',
-        read_only=True,
+        'defaults' + ('' if taken_at is None else f' ({taken_at})'),
+        read_only=taken_at is None,
         files=True,
     )
 

@@ -43,6 +43,9 @@ DIAGNOSTIC_PERIOD = ParamSpec(
     read_only=True,
 )
 """Every node's report period: one row, in each node's table."""
+NEXT_SESSION = 'settable: taken at the next reset_simulation, clock sim'
+"""When the plant takes a new value of a parameter it builds its simulation from (a new patient:
+docs/spec/ros.md Part II)."""
 
 
 @dataclass(frozen=True)
@@ -93,7 +96,7 @@ PLANT_NODE = NodeEntry(
     summary='the simulated glove',
     table=ParamTable(
         [
-            params_file_spec('the simulated glove and patient'),
+            params_file_spec('the simulated glove and patient', NEXT_SESSION),
             ParamSpec(
                 'rate_hz',
                 SIM_DEFAULTS.rate_hz,
@@ -149,10 +152,9 @@ PLANT_NODE = NodeEntry(
             ParamSpec(
                 'seed',
                 SIM_DEFAULTS.seed,
-                'Seed of the sensor noise',
+                f'Seed of the sensor noise ({NEXT_SESSION})',
                 low=0.0,
                 high=2.0**31 - 1,
-                read_only=True,
             ),
             ParamSpec(
                 'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True

@@ -25,6 +25,7 @@ MARKERS = 'markers'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 RESET = 'reset'
+RESET_SIMULATION = 'reset_simulation'
 SET_PAUSED = 'set_paused'
 STEP = 'step'
 

@@ -60,7 +60,7 @@ from .messages import (
     fill,
     joint_vector_message,
 )
-from .node_base import LOG_THROTTLE, GloveNode, load_model, run
+from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
 from .sim_time import WAITING, SimulatedTime
 
@@ -81,21 +81,14 @@ class Plant(GloveNode):
         """``sim_time``: the simulated time this plant shares (the hand's); None: its own."""
         super().__init__(**node_options)
         values, settings = self.values, self.settings
-        self.model = load_model(values['params_file'])
-        self.simulation = GloveSimulation(self.model, settings.simulation)
-        self.state: GloveState = self.simulation.state
-        self.period = self.simulation.period
         self.sim_clock = values['clock'] == 'sim'
         self.lockstep = values['lockstep']
         self.watchdog = Watchdog(settings.command_timeout)
-        self.command = np.zeros(3)
-        self.effort: tuple[float, np.ndarray] | None = None  # (time received, N·m)
-        self.failure_residual = 0.0
-        self.failures_reported = 0
+        self.use_simulation(self.new_simulation())
+        self.period = self.simulation.period
         self.cycles = 0
         self.late_cycles = 0
         self._last_wall: float | None = None
-        self.markers = GloveMarkers(self.model)
 
         self.joint_state = JointState()
         self.joint_state.name = [values['joint_prefix'] + name for name in JOINT_NAMES]
@@ -159,7 +152,15 @@ class Plant(GloveNode):
     # -- parameters ------------------------------------------------------------------------
 
     def make_settings(self, values) -> PlantSettings:
-        """Plant settings from checked parameters (ValueError naming the parameter)."""
+        """Plant settings from checked parameters (ValueError naming the parameter).
+
+        A new ``params_file`` must load (it is read again at the next ``reset_simulation``).
+        """
+        if values['params_file'] != self.values['params_file']:
+            try:
+                load_model(values['params_file'])
+            except ConfigurationError as error:
+                raise ValueError(str(error)) from None
         return plant_settings(values)
 
     def apply(self, settings: PlantSettings, changed: set[str]) -> None:
@@ -189,6 +190,32 @@ class Plant(GloveNode):
             for member in self.time.members:  # they show the hand's time settings too
                 if member is not self:
                     member.follow_time(time_changes)
+
+    def new_simulation(self) -> GloveSimulation:
+        """A simulation of the current parameters (``params_file``, ``seed``...) at rest, t = 0.
+
+        Raises
+        ------
+        ConfigurationError
+            If ``params_file`` does not load (one line naming it).
+        """
+        return GloveSimulation(load_model(self.values['params_file']), self.settings.simulation)
+
+    def use_simulation(self, simulation: GloveSimulation) -> None:
+        """Simulate on ``simulation`` from its state on: no command, effort or failure yet."""
+        self.simulation = simulation
+        self.model = simulation.model
+        self.state: GloveState = simulation.state
+        self.markers = GloveMarkers(self.model)
+        self.failure_residual = 0.0
+        self.failures_reported = 0
+        self.forget_inputs()
+
+    def forget_inputs(self) -> None:
+        """No command and no effort until new ones come (the watchdog has seen none)."""
+        self.command = np.zeros(3)
+        self.effort: tuple[float, np.ndarray] | None = None  # (time received, N·m)
+        self.watchdog.clear()
 
     def follow_time(self, changes: dict) -> None:
         """Take time settings another plant of our shared (a hand's) time was set to.
@@ -242,9 +269,7 @@ class Plant(GloveNode):
         With clock sim the rest state is published at once as the next step (time goes on).
         """
         self.simulation.reset()
-        self.command = np.zeros(3)
-        self.effort = None
-        self.watchdog.clear()
+        self.forget_inputs()
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
         if self.time is not None:

@@ -9,6 +9,10 @@ member has its answer (a ``pressure_command``); a member whose controller stays 
 steps on at real time until the silent ones answer again. ``set_paused`` (std_srvs/SetBool) and
 ``step`` (std_srvs/Trigger, one step while paused) are served by the owner node, ``pause_at``
 pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
+``reset_simulation`` (std_srvs/Trigger, as Gazebo's) starts a new session: every member rebuilt
+from its parameters (a new patient's ``params_file`` and ``seed``), simulated time back to zero,
+the rest state published as step 1; so ``/clock`` jumps back, the standard signal on which the
+other nodes start over (docs/spec/ros.md, "When time goes back").
 
 A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
 (:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
@@ -28,10 +32,11 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMessage
 from std_srvs.srv import SetBool, Trigger
 
-from exodigit_model import GloveState
+from exodigit_model import GloveSimulation, GloveState
 
 from ..logic.pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
-from .messages import CLOCK, PRESSURE_COMMAND, SET_PAUSED, STEP
+from .messages import CLOCK, PRESSURE_COMMAND, RESET_SIMULATION, SET_PAUSED, STEP
+from .node_base import ConfigurationError
 from .qos import WRITER_QOS
 
 POLL_LIMITS = (0.5e-3, 0.01)
@@ -77,6 +82,12 @@ class Member(Protocol):
     def follow_time(self, changes: dict) -> None:
         """Show time settings another member was set to (name: value) as its own."""
 
+    def new_simulation(self) -> GloveSimulation:
+        """A simulation of the member's parameters at rest at t = 0 (ConfigurationError)."""
+
+    def use_simulation(self, simulation: GloveSimulation) -> None:
+        """Simulate on ``simulation`` from its state on (no command or effort yet)."""
+
 
 class SimulatedTime:
     """The simulated clock of its members, served by the node ``owner``.
@@ -109,6 +120,7 @@ class SimulatedTime:
         self.requested_since = 0.0
         owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
         owner.create_service(Trigger, STEP, self.on_step)
+        owner.create_service(Trigger, RESET_SIMULATION, self.on_reset_simulation)
 
     # -- members ---------------------------------------------------------------------------
 
@@ -224,6 +236,38 @@ class SimulatedTime:
             response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
         else:
             response.message = f'step {self._step_number() + self.requested}: {WAITING}'
+        return response
+
+    def on_reset_simulation(
+        self, request: Trigger.Request, response: Trigger.Response
+    ) -> Trigger.Response:
+        """A new session: every member rebuilt from its parameters at t = 0, step 1 published.
+
+        Each member's simulation is built first: a ``params_file`` that no longer loads refuses
+        the reset (saying why) and changes nothing. Lockstep waits for the answer to the new
+        step 1 (an answer owed to the old session is void, a silent controller is forgiven);
+        paused stays paused; ``pause_at`` and ``run_until`` keep their values (simulated times:
+        set them for the new session). Step 1 is published at once unless a subscriber is not
+        yet matched (:meth:`request_step`), and its ``/clock`` goes back: the other nodes' sign
+        that a new session began.
+        """
+        try:
+            simulations = [member.new_simulation() for member in self.members]
+        except ConfigurationError as error:
+            response.success = False
+            response.message = f'simulation not reset: {error}'
+            return response
+        for member, simulation in zip(self.members, simulations, strict=True):
+            member.use_simulation(simulation)
+        self.awaiting, self.silent, self.requested = set(), set(), 0
+        self._measure_marks = (time.monotonic(), 0.0)
+        self.restart_pacing()
+        response.success = True
+        if self.request_step():
+            response.message = f'simulation reset: rest state published at t = {self.t:.9f} s'
+        else:
+            response.message = f'simulation reset: rest state {WAITING}'
+        self.owner.get_logger().info(response.message)
         return response
 
     # -- stepping --------------------------------------------------------------------------
