@@ -211,3 +211,50 @@ def test_without_fresh_joint_states_the_closed_loop_ramps_to_zero_and_says_so(in
     assert list(sent[-1]) == [0.0, 0.0, 0.0]
     status, _ = report(node)
     assert status.level == DiagnosticStatus.WARN and 'no fresh joint_states' in status.message
+
+
+# -- a new session when time goes back (docs/spec/ros.md, "When time goes back") ---------------
+
+#: A session of states: the finger bending towards the targets, stamped from ``start``.
+SESSION_ANGLES = np.linspace([0.0, 0.0, 0.0], [0.08, 0.09, 0.07], 20)
+
+
+def at(node, t):
+    """Deliver ``/clock`` at ``t`` (s) to ``node``."""
+    node.deliver('clock', Clock(clock=Time(sec=int(t), nanosec=round(t % 1 * 1e9))))
+
+
+def lockstep_session(node, start):
+    """Answer each state of `SESSION_ANGLES` stamped ``start`` + 0.01 k; the commands sent."""
+    for k, q in enumerate(SESSION_ANGLES, start=1):
+        node.deliver('joint_states', joint_states(q, start + 0.01 * k))
+    return np.array([m.data for m in node.take()['pressure_command']])
+
+
+def timer_session(node, start):
+    """/clock from ``start``, a state and a tick each 0.01 s; the commands sent."""
+    at(node, start)
+    for k, q in enumerate(SESSION_ANGLES, start=1):
+        at(node, start + 0.01 * k)
+        node.deliver('joint_states', joint_states(q, start + 0.01 * k))
+        node.node.tick()
+    return np.array([m.data for m in node.take()['pressure_command']])
+
+
+def test_in_lockstep_a_state_stamped_back_in_time_starts_a_new_session(in_process):
+    # A node that answered a session at t = 5 s answers one from t = 0.01 s again as a node that
+    # has just started does: no integral, no rate-limited command, no last stamp carried over.
+    fresh = lockstep_session(in_process(lockstep='true'), 0.0)
+    used = in_process(lockstep='true')
+    before = lockstep_session(used, 5.0)
+    assert not np.array_equal(before[-1], fresh[0])  # something to forget: integral, limiter
+    np.testing.assert_array_equal(lockstep_session(used, 0.0), fresh)
+
+
+def test_when_the_node_clock_goes_back_the_node_starts_a_new_session(in_process):
+    # The same on its own timer, on simulated time: /clock going back is the signal (a time-jump
+    # callback on the node clock).
+    fresh = timer_session(in_process(use_sim_time='true'), 100.0)
+    used = in_process(use_sim_time='true')
+    timer_session(used, 200.0)
+    np.testing.assert_array_equal(timer_session(used, 100.0), fresh)

@@ -13,6 +13,13 @@ simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with on
 from that state and its stamp (in ``force`` mode: from that state and the estimate stamped with
 the same stamp).
 
+When its time goes back (a plant's ``reset_simulation``: a new session, e.g. the next patient of
+a trial), it starts over as if just started: no integral, no rate limit carried over, no feedback
+or lockstep state of the old session; its parameters and latest ``joint_targets`` stay. Its time is
+the node clock (``/clock`` with ``use_sim_time``: a time-jump callback, the signal tf2's buffers
+clear on), in lockstep the stamps of the states it answers (a state stamped before the last one
+answered).
+
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
 
@@ -35,7 +42,8 @@ from exodigit_model.control import (
     Sine,
     Staircase,
 )
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
+from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -62,6 +70,10 @@ MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
 ESTIMATOR_POLL = 0.05
 """Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
+BACKWARDS = JumpThreshold(
+    min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False
+)
+"""Any jump of the node clock back in time (forward jumps are simulated time running fast)."""
 
 LIMIT_NAMES = frozenset(
     {
@@ -104,18 +116,18 @@ class PressureCommand(GloveNode):
         super().__init__(**node_options)
         self.model = load_model(self.values['params_file'])
         self.period = 1.0 / self.values['rate_hz']
-        self.angles: tuple[float, np.ndarray] | None = None
-        self.forces: tuple[float, np.ndarray] | None = None
         self.topic_targets: np.ndarray | None = None
         self.limit_counts: dict[str, int] = {}
         self.last_back_off = ''
         self.back_offs_reported = 0
         self.sent = np.zeros(3)
-        self.loop = CommandLoop(self.make_controller(), SafetyLimiter(self.settings.limits))
-        self.started = self.now_seconds()
-        self.last_tick: float | None = None
         self.lockstep = self.values['lockstep']
         self.pending: dict[str, tuple[float, np.ndarray] | None] = {'angles': None, 'forces': None}
+        self.start_over(self.now_seconds())
+        if not self.lockstep:  # in lockstep the stamps are the time (on_joint_states)
+            self.time_jumps = self.get_clock().create_jump_callback(
+                BACKWARDS, post_callback=self.on_time_jump
+            )
 
         self.command_message = joint_vector_message()
         # Subscriptions before the publisher: when the plant sees our commands' publisher, it
@@ -197,6 +209,31 @@ class PressureCommand(GloveNode):
             return PositionController(self.model, targets, v['position_kp'], v['position_ki'])
         return ForceController(self.model, v['force_targets'], v['force_kp'], v['force_ki'])
 
+    # -- sessions --------------------------------------------------------------------------
+
+    def start_over(self, now: float) -> None:
+        """A new session from ``now`` (s): forget what was measured, integrated and limited.
+
+        At start, and when time goes back (module text). Kept: the parameters, the latest
+        ``joint_targets`` (what the node is told to do) and the diagnostics' counts. A state
+        waiting for its estimate (lockstep force mode) is forgotten; an estimate waiting is kept:
+        it may be the new session's, come before its state (an older one never pairs with a
+        state of the new session: pairing is by stamp).
+        """
+        self.loop = CommandLoop(self.make_controller(), SafetyLimiter(self.settings.limits))
+        self.started = now
+        self.last_tick: float | None = None
+        self.angles: tuple[float, np.ndarray] | None = None
+        self.forces: tuple[float, np.ndarray] | None = None
+        self.pending['angles'] = None
+
+    def on_time_jump(self, jump: TimeJump) -> None:
+        """The node clock went back (``/clock`` jumped back: a new session): start over."""
+        self.start_over(self.now_seconds())
+        self.get_logger().info(
+            f'time went back {-jump.delta.nanoseconds * 1e-9:g} s: a new session, started over'
+        )
+
     # -- inputs ----------------------------------------------------------------------------
 
     def listen_to_states(self) -> None:
@@ -228,6 +265,9 @@ class PressureCommand(GloveNode):
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
             return
+        if self.lockstep and self.last_tick is not None and stamp < self.last_tick:
+            self.start_over(stamp)  # time went back: a new session
+            self.get_logger().info(f'{JOINT_STATES} went back to t = {stamp:.9f} s: a new session')
         self.angles = (now, angles)
         if self.lockstep:
             self.pending['angles'] = (stamp, angles)
