@@ -54,6 +54,23 @@ FIXED_PLANT = {
 _NAMESPACES = itertools.count(1)
 
 
+def patient_parameters(
+    params_file: str | os.PathLike | None, plant: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """The plant parameters of a glove's patient: its ``params_file`` (absolute) and ``plant``.
+
+    Raises
+    ------
+    ValueError
+        If ``plant`` names a parameter the kit sets itself (:data:`FIXED_PLANT`).
+    """
+    fixed = sorted(set(plant or {}) & set(FIXED_PLANT))
+    if fixed:
+        raise ValueError(f'plant parameter {fixed[0]} is set by the testing kit itself')
+    path = '' if params_file is None else str(Path(params_file).resolve())
+    return {**(plant or {}), 'params_file': path}
+
+
 class GloveSimError(RuntimeError):
     """The simulated glove did not answer as the lockstep protocol says; the text says what."""
 
@@ -101,9 +118,6 @@ class GloveSim:
         log_dir: str | os.PathLike | None = None,
         timeout: float = DEFAULT_TIMEOUT,
     ) -> None:
-        fixed = sorted(set(plant or {}) & set(FIXED_PLANT))
-        if fixed:
-            raise ValueError(f'plant parameter {fixed[0]} is set by the testing kit itself')
         if not timeout > 0.0:
             raise ValueError(f'timeout = {timeout!r}: must be > 0 s')
         self.timeout = timeout
@@ -124,9 +138,7 @@ class GloveSim:
             log_dir = self._temporary.name
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        parameters = {**PLANT_DEFAULTS, **(plant or {}), **FIXED_PLANT}
-        if params_file is not None:
-            parameters['params_file'] = str(Path(params_file).resolve())
+        parameters = {**PLANT_DEFAULTS, **patient_parameters(params_file, plant), **FIXED_PLANT}
         self.rate_hz = float(parameters.get('rate_hz', 100.0))
         self._processes: list[NodeProcess] = []
         self._node = None
@@ -135,7 +147,7 @@ class GloveSim:
             if estimator:
                 # Lockstep time is exact: a backlog is no reason to refuse a sample as stale.
                 estimator_parameters = {'use_sim_time': True, 'max_sample_age': 10.0}
-                if params_file is not None:
+                if params_file is not None:  # else the nominal model, as the plant's
                     estimator_parameters['params_file'] = parameters['params_file']
                 self._start('estimator', estimator_parameters)
             self._connect(estimator)
@@ -212,9 +224,45 @@ class GloveSim:
         """
         return self._reset(with_estimate=True)
 
-    def _reset(self, *, with_estimate: bool) -> SimState:
-        self._node.clear_commands()
-        self._call(self._node.reset_client, self._node.trigger(), 'reset')
+    def reset_simulation(self) -> SimState:
+        """A new session (the plant's ``reset_simulation``); returns its rest state, step 1.
+
+        The plant is built anew from its parameters (a patient set with :meth:`set_patient`)
+        and simulated time goes back to zero: a node of yours started before sees ``/clock``
+        jump back and must start over (docs/spec/ros.md, "When time goes back").
+        """
+        return self._reset(with_estimate=True, new_session=True)
+
+    def set_patient(
+        self, params_file: str | os.PathLike | None = None, plant: Mapping[str, Any] | None = None
+    ) -> None:
+        """The plant's next patient, taken at the next :meth:`reset_simulation`.
+
+        ``params_file`` (None: the built-in defaults) and ``plant`` as for the constructor:
+        ``params_file`` and ``seed`` take effect at the next :meth:`reset_simulation`, the
+        other parameters at once; ``rate_hz``, if given, must be the glove's.
+
+        Raises
+        ------
+        ValueError
+            For a parameter the kit sets itself, or another ``rate_hz``.
+        GloveSimError
+            If the plant refuses a value (a ``params_file`` that does not load).
+        """
+        values = patient_parameters(params_file, plant)
+        rate_hz = values.pop('rate_hz', self.rate_hz)
+        if rate_hz != self.rate_hz:
+            raise ValueError(f'rate_hz = {rate_hz!r}: this glove steps at {self.rate_hz:g} Hz')
+        request = self._node.parameters_request(values)
+        self._call(self._node.parameter_client, request, 'set the patient')
+
+    def _reset(self, *, with_estimate: bool, new_session: bool = False) -> SimState:
+        node = self._node
+        node.clear_commands()
+        if new_session:
+            self._call(node.reset_simulation_client, node.trigger(), 'reset_simulation')
+        else:
+            self._call(node.reset_client, node.trigger(), 'reset')
         self.state = self._next_state(with_estimate=with_estimate)
         self._external_synced = False
         return self.state

@@ -7,10 +7,13 @@ import rclpy until a glove is started.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
@@ -23,6 +26,7 @@ from ..nodes.messages import (
     JOINT_STATES,
     PRESSURE_COMMAND,
     RESET,
+    RESET_SIMULATION,
     SEGMENT_LENGTHS,
     SET_PAUSED,
     STEP,
@@ -89,6 +93,7 @@ class GloveClient(Node):
         self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
         plant = f'{namespace.rstrip("/")}/plant'
         self.reset_client = self.create_client(Trigger, RESET)
+        self.reset_simulation_client = self.create_client(Trigger, RESET_SIMULATION)
         self.step_client = self.create_client(Trigger, STEP)
         self.pause_client = self.create_client(SetBool, SET_PAUSED)
         self.parameter_client = self.create_client(SetParameters, f'{plant}/set_parameters')
@@ -106,6 +111,7 @@ class GloveClient(Node):
         self.warm_up_client = self.create_client(GetParameters, f'{plant}/get_parameters')
         self.plant_services = (
             self.reset_client,
+            self.reset_simulation_client,
             self.step_client,
             self.pause_client,
             self.parameter_client,
@@ -223,6 +229,15 @@ class GloveClient(Node):
     def pause_at_request(seconds: float) -> SetParameters.Request:
         """Set the plant's ``pause_at`` to ``seconds`` of simulated time."""
         return set_double_request('pause_at', seconds)
+
+    @staticmethod
+    def parameters_request(values: Mapping[str, Any]) -> SetParameters.Request:
+        """Set the plant's parameters ``values`` (name: Python value)."""
+        return SetParameters.Request(
+            parameters=[
+                Parameter(name, value=value).to_parameter_msg() for name, value in values.items()
+            ]
+        )
 
     @staticmethod
     def warm_up_request() -> GetParameters.Request:
