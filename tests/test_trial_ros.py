@@ -6,10 +6,16 @@ The "user's" node is the built-in ``pressure_command`` in ``position`` mode with
 They are not bit for bit the same: the node's time step is the difference of two plant stamps,
 which differs from the in-process 1/rate_hz in the last bits (its rate-limited first commands
 came out 2e-13 Pa apart, the metrics 1e-16 rad and 5e-15 N), hence ROUNDING.
+
+The module's trial runs on one glove: patient 1 on the glove and node that ran patient 0, a new
+session of the plant on which the node starts over. A glove and node started for patient 1 alone
+must give the same session bit for bit (lockstep: the same commands give the same states), so
+the same metrics.
 """
 
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +32,8 @@ target would change (about 1e-4 rad of tracking RMSE)."""
 NOT_REPORTED = ('limiter_steps', 'solver_warning_steps', 'outside_model_steps')
 """What a ROS node and the plant's topics do not say: 0 in a kit trial."""
 NODE = [sys.executable, '-m', 'exodigit_nodes.nodes.pressure_command']
+NEW_SESSION = 'joint_states went back'
+"""What pressure_command logs when a state's stamp goes back: it starts a new session."""
 
 
 def trial(controller: ControllerSpec, patients: int = 2) -> TrialSpec:
@@ -44,9 +52,10 @@ def trial(controller: ControllerSpec, patients: int = 2) -> TrialSpec:
 
 
 @pytest.fixture(scope='module')
-def kit_trial():
+def kit_trial(tmp_path_factory):
+    """The two patients on one glove and node, kept from patient 0 for patient 1."""
     spec = trial(ros_controller(NODE, mode='position', lockstep=True))
-    with KitEngine(parallel=2) as engine:
+    with KitEngine(parallel=1, log_dir=tmp_path_factory.mktemp('kit')) as engine:
         result = run_trial(spec, engine=engine)
     return spec, engine, result
 
@@ -81,6 +90,21 @@ def test_the_targets_sent_are_the_protocols_and_in_the_records(kit_trial):
     # the target's range is what the metrics saw: exactly the targets sent
     sent = targets.max(axis=0) - targets.min(axis=0)
     np.testing.assert_array_equal(result.metrics.values['target_rom_rad'], np.tile(sent, (2, 1)))
+
+
+def test_a_glove_kept_for_the_next_patient_gives_what_a_fresh_glove_gives(kit_trial):
+    spec, engine, _ = kit_trial
+    logs = Path(engine.log_dir)
+    # patient 1 ran on patient 0's glove: its node saw time go back once, none started for 1
+    assert (logs / 'patient_0' / 'controller.err').read_text().count(NEW_SESSION) == 1
+    assert not (logs / 'patient_1' / 'controller.err').exists()
+    alone = KitEngine().session(spec, 1)  # on a glove and node of its own
+    kept = engine.records[1]
+    # every series the metrics come from, and the node's commands
+    for series in ('q', 'target', 'pressure', 'forces', 'command'):
+        np.testing.assert_array_equal(getattr(kept, series), getattr(alone, series), series)
+    before = engine.records[0].command[-1]
+    assert not np.array_equal(before, kept.command[0])  # the node had something to forget
 
 
 def test_the_report_is_the_in_process_one(kit_trial, tmp_path):

@@ -2,11 +2,11 @@
 
 ``exodigit trial`` (exodigit_model, which never imports ROS) with a ROS node as the controller:
 the same options (:func:`exodigit_model.tools.trial_command.add_arguments`) except the
-in-process controllers and engines, plus ``--ros-controller CMD``, ``--parallel``, ``--timeout``
-and ``--node-logs``. Every patient runs on a glove of the testing kit, one at a time per
-``--parallel`` (:class:`~exodigit_nodes.testing.trial_engine.KitEngine`); the printout, the
-report (``--out``) and the exit status are the other command's (docs/trials.md, "A ROS node as
-the controller").
+in-process controllers and engines, plus ``--ros-controller CMD``, ``--fresh-nodes``,
+``--parallel``, ``--timeout`` and ``--node-logs``. The patients run on the testing kit's gloves,
+``--parallel`` at once, each glove and its node serving patient after patient
+(:class:`~exodigit_nodes.testing.trial_engine.KitEngine`); the printout, the report (``--out``)
+and the exit status are the other command's (docs/trials.md, "A ROS node as the controller").
 """
 
 from __future__ import annotations
@@ -36,12 +36,16 @@ EPILOG = f"""examples:
   {PROG} --ros-controller '{sys.executable} -m exodigit_nodes.nodes.pressure_command' \\
       --param mode=position --param lockstep=true --patients 4 --duration 10
 
-the controller: the kit starts CMD for every patient in the glove's domain and namespace, with
---ros-args -r __ns:=<namespace> -p use_sim_time:=true and every --param appended. It must answer
-each joint_states with one pressure_command (the lockstep protocol; pressure_command does with
+the controller: the kit starts CMD in each glove's domain and namespace, with --ros-args -r
+__ns:=<namespace> -p use_sim_time:=true and every --param appended. It must answer each
+joint_states with one pressure_command (the lockstep protocol; pressure_command does with
 lockstep=true) and may follow the protocol's targets on joint_targets (rad), each delivered
-before the state it is for. Slower than an in-process trial: one glove per patient (a few
-seconds to start), a few milliseconds per step.
+before the state it is for. A glove and its node serve patient after patient: each patient is a
+new session, in which simulated time starts again from zero (/clock and the stamps go back), and
+the node must then start over (clear its integrators, filters and the like; keep the latest
+target), as pressure_command does. --fresh-nodes starts the node (and its glove) for every
+patient instead: a few seconds more a patient. Slower than an in-process trial: 1.5-2 ms a
+step.
 
 exit status: 0 every rule passed, 1 a rule failed, 2 bad input or a patient's run failed (one
 line on stderr)."""
@@ -75,6 +79,13 @@ def build_parser() -> argparse.ArgumentParser:
         action='store_true',
         help='the node does not subscribe joint_targets (open loop): do not wait for it',
     )
+    groups['controller'].add_argument(
+        '--fresh-nodes',
+        action='store_true',
+        help='start the node (and its glove) for every patient, for a node that does not start '
+        'over when simulated time goes back (default: each glove and its node serve patient '
+        'after patient)',
+    )
     groups['running'].add_argument(
         '--parallel',
         type=int,
@@ -104,7 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     groups['running'].add_argument(
         '--node-logs',
         metavar='DIR',
-        help="keep every patient's node output in DIR/patient_<i>/ (default: discarded)",
+        help="keep every patient's parameter file in DIR/patient_<i>/, and each glove's node "
+        "output in its first patient's (default: discarded)",
     )
     return parser
 
@@ -127,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
             args.parallel,
             timeout=args.timeout,
             follows_targets=not args.no_targets,
+            fresh_nodes=args.fresh_nodes,
             log_dir=args.node_logs,
             on_patient=None if args.no_progress else progress,
         )
@@ -161,7 +174,12 @@ def spread(args: argparse.Namespace):
     """The Ray engine of ``--engine ray``: each task runs a shard's gloves on its node."""
     if args.node_logs is not None:
         raise ToolError('--node-logs is for --engine kit (the gloves run on the Ray nodes)')
-    shard = functools.partial(kit_shard, timeout=args.timeout, follows_targets=not args.no_targets)
+    shard = functools.partial(
+        kit_shard,
+        timeout=args.timeout,
+        follows_targets=not args.no_targets,
+        fresh_nodes=args.fresh_nodes,
+    )
     return trial_command.ray_engine(args.address, workers=args.parallel, shard=shard)
 
 

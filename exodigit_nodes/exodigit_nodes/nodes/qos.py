@@ -37,6 +37,19 @@ waits for anyone (keep-all would block it, then fail, once a stalled reader is 5
 behind: ``benchmarks/bench_transport.py``). Volatile readers (rclpy's default) match it too and
 get only what is sent after they matched."""
 
+HANDED_OVER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+"""Profile of a publisher that sends its next sample only once every reader has acknowledged
+the last (the testing kit's ``joint_targets``, one target a step): keep-last 1 loses nothing
+then, and Fast DDS sends a heartbeat with every sample of a full history, which the reader
+answers at once (the kit's profile), so the acknowledgement comes back in one round trip. With
+the usual 1,000 it waited for the periodic heartbeat: 1.2 ms a step against 0.03 ms (500 lockstep
+steps here). Transient-local as :data:`WRITER_QOS`, so every reader profile matches it."""
+
 READER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=10,

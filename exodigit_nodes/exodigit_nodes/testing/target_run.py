@@ -24,8 +24,14 @@ the node is still busy (descheduled) when state k arrives too: that executor the
 messages waiting together in the order the node created its subscriptions, so create the
 ``joint_targets`` subscription before the ``joint_states`` one. The kit cannot see what your
 node did with a target; it records what it sent. Every step waits for the kit, so a run is
-slower than :meth:`~.client.GloveSim.run` (about 5 ms a step on the development VM: the
-acknowledgement, a parameter call to the plant, the state and your answer).
+slower than :meth:`~.client.GloveSim.run` (about 2 ms a step on the development VM: the
+acknowledged target, a parameter call to the plant, the state and your answer).
+
+A run is a session of its own: it starts with the plant's ``reset_simulation`` (the patient of
+its parameters, at rest, simulated time back to zero), so a run on a glove that ran before gives
+what a fresh glove gives, provided your node starts over when time goes back (docs/spec/ros.md,
+"When time goes back"). Target 0 is delivered before that reset: keep the latest target across
+it.
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from std_msgs.msg import Float64MultiArray
 from ..logic.lifetime import exit_status
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
 from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message, set_double_request
-from ..nodes.qos import WRITER_QOS
+from ..nodes.qos import HANDED_OVER_QOS
 from ..runner.horizon import RepeatedCall
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
@@ -83,8 +89,8 @@ class TargetRecord(StateHistory):
     command : ndarray, shape (n, 3)
         The command that drove each step: your answer to the state before, Pa.
     initial : SimState
-        The state the run started from (the rest state after the plant's ``reset``), which
-        your controller answered first.
+        The state the run started from (the rest state after the plant's
+        ``reset_simulation``, at the first step's time), which your controller answered first.
     target : ndarray, shape (n, 3)
         The target the kit had delivered when your controller answered the state before (the
         target of the step), rad.
@@ -196,7 +202,7 @@ class TargetGloveSim(GloveSim):
             raise self._controller.failure(what)
 
     def run_targets(self, targets: ArrayLike, *, follows: bool = True) -> TargetRecord:
-        """Rest the glove, then step it once per row of ``targets`` with your controller.
+        """A new session of the glove, stepped once per row of ``targets`` with your controller.
 
         Row k (rad, MCP/PIP/DIP) is delivered on ``joint_targets`` before the state your
         controller answers with the command that drives step k + 1 (see the module's text for
@@ -237,7 +243,9 @@ class TargetGloveSim(GloveSim):
             self._wait(lambda call=call: call.answer(), f'{name} to spin (get_parameters)')
             node.destroy_client(client)
         if self._targets is None:
-            self._targets = node.create_publisher(Float64MultiArray, JOINT_TARGETS, WRITER_QOS)
+            self._targets = node.create_publisher(
+                Float64MultiArray, JOINT_TARGETS, HANDED_OVER_QOS
+            )
         publisher, message = self._targets, joint_vector_message()
         # Seeing the controller's publisher says nothing of its subscriptions: DDS announces
         # readers and writers on separate streams (a run here found the graph without the
@@ -262,9 +270,12 @@ class TargetGloveSim(GloveSim):
             )
 
         deliver(0)
-        initial = self.reset()  # the rest state, answered with target 0
+        initial = self.reset_simulation()  # the rest state, answered with target 0
         period_ns = round(1e9 / self.rate_hz)
         states: list[SimState] = []
+        # Held by run_until, not stepped by `step`: lockstep steps on the answer the plant has
+        # heard; a `step` called once the kit has heard it may come first (1 run in 5 here took
+        # its last step with the answer before).
         try:
             for k in range(len(targets)):
                 self._wait(lambda k=k: node.command_count() > k, f'your answer to step {k}')
@@ -275,6 +286,8 @@ class TargetGloveSim(GloveSim):
                 self._call(node.parameter_client, set_double_request(RUN_UNTIL, until), RUN_UNTIL)
                 self._set_paused(False)
                 states.append(self._next_state(with_estimate=False))
+            # the last answer too: none of this session's may be counted in the next
+            self._wait(lambda: node.command_count() > len(targets), 'your last answer')
         finally:
             with contextlib.suppress(GloveSimError):  # the error that ended the run comes first
                 self._set_paused(True)

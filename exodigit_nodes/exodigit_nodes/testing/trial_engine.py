@@ -1,19 +1,23 @@
-"""Virtual patient trials of a user's ROS node controller, one kit glove per patient.
+"""Virtual patient trials of a user's ROS node controller on the testing kit's gloves.
 
 docs/trials.md, "A ROS node as the controller". :class:`KitEngine` is an engine of
 :func:`exodigit_model.trials.run_trial` (``map(spec, indices, on_done)``) for a trial whose
 controller is a ROS node (``ControllerSpec('ros', command_line, ros_parameters)``, made by
-:func:`ros_controller`). Each patient of a shard gets a glove of its own
-(:class:`~.target_run.TargetGloveSim`: a plant in lockstep simulated time, in a private domain and
-namespace) whose plant simulates that patient (the trial's glove with the patient's finger, the
-trial's chamber and sensor settings, at the protocol's rate); the kit starts the controller's
-command there with ``use_sim_time``, delivers the protocol's targets on ``joint_targets`` step by
-step, and the recorded states go into the same :class:`~exodigit_model.trials.MetricAccumulator`
-as an in-process trial's. So the metrics, summary, rules and report are the same; what a ROS node
-cannot report is stated in :func:`patient_metrics`.
+:func:`ros_controller`). Each patient runs on a glove (:class:`~.target_run.TargetGloveSim`: a
+plant in lockstep simulated time, in a private domain and namespace) whose plant simulates that
+patient (the trial's glove with the patient's finger, the trial's chamber and sensor settings,
+at the protocol's rate), with the controller's command started there with ``use_sim_time``; the
+kit delivers the protocol's targets on ``joint_targets`` step by step, and the recorded states go
+into the same :class:`~exodigit_model.trials.MetricAccumulator` as an in-process trial's. So the
+metrics, summary, rules and report are the same; what a ROS node cannot report is stated in
+:func:`patient_metrics`.
 
 Up to ``parallel`` gloves run at once, each in its own ROS domain and driven by a worker process
-of its own (:mod:`.trial_worker`).
+of its own (:mod:`.trial_worker`). A glove and its node serve patient after patient: each
+patient is a new session of the plant (``reset_simulation``: simulated time goes back to zero),
+on which the node starts over, so a patient costs its steps, not a start of two processes;
+``fresh_nodes=True`` starts both afresh for every patient instead, for a node that does not
+start over.
 
 >>> import sys
 >>> from exodigit_model.trials import TrialSpec, run_trial
@@ -144,6 +148,7 @@ def kit_shard(
     *,
     timeout: float = DEFAULT_TIMEOUT,
     follows_targets: bool = True,
+    fresh_nodes: bool = False,
 ) -> PatientMetrics:
     """Shard ``index`` of a ROS node controller's trial on this machine, one glove at a time.
 
@@ -159,7 +164,13 @@ def kit_shard(
     PatientError
         When a patient's run fails.
     """
-    engine = KitEngine(1, timeout=timeout, follows_targets=follows_targets, keep_records=False)
+    engine = KitEngine(
+        1,
+        timeout=timeout,
+        follows_targets=follows_targets,
+        fresh_nodes=fresh_nodes,
+        keep_records=False,
+    )
     return engine.map(spec, [index], lambda *_: None)[0]
 
 
@@ -176,10 +187,16 @@ class KitEngine:
         Whether the controller subscribes ``joint_targets`` (the protocol's targets): each
         glove then waits for that subscription before the session. False for one that does not
         (open loop); the targets are sent and scored all the same.
+    fresh_nodes : bool
+        Start a glove and the controller for every patient, and stop them after it, for a node
+        that does not start over when simulated time goes back. False (default): each glove
+        and its node serve patient after patient, a new session each (module text): about 2 s
+        a patient of 10 s instead of 8 (benchmarks/bench_trial_ros.py).
     log_dir : str or Path, optional
-        Keep each glove's node output in ``log_dir/patient_<i>/`` (the plant's, the
-        controller's ``controller.out``/``.err``, the patient's parameter file); a temporary
-        folder, removed after each :meth:`map`, when omitted.
+        Keep the patients' parameter files in ``log_dir/patient_<i>/``, and in the first
+        patient's folder of each glove that glove's node output (the plant's, the controller's
+        ``controller.out``/``.err``); a temporary folder, removed after each :meth:`map`, when
+        omitted.
     keep_records : bool
         Keep every patient's session in :attr:`records` (about 0.15 kB a step).
     on_patient : callable, optional
@@ -200,6 +217,7 @@ class KitEngine:
         *,
         timeout: float = DEFAULT_TIMEOUT,
         follows_targets: bool = True,
+        fresh_nodes: bool = False,
         log_dir: str | Path | None = None,
         keep_records: bool = True,
         on_patient: Callable[[PatientRun], None] | None = None,
@@ -211,6 +229,7 @@ class KitEngine:
         self.parallel = parallel
         self.timeout = float(timeout)
         self.follows_targets = follows_targets
+        self.fresh_nodes = fresh_nodes
         self.log_dir = None if log_dir is None else Path(log_dir)
         self.keep_records = keep_records
         self.on_patient = on_patient
@@ -226,7 +245,7 @@ class KitEngine:
     def map(
         self, spec: TrialSpec, indices: Sequence[int], on_done: OnDone
     ) -> list[PatientMetrics]:
-        """Every patient of the shards ``indices`` on a glove of its own; metrics per shard.
+        """Every patient of the shards ``indices`` on the gloves; metrics per shard.
 
         Raises
         ------
@@ -292,9 +311,11 @@ class KitEngine:
                     worker.close(at_once=True)
                 raise
             finally:
-                pool.shutdown(wait=True)
+                # Each worker stops its glove and exits before its pool thread ends: a worker
+                # gets SIGINT when the thread that started it ends (Child's parent-death signal).
                 for worker in workers:
                     worker.close()
+                pool.shutdown(wait=True)
         return [results[index] for index in indices]
 
     def session(self, spec: TrialSpec, patient: int) -> PatientRecord:
@@ -348,6 +369,7 @@ class KitEngine:
                     self.follows_targets,
                     self.timeout,
                     str(folder),
+                    self.fresh_nodes,
                 )
             )
         return jobs

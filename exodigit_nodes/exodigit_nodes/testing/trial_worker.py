@@ -1,9 +1,11 @@
-"""The worker processes of a ROS node trial: one patient's glove at a time, driven apart.
+"""The worker processes of a ROS node trial: one glove each, one patient at a time, driven apart.
 
 :class:`~.trial_engine.KitEngine` runs each glove it has in flight through a :class:`Worker`, a
 process of its own (``python -m exodigit_nodes.testing.trial_worker``) that reads pickled
-:class:`PatientJob`s on its standard input, runs each with :func:`run_patient` and writes the
-:class:`PatientRun` back on its standard output. A fresh process reads the kit's Fast DDS profile
+:class:`PatientJob`s on its standard input, runs each on its :class:`WorkerGlove` and writes the
+:class:`PatientRun` back on its standard output. The glove, with the controller node, is kept
+from one patient to the next: each run is a new session of its plant (docs/trials.md, "A ROS node
+as the controller"). A fresh process reads the kit's Fast DDS profile
 (:data:`.target_run.KIT_PROFILE`) and shares no interpreter lock; plain subprocesses, not
 :mod:`multiprocessing`'s, so a script that runs a trial needs no
 ``if __name__ == '__main__'`` guard.
@@ -32,7 +34,12 @@ WORKER_STOP = 10.0
 
 @dataclass(frozen=True)
 class PatientJob:
-    """What a worker needs to run one patient's glove (picklable)."""
+    """What a worker needs to run one patient's glove (picklable).
+
+    ``fresh``: start a glove and the controller for this patient and stop them after it (for a
+    node that does not start over when simulated time goes back), instead of the worker's glove.
+    ``log_dir`` is where a glove started for this patient writes its nodes' output.
+    """
 
     patient: int
     params_file: str
@@ -43,6 +50,7 @@ class PatientJob:
     follows: bool
     timeout: float
     log_dir: str
+    fresh: bool
 
 
 @dataclass(frozen=True)
@@ -61,7 +69,8 @@ class PatientRun:
     record : TargetRecord or None
         The session (None when it failed).
     wall_s : float
-        Wall time from the glove's start to its stop, s.
+        Wall time of the run, s: the session, and the start and stop of a glove started for
+        it.
     """
 
     patient: int
@@ -76,29 +85,55 @@ class PatientRun:
         return self.status == 0
 
 
-def run_patient(job: PatientJob) -> PatientRun:
-    """Start a glove of ``job``'s patient and the controller, run the targets, stop both.
+class WorkerGlove:
+    """A worker's glove and controller node, kept from one patient to the next.
 
-    Never raises for a failing controller or glove: that is ``status`` 1 with the reason.
+    A job's patient runs on the glove of the patient before: its plant is set to the patient
+    (:meth:`~.client.GloveSim.set_patient`) and the run starts a new session of it, on which
+    the node starts over. A glove and the node are started for the first job, after a failed
+    one (which stops them), and for every ``fresh`` job (stopped after it).
     """
-    started = time.monotonic()
-    try:
-        with TargetGloveSim(
-            job.params_file, plant=job.plant, timeout=job.timeout, log_dir=job.log_dir
-        ) as glove:
-            glove.start_controller(job.command, job.parameters)
-            record = glove.run_targets(job.targets, follows=job.follows)
-    except (GloveSimError, ValueError) as error:
+
+    def __init__(self) -> None:
+        self.glove: TargetGloveSim | None = None
+
+    def run(self, job: PatientJob) -> PatientRun:
+        """``job``'s session; never raises for a failing controller or glove (``status`` 1)."""
+        started = time.monotonic()
+        try:
+            record = self._glove(job).run_targets(job.targets, follows=job.follows)
+        except (GloveSimError, ValueError) as error:
+            self.close()
+            wall = time.monotonic() - started
+            return PatientRun(job.patient, 1, f'patient {job.patient}: {error}', None, wall)
+        if job.fresh:
+            self.close()
         wall = time.monotonic() - started
-        return PatientRun(job.patient, 1, f'patient {job.patient}: {error}', None, wall)
-    wall = time.monotonic() - started
-    steps = len(record.t)
-    message = f'patient {job.patient}: {steps} steps in {wall:.1f} s'
-    return PatientRun(job.patient, 0, message, record, wall)
+        steps = len(record.t)
+        message = f'patient {job.patient}: {steps} steps in {wall:.1f} s'
+        return PatientRun(job.patient, 0, message, record, wall)
+
+    def _glove(self, job: PatientJob) -> TargetGloveSim:
+        """The glove set to ``job``'s patient, started with the controller if need be."""
+        if self.glove is not None and not job.fresh:
+            self.glove.set_patient(job.params_file, job.plant)
+            return self.glove
+        self.close()
+        self.glove = TargetGloveSim(
+            job.params_file, plant=job.plant, timeout=job.timeout, log_dir=job.log_dir
+        )
+        self.glove.start_controller(job.command, job.parameters)
+        return self.glove
+
+    def close(self) -> None:
+        """Stop the controller and the glove, if any (idempotent)."""
+        if self.glove is not None:
+            self.glove.close()
+            self.glove = None
 
 
 class Worker:
-    """A worker process that runs :func:`run_patient` for the jobs it is sent, one at a time.
+    """A worker process that runs the jobs it is sent on its glove, one at a time.
 
     A :class:`~exodigit_nodes.runner.supervisor.Child`: a session of its own (Ctrl-C reaches
     the engine, which stops the workers), SIGINT if the engine dies, SIGINT-SIGTERM-SIGKILL to
@@ -111,7 +146,7 @@ class Worker:
         )
 
     def run(self, job: PatientJob) -> PatientRun:
-        """``run_patient(job)`` in the worker; a worker that dies is ``status`` 1."""
+        """``job`` run in the worker; a worker that dies is ``status`` 1."""
         started = time.monotonic()
         process = self.child.popen
         try:
@@ -150,16 +185,19 @@ def worker_main() -> None:
     results = os.fdopen(os.dup(1), 'wb')
     os.dup2(2, 1)
     jobs = sys.stdin.buffer
+    glove = WorkerGlove()
     try:
         while True:
             try:
                 job = pickle.load(jobs)
             except EOFError:
                 return
-            pickle.dump(run_patient(job), results)
+            pickle.dump(glove.run(job), results)
             results.flush()
-    except KeyboardInterrupt:  # the engine stops us (its glove is closed on the way out)
+    except KeyboardInterrupt:  # the engine stops us
         return
+    finally:
+        glove.close()
 
 
 if __name__ == '__main__':
