@@ -241,11 +241,13 @@ def timer_session(node, start):
     return np.array([m.data for m in node.take()['pressure_command']])
 
 
-def test_in_lockstep_a_state_stamped_back_in_time_starts_a_new_session(in_process):
+@pytest.mark.parametrize('mode', ['position', 'sine'])
+def test_in_lockstep_a_state_stamped_back_in_time_starts_a_new_session(in_process, mode):
     # A node that answered a session at t = 5 s answers one from t = 0.01 s again as a node that
-    # has just started does: no integral, no rate-limited command, no last stamp carried over.
-    fresh = lockstep_session(in_process(lockstep='true'), 0.0)
-    used = in_process(lockstep='true')
+    # has just started does: no integral, no rate-limited command, no last stamp carried over,
+    # and the session's time (the sine's) from its first state, as a fresh node's.
+    fresh = lockstep_session(in_process(lockstep='true', mode=mode), 0.0)
+    used = in_process(lockstep='true', mode=mode)
     before = lockstep_session(used, 5.0)
     assert not np.array_equal(before[-1], fresh[0])  # something to forget: integral, limiter
     np.testing.assert_array_equal(lockstep_session(used, 0.0), fresh)

@@ -18,7 +18,9 @@ a trial), it starts over as if just started: no integral, no rate limit carried 
 or lockstep state of the old session; its parameters and latest ``joint_targets`` stay. Its time is
 the node clock (``/clock`` with ``use_sim_time``: a time-jump callback, the signal tf2's buffers
 clear on), in lockstep the stamps of the states it answers (a state stamped before the last one
-answered).
+answered). A session's time (what ``staircase`` and ``sine`` follow) starts when the node starts
+or starts over, in lockstep at the first state it answers, as an in-process trial's at its first
+command.
 
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
@@ -123,7 +125,7 @@ class PressureCommand(GloveNode):
         self.sent = np.zeros(3)
         self.lockstep = self.values['lockstep']
         self.pending: dict[str, tuple[float, np.ndarray] | None] = {'angles': None, 'forces': None}
-        self.start_over(self.now_seconds())
+        self.start_over(self.session_start())
         if not self.lockstep:  # in lockstep the stamps are the time (on_joint_states)
             self.time_jumps = self.get_clock().create_jump_callback(
                 BACKWARDS, post_callback=self.on_time_jump
@@ -192,7 +194,7 @@ class PressureCommand(GloveNode):
             if 'joint_targets' in changed:
                 self.topic_targets = None
             self.loop.controller = self.make_controller()
-            self.started = self.now_seconds()
+            self.started = self.session_start()
 
     def make_controller(self) -> Controller:
         """The controller of the current mode."""
@@ -211,8 +213,12 @@ class PressureCommand(GloveNode):
 
     # -- sessions --------------------------------------------------------------------------
 
-    def start_over(self, now: float) -> None:
-        """A new session from ``now`` (s): forget what was measured, integrated and limited.
+    def session_start(self) -> float | None:
+        """When a session begun now starts: now (s), or in lockstep None (its first state)."""
+        return None if self.lockstep else self.now_seconds()
+
+    def start_over(self, now: float | None) -> None:
+        """A new session from ``now`` (s; None: its first state): forget the last one's state.
 
         At start, and when time goes back (module text). Kept: the parameters, the latest
         ``joint_targets`` (what the node is told to do) and the diagnostics' counts. A state
@@ -229,7 +235,7 @@ class PressureCommand(GloveNode):
 
     def on_time_jump(self, jump: TimeJump) -> None:
         """The node clock went back (``/clock`` jumped back: a new session): start over."""
-        self.start_over(self.now_seconds())
+        self.start_over(self.session_start())
         self.get_logger().info(
             f'time went back {-jump.delta.nanoseconds * 1e-9:g} s: a new session, started over'
         )
@@ -266,7 +272,7 @@ class PressureCommand(GloveNode):
             self.reject(JOINT_STATES, error)
             return
         if self.lockstep and self.last_tick is not None and stamp < self.last_tick:
-            self.start_over(stamp)  # time went back: a new session
+            self.start_over(None)  # time went back: a new session, from this state
             self.get_logger().info(f'{JOINT_STATES} went back to t = {stamp:.9f} s: a new session')
         self.angles = (now, angles)
         if self.lockstep:
@@ -342,6 +348,8 @@ class PressureCommand(GloveNode):
             return
         self.pending = {'angles': None, 'forces': None}
         stamp, angles = state
+        if self.started is None:
+            self.started = stamp
         dt = self.period if self.last_tick is None else max(stamp - self.last_tick, 0.0)
         self.last_tick = stamp
         self.command(stamp, dt, Feedback(angles, None if forces is None else forces[1]))
