@@ -20,6 +20,7 @@ import sys
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -159,7 +160,7 @@ class Worker:
                 job.patient,
                 1,
                 f"patient {job.patient}: the kit's worker process ended (code {code}); node "
-                f'logs in {job.log_dir}',
+                f'logs in the patient folders of {Path(job.log_dir).parent}',
                 None,
                 time.monotonic() - started,
             )
