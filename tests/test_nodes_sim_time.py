@@ -35,6 +35,7 @@ from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
+from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 from reliability_inprocess import InProcessNode
 from ros_harness import RosProbe, wait_until
@@ -373,6 +374,25 @@ def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch)
         node.fire_timers()
         assert [m.header.stamp.nanosec for m in node.take()['joint_states']] == [
             step_time_ns(k, RATE) for k in (1, 2)
+        ]
+    finally:
+        node.close()
+
+
+def test_set_paused_asked_again_and_again_logs_with_debug_logging_on(probe):
+    # The state changes (info), then is asked for again as the testing kit does (debug).
+    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
+    try:
+        node.node.get_logger().set_level(LoggingSeverity.DEBUG)
+        answers = [
+            call(node, 'set_paused', SetBool.Request(data=paused), SetBool.Response())
+            for paused in (False, False, True, True)
+        ]
+        assert [answer.message.split(' at ')[0] for answer in answers] == [
+            'running',
+            'running',
+            'paused',
+            'paused',
         ]
     finally:
         node.close()

@@ -215,8 +215,11 @@ class SimulatedTime:
             f'{state} at t = {self.t:.9f} s (step {self._step_number()}); '
             f'{CONTROLLERS_LABEL}{", ".join(controllers) or "none"}'
         )
-        logger = self.owner.get_logger()
-        (logger.info if changed else logger.debug)(response.message)
+        # Two call sites: rclpy refuses one call site logging at two severities.
+        if changed:
+            self.owner.get_logger().info(response.message)
+        else:
+            self.owner.get_logger().debug(response.message)
         if not self.paused:
             self.try_step(time.monotonic())
         return response
