@@ -3,7 +3,7 @@
 #                            the simulated glove, headless, with a live summary (Ctrl-C to stop);
 #                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag
 #                            (with HAND=1 one per finger);
-#                            HAND=1 runs a whole hand instead (five gloves, two processes)
+#                            HAND=1 runs a whole hand instead (five gloves, one process)
 #   make test [PYTEST_WORKERS=2] [PYTEST_ARGS=...]
 #                            lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
