@@ -363,7 +363,11 @@ class GloveSimulation:
             states = [self.step(rows[t], efforts[t]) for t in range(rows.shape[0])]
             return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
         state, record = run_glove(
-            self.model.packed, _state_of(self._block), rows, efforts, *self._stepping
+            self.model.packed,
+            _state_of(self._block, contiguous=True),
+            rows,
+            efforts,
+            *self._stepping,
         )
         applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record
         self._block = _block_of(state)
@@ -531,9 +535,14 @@ def _population(fingers: Iterable[Finger], count: int | None) -> tuple[Finger, .
     return population
 
 
-def _state_of(block: NDArray[np.float64]) -> tuple:
-    """One glove's state (x, q_before, pressure, forces, torque, earlier): views of its block."""
-    return block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], block[7:, :3]
+def _state_of(block: NDArray[np.float64], contiguous: bool = False) -> tuple:
+    """One glove's state (x, q_before, pressure, forces, torque, earlier): views of its block.
+
+    With ``contiguous``, ``earlier`` is C-contiguous (a copy where the block has six columns):
+    one argument type for :func:`.kernels.stepping.run_glove`, which then compiles once.
+    """
+    earlier = np.ascontiguousarray(block[7:, :3]) if contiguous else block[7:, :3]
+    return block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], earlier
 
 
 def _block_of(state: tuple) -> NDArray[np.float64]:

@@ -164,9 +164,12 @@ def pack(glove: GloveConstants) -> np.ndarray:
     return np.concatenate(fields)
 
 
-@kernel(inline=True)
+@kernel(forceinline=True)
 def unpack(packed):
-    """The GloveConstants whose fields are views of ``packed`` (:func:`pack`)."""
+    """The GloveConstants whose fields are views of ``packed`` (:func:`pack`).
+
+    Counted (:func:`.jit.kernel`): the entry kernels that call it release the views it returns.
+    """
     return GloveConstants(
         packed[_ARCS:_BLOCKS],
         packed[_BLOCKS:_LINKS],
@@ -185,12 +188,13 @@ def unpack(packed):
     )
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def with_finger(glove, finger_half_lengths, laws):
     """``glove`` on another finger: its link half lengths (3,), m, and laws (3, LAW_COLUMNS).
 
     The laws are the constants of the patient's torque τ_H, eqs (11.1)-(11.3); the other
-    fields are ``glove``'s own (views, nothing copied): the exo-digit is the same.
+    fields are ``glove``'s own (views, nothing copied): the exo-digit is the same. Counts no
+    references, so only a kernel that counts none either may call it (:func:`.jit.kernel`).
     """
     return GloveConstants(
         glove.arc_lengths,

@@ -56,7 +56,7 @@ def strain_balance(glove, work, q, strain, pressure, motion, estimating):
     if not estimating:
         zero = np.zeros(3)
         scale = evaluate(
-            glove, work, x, zero, False, motion, 0.0, residual, jacobian, forces, torque
+            glove, work, x, zero, np.bool_(False), motion, 0.0, residual, jacobian, forces, torque
         )
         for k in range(3):
             other[k] = -residual[k] / glove.pressure_moments[k]
@@ -68,12 +68,12 @@ def strain_balance(glove, work, q, strain, pressure, motion, estimating):
                 slope[k, m] = jacobian[3 + k, 3 + m] - w * jacobian[k, 3 + m]
         return value, slope, scale, other
     scale = evaluate(
-        glove, work, x, pressure, True, motion, 0.0, residual, jacobian, forces, torque
+        glove, work, x, pressure, np.bool_(True), motion, 0.0, residual, jacobian, forces, torque
     )
     lengths = np.empty(3)
     for k in range(3):
         lengths[k] = rest[k] * (1.0 + strain[k])
-    robot_terms(q, lengths, glove.block_half_lengths, True, work)
+    robot_terms(q, lengths, glove.block_half_lengths, np.bool_(True), work)
     j_robot, j_length = work.j_robot, work.j_length
     transpose_solve(j_robot, residual[:3], other)
     stretching = np.empty(3)
@@ -186,21 +186,24 @@ def hold(packed, q, motion):
     ``motion`` as in :func:`.statics.finger_load` (the speed row gives q̇; ``rate`` is 0).
     """
     glove, work = unpack(packed), workspace()
+    finger = work.motion  # writable, as every kernel below is given it (read-only from Python)
+    finger[:, :] = motion
     if glove.extensible:
-        return balance_strains(glove, work, q, np.zeros(3), motion, False)
+        return balance_strains(glove, work, q, np.zeros(3), finger, np.bool_(False))
     x = q.copy()
     residual = np.empty(3)
     jacobian = np.empty((3, 3))
     forces = np.empty(3)
     torque = np.empty(3)
-    evaluate(glove, work, x, np.zeros(3), False, motion, 0.0, residual, jacobian, forces, torque)
+    vented, static = np.zeros(3), np.bool_(False)
+    evaluate(glove, work, x, vented, static, finger, 0.0, residual, jacobian, forces, torque)
     pressure = np.empty(3)
     for k in range(3):
         pressure[k] = -residual[k] / glove.pressure_moments[k]
     return True, np.zeros(3), pressure, np.zeros(3)
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def robot_side_forces(glove, work, q, pressure, forces):
     """Robot-side f = (J_R*)^{-T}(τ_s(q) + B_R p) (N), inextensible segments, into ``forces``.
 
@@ -212,7 +215,7 @@ def robot_side_forces(glove, work, q, pressure, forces):
     for k in range(3):
         tau, _ = structural_torque(glove, k, q[k])
         balance[k] = tau + moments[k] * pressure[k]
-    robot_jacobians(q, glove.arc_lengths, glove.block_half_lengths, False, work)
+    robot_jacobians(q, glove.arc_lengths, glove.block_half_lengths, np.bool_(False), work)
     transpose_solve(work.j_robot, balance, forces)
 
 
@@ -234,7 +237,7 @@ def estimate(glove, work, q, pressure):
     Returns (converged, strain (3,), forces (3,), balance left (3,)); needs no finger model.
     """
     if glove.extensible:
-        return balance_strains(glove, work, q, pressure, np.zeros((3, 3)), True)
+        return balance_strains(glove, work, q, pressure, np.zeros((3, 3)), np.bool_(True))
     forces = np.empty(3)
     robot_side_forces(glove, work, q, pressure, forces)
     return True, np.zeros(3), forces, np.zeros(3)
@@ -282,6 +285,6 @@ def robot_contact_torques(packed, angles, forces):
     glove, work = unpack(packed), workspace()
     torque = np.empty(angles.shape)
     for r in range(angles.shape[0]):
-        robot_terms(angles[r], glove.arc_lengths, glove.block_half_lengths, False, work)
+        robot_terms(angles[r], glove.arc_lengths, glove.block_half_lengths, np.bool_(False), work)
         transpose_product(work.j_robot, forces[r], torque[r])
     return torque

@@ -83,28 +83,41 @@ _warned = False
 Function = TypeVar('Function', bound=Callable)
 
 
-def kernel(function: Function | None = None, *, inline: bool = False, counted: bool = True):
+def kernel(function: Function | None = None, *, counted: bool = True, forceinline: bool = False):
     """Compile ``function`` with numba, cached (module docstring); return it as is without JIT.
 
-    ``@kernel`` or ``@kernel(inline=True)``.
+    ``@kernel``, ``@kernel(counted=False)`` or ``@kernel(counted=False, forceinline=True)``.
+
+    numba compiles a kernel once per argument types, into a library of its own, and links that
+    library into every kernel that calls it, where LLVM optimises it again with the caller. So
+    the cost of compiling grows with every kernel a callee is linked into and every distinct
+    argument type it is called with, never with numba-level copies of its body (numba's
+    ``inline='always'``, which types and lowers a callee again at every call site, is not
+    used). Callers therefore pass one layout per argument: C-contiguous, writable float64
+    arrays, and flags as ``np.bool_(...)`` (a literal ``True`` or ``False`` is a type of its
+    own to numba: one more compile of the callee and of everything it calls).
 
     Parameters
     ----------
     function : callable
         A kernel of this package: a flat function of floats and small numpy arrays.
-    inline : bool
-        Inline the kernel into the kernels that call it, at numba's level (``inline='always'``).
-        For the small leaf kernels of the hot path: a call between compiled functions costs the
-        reference counts of its array arguments, more than the arithmetic of a 3×3 problem
-        (measured: one evaluation of the statics 3.4 µs with calls, 1.3 µs inlined). Not for
-        large kernels: every call site compiles its own copy.
     counted : bool
         Whether numba counts references to the arrays the kernel handles (its runtime, NRT).
-        ``counted=False`` for the hot loop that allocates nothing (the Newton iteration, with
-        everything it calls inlined): every view taken of a workspace array costs an atomic
-        increment and decrement of one shared count otherwise, most of an evaluation's time
-        (measured with perf: ~100 pairs per evaluation of the statics). Such a kernel may not
-        allocate arrays.
+        ``counted=False`` for every kernel that allocates nothing (the leaves and the loops of
+        the hot path): every view it takes of a workspace array would cost an atomic increment
+        and decrement of one shared count otherwise (measured with perf: ~100 pairs per
+        evaluation of the statics). Such a kernel may not allocate arrays, and may not return
+        an array to a kernel that counts (that kernel would release a reference it was never
+        given).
+    forceinline : bool
+        Have LLVM inline the kernel at every call site (numba's ``forceinline``: the LLVM
+        attribute ``alwaysinline``; numba compiles the kernel itself once). For the kernels of
+        the hot path that take ``glove`` and ``work``: numba passes every array of those named
+        tuples as separate numbers, several hundred per call, and such a call costs about
+        0.3 µs (measured: the batch step of 1,000 gloves 0.82 M glove-steps/s with
+        :func:`.newton.newton` and :func:`.stepping.step_into` called, 1.5 M inlined). Keep the
+        call sites few (:func:`.newton.newton` has one of each evaluation): each is a copy for
+        LLVM to optimise.
 
     Returns
     -------
@@ -112,14 +125,13 @@ def kernel(function: Function | None = None, *, inline: bool = False, counted: b
         numba's dispatcher, or ``function`` itself when :data:`JIT` is false.
     """
     if function is None:
-        return lambda decorated: kernel(decorated, inline=inline, counted=counted)
+        return lambda decorated: kernel(decorated, counted=counted, forceinline=forceinline)
     if not JIT:
         return function
     options = dict(_OPTIONS)
-    if inline:
-        options['inline'] = 'always'
     if not counted:
         options['_nrt'] = False
+    options['forceinline'] = forceinline
     directory = cache_directory()
     if directory is not None:
         compiled = _cached(function, directory, options)

@@ -48,7 +48,7 @@ SERIES_LIMIT = 0.25
 """Below this half-angle, sinc and its derivatives come from their Taylor series."""
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def sinc_terms(x):
     """s(x) = sin(x)/x, s'(x) and s''(x), smooth and accurate at x = 0.
 
@@ -68,7 +68,7 @@ def sinc_terms(x):
     return s, s1, -s - 2.0 * s1 / x
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def chord_terms(q, half_turn, chord, slope, curvature):
     """Per joint, into the complex arrays (3,): e^{iq/2}, the unit chord C(q), C'(q), C''(q)."""
     for k in range(3):
@@ -81,7 +81,7 @@ def chord_terms(q, half_turn, chord, slope, curvature):
         curvature[k] = 0.25 * h * complex(s2 - s, 2.0 * s1)
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def frames(half_turn, chord, lengths, half_lengths, turns, origins, centres):
     """Into ``turns`` e^{iφ_j} (4), body origins z_j (4) and contact points zc_k (3) (eq 4).
 
@@ -95,7 +95,7 @@ def frames(half_turn, chord, lengths, half_lengths, turns, origins, centres):
         centres[k] = origins[k + 1] + turns[k + 1] * half_lengths[k + 1]
 
 
-@kernel(inline=True)
+@kernel(counted=False)
 def robot_terms(q, lengths, half_lengths, with_lengths, work):
     """J_R* and its slopes into ``work`` (:class:`.workspace.Workspace`).
 
@@ -107,7 +107,7 @@ def robot_terms(q, lengths, half_lengths, with_lengths, work):
     robot_slopes_of(lengths, work)
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def robot_jacobians(q, lengths, half_lengths, with_lengths, work):
     """J_R* into ``work``, and with ``with_lengths`` J_ℓ* and its slopes: no slope of J_R*.
 
@@ -150,7 +150,7 @@ def robot_jacobians(q, lengths, half_lengths, with_lengths, work):
                     robot_length_slopes[k, i, m] = b.real
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def robot_slopes_of(lengths, work):
     """The slopes of J_R* into ``work.robot_slopes``, from the frames of :func:`robot_jacobians`.
 
@@ -171,7 +171,7 @@ def robot_slopes_of(lengths, work):
                 robot_slopes[m, i, k] = (local[i, m] - local[i, k]).real
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def finger_terms(q, half_lengths, matrix, slopes):
     """J_H*[i, k] of the finger into ``matrix`` (3, 3), its slopes [m, i, k] into ``slopes``."""
     l0, l1, l2 = half_lengths[0], half_lengths[1], half_lengths[2]

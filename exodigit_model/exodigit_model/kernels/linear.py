@@ -7,7 +7,7 @@ import numpy as np
 from .jit import kernel
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def transpose_solve(lower, rhs, x):
     """Solve Lᵀ x = rhs for a lower-triangular 3×3 L (back substitution), into ``x``."""
     x[2] = rhs[2] / lower[2, 2]
@@ -15,7 +15,7 @@ def transpose_solve(lower, rhs, x):
     x[0] = (rhs[0] - lower[1, 0] * x[1] - lower[2, 0] * x[2]) / lower[0, 0]
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def transpose_product(lower, v, x):
     """Lᵀ v for a lower-triangular 3×3 L, into ``x``."""
     x[0] = lower[0, 0] * v[0] + lower[1, 0] * v[1] + lower[2, 0] * v[2]
@@ -23,7 +23,7 @@ def transpose_product(lower, v, x):
     x[2] = lower[2, 2] * v[2]
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def solve(a, b, x, scratch):
     """Solve A x = b into ``x`` for a square A (3×3 by cofactors, larger by pivoted elimination).
 

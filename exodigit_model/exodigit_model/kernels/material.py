@@ -15,7 +15,7 @@ from __future__ import annotations
 from .jit import kernel
 
 
-@kernel(inline=True)
+@kernel(forceinline=True)
 def stress_and_slope(c1, c2, c3, strain):
     """σ (Pa) and dσ/dλ (Pa) at strain e = λ − 1, for Yeoh coefficients C1..C3 (Pa)."""
     inverse = 1.0 / (1.0 + strain)

@@ -46,7 +46,7 @@ CONVERGED, CONVERGED_STEP, ITERATION_LIMIT, NO_DECREASE, NOT_FINITE = range(5)
 """Status codes (codes below ITERATION_LIMIT are converged)."""
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def allowed(glove, x):
     """Whether every segment's bottom face and top fibre keep a stretch ≥ MIN_STRETCH (12.1)."""
     strain_per_angle = glove.strain_per_angle
@@ -57,7 +57,7 @@ def allowed(glove, x):
     return True
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def norm(v):
     """Euclidean norm of a small vector."""
     total = 0.0
@@ -66,26 +66,13 @@ def norm(v):
     return math.sqrt(total)
 
 
-@kernel(counted=False)
-def solve_into(glove, work, x, pressure, free, motion, rate, forces, torque):
-    """:func:`newton` as a compiled function of its own, for the kernels that allocate.
-
-    :func:`newton` is inlined into its callers (a call passes every array of ``glove`` and
-    ``work``, several hundred numbers, which cost as much as the arithmetic of a solve); a
-    kernel that counts references must not inline it, or every view it takes would be
-    counted again (:func:`.jit.kernel`), so it calls this.
-    """
-    return newton(glove, work, x, pressure, free, motion, rate, forces, torque)
-
-
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     """Solve the statics of :func:`.statics.evaluate` for ``x`` in place, from ``x``.
 
     ``work`` is the scratch (:mod:`.workspace`); ``free``, ``motion`` and ``rate`` describe the
     finger (:func:`.statics.evaluate`); ``forces`` and ``torque`` receive f (N) and τ_H (N·m)
-    at the final ``x``. Inlined: only a kernel that counts no references may call it
-    (:func:`solve_into` for the others).
+    at the final ``x``.
 
     Returns
     -------
@@ -101,74 +88,93 @@ def newton(glove, work, x, pressure, free, motion, rate, forces, torque):
     jacobian = work.jacobian[: n * n].reshape((n, n))
     trial, step = work.trial[:n], work.step[:n]
     trial_forces, trial_torque, matrix = work.trial_forces, work.trial_torque, work.matrix
-    scale = residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque)
-    size_of_residual = norm(residual)
-    if not math.isfinite(size_of_residual):
-        return NOT_FINITE, 0, size_of_residual
-    if size_of_residual <= RTOL * scale:
-        return CONVERGED, 0, size_of_residual
-    jacobian_of(glove, work, x, free, jacobian, forces)
-    fresh = True  # whether ``jacobian`` is the one at ``x``
-    iterations = 0
-    for _ in range(MAX_ITERATIONS):
-        for k in range(n):
-            trial_residual[k] = -residual[k]
-        solve(jacobian, trial_residual, step, matrix)
-        step_size = norm(step)
-        accepted = False
-        small = step_size <= XTOL
-        trial_scale = trial_size = 0.0
-        if math.isfinite(step_size):
-            alpha = 1.0
-            for _ in range(MAX_HALVINGS):
+    # One call site of residual_of and one of jacobian_of: LLVM inlines both, and every further
+    # site would be one more copy of them to compile. Every evaluation is of ``trial``: x itself
+    # (``at_x``: the start, and x again after a failed chord step) or a point of a line search.
+    for k in range(n):
+        trial[k] = x[k]
+    at_x, started = True, False
+    fresh = True  # whether the step is taken with the Jacobian at ``x``
+    iterations = steps = halvings = 0
+    scale = size_of_residual = step_size = alpha = trial_scale = trial_size = 0.0
+    small = False
+    while True:
+        accepted = at_x
+        if at_x or allowed(glove, trial):
+            trial_scale = residual_of(
+                glove,
+                work,
+                trial,
+                pressure,
+                free,
+                motion,
+                rate,
+                trial_residual,
+                trial_forces,
+                trial_torque,
+            )
+            trial_size = norm(trial_residual)
+            # A step below XTOL is taken whole: at the root, rounding may not let F decrease.
+            accepted = at_x or (
+                math.isfinite(trial_size)
+                and (small or trial_size <= (1.0 - ARMIJO * alpha) * size_of_residual)
+            )
+        if not accepted:
+            halvings += 1
+            alpha *= 0.5
+            if halvings < MAX_HALVINGS:
                 for k in range(n):
                     trial[k] = x[k] + alpha * step[k]
-                if allowed(glove, trial):
-                    trial_scale = residual_of(
-                        glove,
-                        work,
-                        trial,
-                        pressure,
-                        free,
-                        motion,
-                        rate,
-                        trial_residual,
-                        trial_forces,
-                        trial_torque,
-                    )
-                    trial_size = norm(trial_residual)
-                    # A step below XTOL is taken whole: at the root, rounding may not let F
-                    # decrease.
-                    if math.isfinite(trial_size) and (
-                        small or trial_size <= (1.0 - ARMIJO * alpha) * size_of_residual
-                    ):
-                        accepted = True
-                        break
-                alpha *= 0.5
-        if not accepted:
+                continue
             if fresh:
-                status = NO_DECREASE if math.isfinite(step_size) else NOT_FINITE
-                return status, iterations, size_of_residual
-            # A chord step failed: the same x again, with the Jacobian at x (``work`` holds
-            # the last trial's terms, so x's are computed again, the same numbers).
-            residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque)
-            jacobian_of(glove, work, x, free, jacobian, forces)
-            fresh = True
+                return NO_DECREASE, iterations, size_of_residual
+            # A chord step failed: x again, then the Jacobian at x (``work`` holds the last
+            # trial's terms, so x's are computed again, the same numbers).
+            at_x = True
+            for k in range(n):
+                trial[k] = x[k]
             continue
-        for k in range(n):  # (loops: a slice copy would allocate, and this kernel may not)
+        # (loops: a slice copy would allocate, and this kernel may not)
+        previous_size = size_of_residual
+        for k in range(n):
             x[k] = trial[k]
             residual[k] = trial_residual[k]
         for k in range(3):
             forces[k] = trial_forces[k]
             torque[k] = trial_torque[k]
-        previous_size = size_of_residual
         scale, size_of_residual = trial_scale, trial_size
-        iterations += 1
-        if size_of_residual <= RTOL * scale:
-            return CONVERGED, iterations, size_of_residual
-        if small:
-            return CONVERGED_STEP, iterations, size_of_residual
-        fresh = size_of_residual > REUSE * previous_size
-        if fresh:  # ``work`` holds the terms at the accepted trial, the new x
+        if at_x:
+            at_x, fresh = False, True
+            if not started:
+                started = True
+                if not math.isfinite(size_of_residual):
+                    return NOT_FINITE, 0, size_of_residual
+                if size_of_residual <= RTOL * scale:
+                    return CONVERGED, 0, size_of_residual
+        else:
+            iterations += 1
+            if size_of_residual <= RTOL * scale:
+                return CONVERGED, iterations, size_of_residual
+            if small:
+                return CONVERGED_STEP, iterations, size_of_residual
+            fresh = size_of_residual > REUSE * previous_size
+        if fresh:  # ``work`` holds the terms at x: the last evaluation was of x
             jacobian_of(glove, work, x, free, jacobian, forces)
-    return ITERATION_LIMIT, iterations, size_of_residual
+        if steps == MAX_ITERATIONS:
+            return ITERATION_LIMIT, iterations, size_of_residual
+        steps += 1
+        for k in range(n):
+            trial_residual[k] = -residual[k]
+        solve(jacobian, trial_residual, step, matrix)
+        step_size = norm(step)
+        small = step_size <= XTOL
+        if not math.isfinite(step_size):
+            if fresh:
+                return NOT_FINITE, iterations, size_of_residual
+            at_x = True  # a chord step: x again, with the Jacobian at x
+            for k in range(n):
+                trial[k] = x[k]
+            continue
+        alpha, halvings = 1.0, 0
+        for k in range(n):
+            trial[k] = x[k] + alpha * step[k]

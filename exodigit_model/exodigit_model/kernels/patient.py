@@ -43,14 +43,14 @@ MAX_EXPONENT = 700.0
 """Largest exponent passed to exp (e^700 ≈ 1e304: finite, so a wild trial state stays finite)."""
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def softplus_and_sigmoid(x):
     """ln(1 + eˣ) and its slope 1/(1 + e⁻ˣ), from one exponential, without overflow."""
     z = math.exp(-abs(x))
     return max(x, 0.0) + math.log1p(z), (1.0 if x >= 0.0 else z) / (1.0 + z)
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def finger_torque(law, q, qdot, rate):
     """τ_H of (11.1) without the effort (N·m) and its slope dτ_H/dq (N·m/rad) at one joint.
 

@@ -23,7 +23,7 @@ from .jit import kernel
 from .material import stress_and_slope
 
 
-@kernel(inline=True)
+@kernel(counted=False)
 def resultants(glove, k, q, strain):
     """(M, N, ∂M/∂q, ∂M/∂ε, ∂N/∂ε) of segment ``k`` at angle ``q`` and bottom strain ``strain``.
 

@@ -12,7 +12,7 @@ import numpy as np
 from .constants import LAW_ROM_MAX, LAW_ROM_MIN, unpack, with_finger
 from .jit import kernel
 from .kinematics import finger_terms, robot_terms
-from .newton import solve_into
+from .newton import newton
 from .statics import evaluate, finger_load
 from .workspace import MAX_UNKNOWNS, workspace
 
@@ -27,8 +27,9 @@ def solve_state(packed, pressure, x, free, motion, rate):
     forces = np.empty(3)
     torque = np.empty(3)
     work = workspace()
-    status, iterations, residual = solve_into(
-        glove, work, x, pressure, free, motion, rate, forces, torque
+    work.motion[:, :] = motion  # the one type of motion below (read-only from Python)
+    status, iterations, residual = newton(
+        glove, work, x, pressure, free, work.motion, rate, forces, torque
     )
     return status, iterations, residual, forces, torque
 
@@ -49,13 +50,14 @@ def solve_rows(packed, pressures, starts, free, motions, rate):
     residual = np.empty(rows)
     work = workspace()
     for r in range(rows):
-        status[r], iterations[r], residual[r] = solve_into(
-            glove, work, x[r], pressures[r], free, motions[r], rate, forces[r], torque[r]
+        work.motion[:, :] = motions[r]  # as in solve_state
+        status[r], iterations[r], residual[r] = newton(
+            glove, work, x[r], pressures[r], free, work.motion, rate, forces[r], torque[r]
         )
     return x, forces, torque, status, iterations, residual
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def stretch_in_range(glove, x, low, high):
     """Whether every fibre's stretch (12.1) lies in [low, high] (the bottom face and the top)."""
     strain_per_angle = glove.strain_per_angle
@@ -67,7 +69,7 @@ def stretch_in_range(glove, x, low, high):
     return True
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def in_range_of_motion(glove, q):
     """Whether every joint lies in its range of motion [rom_min, rom_max]."""
     laws = glove.laws
@@ -112,15 +114,29 @@ def rest_rows(packed, finger_half_lengths, laws, valid_low, valid_high):
     residual = np.empty(rows)
     valid = np.empty(rows, np.bool_)
     moving_range = np.empty(rows, np.bool_)
-    vented, still = np.zeros(3), np.zeros((3, 3))
-    for r in range(rows):
+    outcomes = (forces, torque, status, iterations, residual, valid, moving_range)
+    fingers = (finger_half_lengths, laws)
+    rest_into(glove, fingers, work, np.zeros(3), x, outcomes, valid_low, valid_high)
+    return x, forces, torque, status, iterations, residual, valid, moving_range
+
+
+@kernel(counted=False)
+def rest_into(glove, fingers, work, vented, x, outcomes, valid_low, valid_high):
+    """The rows of :func:`rest_rows`, into ``x`` (zeros) and ``outcomes``; ``vented``: zeros (3,).
+
+    Counts nothing: :func:`.constants.with_finger`'s views may not be released.
+    """
+    finger_half_lengths, laws = fingers
+    forces, torque, status, iterations, residual, valid, moving_range = outcomes
+    still = work.motion
+    still[:, :] = 0.0
+    for r in range(x.shape[0]):
         patient = with_finger(glove, finger_half_lengths[r], laws[r])
-        status[r], iterations[r], residual[r] = solve_into(
-            patient, work, x[r], vented, False, still, 0.0, forces[r], torque[r]
+        status[r], iterations[r], residual[r] = newton(
+            patient, work, x[r], vented, np.bool_(False), still, 0.0, forces[r], torque[r]
         )
         valid[r] = stretch_in_range(patient, x[r], valid_low, valid_high)
         moving_range[r] = in_range_of_motion(patient, x[r])
-    return x, forces, torque, status, iterations, residual, valid, moving_range
 
 
 @kernel
@@ -131,7 +147,9 @@ def evaluate_state(packed, x, pressure, free, motion, rate):
     forces = np.empty(3)
     torque = np.empty(3)
     glove, work = unpack(packed), workspace()
-    evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque)
+    work.motion[:, :] = motion  # as in solve_state
+    finger = work.motion
+    evaluate(glove, work, x, pressure, free, finger, rate, residual, jacobian, forces, torque)
     return residual, jacobian
 
 
@@ -139,7 +157,9 @@ def evaluate_state(packed, x, pressure, free, motion, rate):
 def finger_torques(packed, q, motion):
     """τ_H of (11.1) at angles ``q`` for ``motion`` (:func:`.statics.finger_load`), N·m."""
     torque = np.empty(3)
-    finger_load(unpack(packed), q, motion, 0.0, torque, np.empty(3))
+    finger = np.empty((3, 3))  # writable, as in solve_state
+    finger[:, :] = motion
+    finger_load(unpack(packed), q, finger, 0.0, torque, np.empty(3))
     return torque
 
 
@@ -147,6 +167,6 @@ def finger_torques(packed, q, motion):
 def jacobians_at(packed, q, lengths):
     """(J_R*, J_H*, J_ℓ*) at angles ``q`` and bottom-face ``lengths`` (m), each (3, 3)."""
     glove, work = unpack(packed), workspace()
-    robot_terms(q, lengths, glove.block_half_lengths, True, work)
+    robot_terms(q, lengths, glove.block_half_lengths, np.bool_(True), work)
     finger_terms(q, glove.finger_half_lengths, work.j_finger, work.finger_slopes)
     return work.j_robot.copy(), work.j_finger.copy(), work.j_length.copy()

@@ -47,7 +47,7 @@ from .section import resultants
 from .structural import structural_torque
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def finger_load(glove, q, motion, rate, torque, slopes):
     """τ_H of (11.1) at ``q`` into ``torque`` (N·m), dτ_H,k/dq_k into ``slopes`` (N·m/rad).
 
@@ -62,7 +62,7 @@ def finger_load(glove, q, motion, rate, torque, slopes):
         torque[k] = value - motion[2, k]
 
 
-@kernel(inline=True)
+@kernel(counted=False)
 def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, forces, torque):
     """F (or (R, S)) at unknowns ``x`` into ``residual``, ∂/∂x into ``jacobian``; the scale.
 
@@ -94,7 +94,7 @@ def evaluate(glove, work, x, pressure, free, motion, rate, residual, jacobian, f
     return scale
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, torque):
     """F (or (R, S)) at ``x`` into ``residual``, f and τ_H; the scale (:func:`evaluate`).
 
@@ -157,7 +157,7 @@ def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, 
     return math.sqrt(total)
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def jacobian_of(glove, work, x, free, jacobian, forces):
     """∂F/∂x at ``x`` into ``jacobian``, from what :func:`residual_of` left in ``work``.
 

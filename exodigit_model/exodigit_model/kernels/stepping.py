@@ -31,7 +31,7 @@ from .solves import in_range_of_motion, stretch_in_range
 from .workspace import workspace
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def moves_with_speed(glove):
     """Whether τ_H depends on the joint speed (damping or spasticity at some joint)."""
     laws = glove.laws
@@ -44,7 +44,7 @@ def moves_with_speed(glove):
     return False
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def advance_chambers(pressure, command, decay, supply):
     """Clip ``command`` to [0, supply] and lag ``pressure`` toward it, both in place (Pa).
 
@@ -68,7 +68,7 @@ the last one predicted the last one's angle, and a straight line through the two
 each to within this share of how far the last step moved it."""
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def predict(glove, x, q_before, earlier, start):
     """Where the Newton iteration of the next step starts: ``start`` (the unknowns), filled.
 
@@ -109,21 +109,9 @@ def predict(glove, x, q_before, earlier, start):
     return False
 
 
-@kernel(counted=False)
-def step_glove(glove, work, state, new, command, effort, limits):
-    """:func:`step_into` as a compiled function of its own, for the kernels that allocate.
-
-    As :func:`.newton.solve_into` is :func:`.newton.newton`'s.
-    """
-    return step_into(glove, work, state, new, command, effort, limits)
-
-
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def step_into(glove, work, state, new, command, effort, limits):
     """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
-
-    Inlined, with :func:`.newton.newton` (a call would pass several hundred numbers): only a
-    kernel that counts no references may call it (:func:`step_glove` for the others).
 
     Parameters
     ----------
@@ -166,12 +154,11 @@ def step_into(glove, work, state, new, command, effort, limits):
         motion[1, k] = 0.0
         motion[2, k] = effort[k]
     # A predicted start that does not converge is tried again from the last good unknowns: the
-    # prediction may cost Newton steps, never a solve. One call site in a loop, not two calls:
-    # each call of the inlined newton compiles a copy of it.
+    # prediction may cost Newton steps, never a solve.
     iterations = 0
     for _ in range(2):
         status, taken, residual = newton(
-            glove, work, new_x, new_pressure, False, motion, rate, new_forces, new_torque
+            glove, work, new_x, new_pressure, np.bool_(False), motion, rate, new_forces, new_torque
         )
         iterations += taken
         if status <= CONVERGED_STEP or not predicted:
@@ -238,7 +225,11 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
     """
     glove, work = unpack(packed), workspace()
     new = np.zeros((9, block.shape[1]))
-    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], block[7:, :3])
+    # ``earlier`` in (2, 3) arrays of their own: the rows of a block of six columns are not
+    # contiguous, and step_into takes one layout (:func:`.jit.kernel`).
+    earlier, new_earlier = np.empty((2, 3)), np.empty((2, 3))
+    earlier[:, :] = block[7:, :3]
+    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], earlier)
     rows = (
         new[0],
         new[1, :3],
@@ -247,10 +238,12 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
         new[4, :3],
         new[5, :3],
         new[6, :3],
-        new[7:, :3],
+        new_earlier,
     )
     limits = (decay, supply, rate, valid_low, valid_high)
-    return new, step_glove(glove, work, state, rows, command, effort, limits)
+    outcome = step_into(glove, work, state, rows, command, effort, limits)
+    new[7:, :3] = new_earlier
+    return new, outcome
 
 
 @kernel(counted=False)

@@ -19,7 +19,7 @@ from .jit import kernel
 from .section import resultants
 
 
-@kernel(inline=True)
+@kernel(counted=False, forceinline=True)
 def structural_torque(glove, k, q):
     """τ_s = −M(q) (N·m) and dτ_s/dq (N·m/rad) of segment ``k`` at angle ``q`` (rad)."""
     u_per_q = glove.strain_per_angle[k]
