@@ -5,6 +5,7 @@ fresh interpreter with its own environment; a throwaway module in tmp_path holds
 the real cache is never touched (NUMBA_CACHE_DIR, HOME and XDG_CACHE_HOME point into tmp_path).
 """
 
+import logging
 import os
 import subprocess
 import sys
@@ -13,7 +14,9 @@ from pathlib import Path
 
 import numba
 import pytest
+from exodigit_model.compiling import CompileNotice
 from exodigit_model.kernels import jit
+from numba.core import event
 
 THROWAWAY = """
 from exodigit_model.kernels.jit import kernel
@@ -135,6 +138,72 @@ def test_kernels_are_cached_under_the_digest_of_the_kernel_sources_and_loaded_ag
     assert Path(path).parent == ours
     assert Path(theirs).parent == cache
     assert not Path(theirs).name.startswith('exodigit-')
+
+
+def test_a_cold_cache_says_once_that_the_kernels_compile_and_where_a_warm_one_is_silent(
+    tmp_path,
+):
+    """One small kernel of the package (the Yeoh stress), no logging configured: the first
+    interpreter warns once on stderr, naming the cache; the second loads it and says nothing.
+    The user's own numba functions (a throwaway module) compile without a word."""
+    cache = tmp_path / 'cache'
+    code = """
+    import numpy as np
+    from exodigit_model import load_params
+    from exodigit_model.material import yeoh_stress
+    from throwaway_kernels import twice_plus_one
+    from user_functions import user_function
+    material = load_params().material
+    for _ in range(2):
+        yeoh_stress(material, np.linspace(0.9, 1.5, 4))
+    print(twice_plus_one(3.0), user_function(3.0))
+    """
+    cold = run_python(tmp_path, code, NUMBA_CACHE_DIR=str(cache))
+    notices = [line for line in cold.stderr.splitlines() if 'compiling' in line]
+    assert len(notices) == 1, cold.stderr
+    assert f'into {cache / f"exodigit-{jit.source_digest()}"},' in notices[0]
+    assert 'about a minute' in notices[0]
+    warm = run_python(tmp_path, code, NUMBA_CACHE_DIR=str(cache))
+    assert 'compiling' not in warm.stderr, warm.stderr
+
+
+def inner(x):
+    return x + 1.0
+
+
+def outer(x):
+    return 2.0 * compiled_inner(x)
+
+
+def other(x):
+    return x - 1.0
+
+
+compiled_inner = numba.njit(inner)
+
+
+def test_the_notice_warns_at_the_first_compile_and_times_each_outermost_one(caplog):
+    """Functions of this module stand for the kernels: one warning at the first compile, one
+    info line per outermost compile (``outer`` compiles ``inner`` inside it), none when numba
+    calls what it compiled; functions of other modules are not announced."""
+    notice = CompileNotice(package=__name__)
+    foreign = numba.njit(lambda x: x * 3.0)
+    foreign.py_func.__module__ = 'elsewhere'
+    event.register('numba:compile', notice)
+    try:
+        with caplog.at_level(logging.INFO, logger='exodigit_model.compiling'):
+            foreign(1.0)
+            assert caplog.records == []
+            assert numba.njit(outer)(1.0) == 4.0
+            numba.njit(other)(1.0)
+            numba.njit(other)  # a new dispatcher, never called: nothing compiles
+    finally:
+        event.unregister('numba:compile', notice)
+    said = [(record.levelname, record.getMessage()) for record in caplog.records]
+    assert [level for level, _ in said] == ['WARNING', 'INFO', 'INFO'], said
+    assert 'numba is compiling the model kernels' in said[0][1]
+    assert f'compiled {__name__}.outer in ' in said[1][1]
+    assert f'compiled {__name__}.other in ' in said[2][1]
 
 
 def test_an_unwritable_numba_cache_dir_compiles_in_memory_with_one_warning(tmp_path):

@@ -11,6 +11,7 @@ in time, and the joiner that pairs the samples of a glove's streams by time.
 """
 
 from .chambers import ChamberSettings
+from .compiling import announce_compiles
 from .identification import StiffnessFit, fit_stiffness
 from .inverse import BatchEstimate, Estimate, Hold
 from .joining import Joined, Joiner, join_indices
@@ -66,3 +67,5 @@ __all__ = [
     'patient_file',
 ]
 __version__ = '0.1.0'
+
+announce_compiles()  # one log line when the kernels compile (README, "Compiled model")
