@@ -382,8 +382,9 @@ def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch)
 def test_set_paused_asked_again_and_again_logs_with_debug_logging_on(probe):
     # The state changes (info), then is asked for again as the testing kit does (debug).
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
+    logger = node.node.get_logger()  # rclpy's levels are per name and process: set back below
     try:
-        node.node.get_logger().set_level(LoggingSeverity.DEBUG)
+        logger.set_level(LoggingSeverity.DEBUG)
         answers = [
             call(node, 'set_paused', SetBool.Request(data=paused), SetBool.Response())
             for paused in (False, False, True, True)
@@ -395,6 +396,7 @@ def test_set_paused_asked_again_and_again_logs_with_debug_logging_on(probe):
             'paused',
         ]
     finally:
+        logger.set_level(LoggingSeverity.UNSET)  # the level of its parent again
         node.close()
 
 
