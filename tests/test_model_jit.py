@@ -185,14 +185,17 @@ compiled_inner = numba.njit(inner)
 def test_the_notice_warns_at_the_first_compile_and_times_each_outermost_one(caplog):
     """Functions of this module stand for the kernels: one warning at the first compile, one
     info line per outermost compile (``outer`` compiles ``inner`` inside it), none when numba
-    calls what it compiled; functions of other modules are not announced."""
+    calls what it compiled; functions of other modules, or of none, are not announced."""
     notice = CompileNotice(package=__name__)
     foreign = numba.njit(lambda x: x * 3.0)
     foreign.py_func.__module__ = 'elsewhere'
+    nameless = {}  # a function made by exec has no module
+    exec('def nameless(x):\n    return x\n', nameless)
     event.register('numba:compile', notice)
     try:
         with caplog.at_level(logging.INFO, logger='exodigit_model.compiling'):
             foreign(1.0)
+            numba.njit(nameless['nameless'])(1.0)
             assert caplog.records == []
             assert numba.njit(outer)(1.0) == 4.0
             numba.njit(other)(1.0)

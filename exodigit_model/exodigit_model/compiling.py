@@ -55,8 +55,11 @@ if jit.JIT:
             self.total = 0.0
 
         def ours(self, compiled: event.Event) -> bool:
-            """Whether the event is a compile of a kernel of :attr:`package`."""
-            module = compiled.data['dispatcher'].py_func.__module__
+            """Whether the event is a compile of a kernel of :attr:`package`.
+
+            A function made by ``exec`` has no module (None): never ours.
+            """
+            module = compiled.data['dispatcher'].py_func.__module__ or ''
             return module == self.package or module.startswith(self.package + '.')
 
         def on_start(self, compiled: event.Event) -> None:
