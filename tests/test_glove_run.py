@@ -497,12 +497,14 @@ def test_the_summary_shows_the_recorded_angles_in_degrees_and_every_node_healthy
 
 def test_a_wall_clock_duration_ends_the_glove_cleanly_even_while_the_nodes_start(wall_clock_run):
     # Nodes stopped while still importing or starting count as stopped, not failed.
-    assert wall_clock_run.returncode == 0, wall_clock_run.output()
-    assert f'stopping ({WALL_DURATION:g} s elapsed)' in wall_clock_run.stdout
+    output = wall_clock_run.output()  # shown with any failure below (a rare one is unexplained)
+    assert wall_clock_run.returncode == 0, output
+    assert f'stopping ({WALL_DURATION:g} s elapsed)' in wall_clock_run.stdout, output
     # every node process had been started (the supervisor opens its log as it starts it)
-    assert sorted(log.stem for log in (wall_clock_run.out / 'logs').iterdir()) == sorted(NODES)
-    assert 'Traceback' not in wall_clock_run.stdout + wall_clock_run.stderr
-    assert node_pids(wall_clock_run.ns) == []
+    logs = sorted(log.stem for log in (wall_clock_run.out / 'logs').iterdir())
+    assert logs == sorted(NODES), output
+    assert 'Traceback' not in wall_clock_run.stdout + wall_clock_run.stderr, output
+    assert node_pids(wall_clock_run.ns) == [], output
 
 
 def test_a_node_that_dies_is_named_with_its_exit_code_and_the_glove_fails(failing_run):
