@@ -134,12 +134,32 @@ class GloveClient(Node):
     # -- connection ------------------------------------------------------------------------
 
     def connected(self) -> bool:
-        """Whether every glove output reaches us, our commands reach the plant, services are up."""
+        """Whether every glove output reaches us, our commands reach the plant, services are up.
+
+        With an estimator also whether the graph lists its readers of the plant's states: the
+        plant takes a requested step only once it has matched every reader the graph lists
+        (:meth:`.SimulatedTime.request_step`), and an estimator whose reader is not yet known
+        would miss the first state (volatile) and never estimate it.
+        """
         return (
             all(subscription.get_publisher_count() > 0 for subscription in self.inputs)
             and self.publisher.get_subscription_count() > 0
             and all(client.service_is_ready() for client in self.plant_services)
+            and (self.estimates is None or self._estimator_listens())
         )
+
+    def _estimator_listens(self) -> bool:
+        """Whether a node other than ours subscribes both topics the estimator pairs."""
+        me = (self.get_name(), self.get_namespace())
+        readers = [
+            {
+                (info.node_name, info.node_namespace)
+                for info in self.get_subscriptions_info_by_topic(self.resolve_topic_name(topic))
+            }
+            - {me}
+            for topic in (JOINT_STATES, CHAMBER_PRESSURE)
+        ]
+        return bool(readers[0] & readers[1])
 
     def other_controllers(self) -> list[str]:
         """Names of the other nodes that publish this glove's ``pressure_command``.
@@ -179,30 +199,34 @@ class GloveClient(Node):
 
         ``with_estimate`` (with an estimator): complete only with the estimate stamped with the
         step's stamp. Estimates of earlier steps are dropped, whether taken or not: one of a
-        run's states that arrives late is never taken for a later step's.
+        run's states that arrives late is never taken for a later step's. A step whose estimate
+        can no longer come (a later step's came: the estimator answers in order, so it missed
+        or refused this one) is dropped too, so that it cannot block every later step.
         """
-        if not all(self.queues.values()):
-            return None
-        stamp = stamp_ns(self.queues[JOINT_STATES][0])
-        estimate = None
-        if self.estimates is not None:
-            while self.estimates and self.estimates[0][0] < stamp:
-                self.estimates.popleft()
-            if self.estimates and self.estimates[0][0] == stamp:
-                estimate = self.estimates[0][1]
-            elif with_estimate:
-                return None
-        joint = self.queues[JOINT_STATES].popleft()
-        return SimState(
-            t=stamp / 1e9,
-            q=np.array(joint.position),
-            qdot=np.array(joint.velocity),
-            effort=np.array(joint.effort),
-            pressure=self.queues[CHAMBER_PRESSURE].popleft(),
-            forces=self.queues[CONTACT_FORCES].popleft(),
-            lengths=self.queues[SEGMENT_LENGTHS].popleft(),
-            estimated_forces=estimate if with_estimate else None,
-        )
+        while all(self.queues.values()):
+            stamp = stamp_ns(self.queues[JOINT_STATES][0])
+            estimate = None
+            if self.estimates is not None:
+                while self.estimates and self.estimates[0][0] < stamp:
+                    self.estimates.popleft()
+                if self.estimates and self.estimates[0][0] == stamp:
+                    estimate = self.estimates[0][1]
+                elif with_estimate and not self.estimates:
+                    return None
+            joint = self.queues[JOINT_STATES].popleft()
+            state = SimState(
+                t=stamp / 1e9,
+                q=np.array(joint.position),
+                qdot=np.array(joint.velocity),
+                effort=np.array(joint.effort),
+                pressure=self.queues[CHAMBER_PRESSURE].popleft(),
+                forces=self.queues[CONTACT_FORCES].popleft(),
+                lengths=self.queues[SEGMENT_LENGTHS].popleft(),
+                estimated_forces=estimate if with_estimate else None,
+            )
+            if estimate is not None or not with_estimate or self.estimates is None:
+                return state
+        return None
 
     def send(self, command: np.ndarray) -> None:
         """Publish one pressure command, Pa."""
