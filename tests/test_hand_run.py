@@ -138,7 +138,16 @@ def test_record_gives_each_finger_a_bag_of_every_step(session):
     for finger in FINGERS:
         bag = read_bag(out / 'bag' / finger)
         for topic in ('joint_states', 'chamber_pressure', 'contact_forces'):
-            assert len(bag[topic].values) == steps and bag[topic].skipped == 0, (finger, topic)
+            counts = {name: len(series.values) for name, series in bag.items()}
+            # A failure shows the bag's counts and the nodes' logs (one beside busy cores had
+            # no joint_states of a finger at all, and its logs were gone).
+            logs = '\n'.join(
+                f'--- {log.name}\n' + log.read_text()[-3000:]
+                for log in sorted((out / 'run' / 'logs').glob('*'))
+                if log.is_file()
+            )
+            assert topic in bag and len(bag[topic].values) == steps, (finger, counts, logs)
+            assert bag[topic].skipped == 0, (finger, topic)
         table = read_record(out / finger / 'signals.csv')
         np.testing.assert_allclose(
             np.degrees(bag['joint_states'].values), columns(table, 'q', 'deg'), atol=1e-9
