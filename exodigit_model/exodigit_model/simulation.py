@@ -559,3 +559,6 @@ def _last(value):
     """The last step's entry of one field of a run, as :meth:`GloveSimulation.step` gives it."""
     last = value[-1]
     return last.item() if isinstance(last, np.generic) else last
+
+
+ACTUATIONS = ('regulator', 'valves')

@@ -28,6 +28,8 @@ JOINTS = 'MCP, PIP, DIP'
 """The values of a joint vector, in order."""
 OPENINGS = 'inlet MCP, inlet PIP, inlet DIP, outlet MCP, outlet PIP, outlet DIP'
 """The values of a valve command, in order (docs/spec/model.md §14)."""
+MAX_PRESSURE_READING = 10e6
+"""Largest |chamber pressure| accepted as a measurement, Pa."""
 MAX_ANGLE = math.pi
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
 

@@ -50,6 +50,9 @@ import numpy as np
 from exodigit_model.control import PIController
 from numpy.typing import NDArray
 
+OUTPUTS = ('pressure', 'valves')
+"""What ``pressure_command`` publishes (its ``output`` parameter): ``pressure_command``, or
+``valve_command`` from this loop."""
 VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 """The openings of a vent: inlets closed, outlets open (the plant's watchdog, a stopping
 ``pressure_command``, a target of zero)."""

@@ -24,6 +24,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..logic.estimation import Pair, SamplePairer, StiffnessWindow, ValidityTally
 from ..logic.inputs import (
+    MAX_PRESSURE_READING,
     InvalidInputError,
     joint_positions,
     joint_vector,
@@ -47,9 +48,6 @@ from .messages import (
 )
 from .node_base import GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
-
-MAX_PRESSURE_READING = 10e6
-"""Largest |chamber pressure| accepted as a measurement, Pa."""
 
 
 class Estimator(GloveNode):
