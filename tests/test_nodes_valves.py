@@ -69,17 +69,23 @@ def report(node: InProcessNode):
 
 
 @pytest.fixture
-def valve_plant(probe):
-    """Builds a Plant with valves in process on simulated time."""
+def built(probe):
+    """Builds glove nodes in process: ``built(node_class, parameters)``; closes them after."""
     made = []
 
-    def build(**overrides):
-        made.append(InProcessNode(Plant, {**PLANT, **overrides}, probe))
+    def build(node_class, parameters: dict[str, str]) -> InProcessNode:
+        made.append(InProcessNode(node_class, parameters, probe))
         return made[-1]
 
     yield build
     for node in made:
         node.close()
+
+
+@pytest.fixture
+def valve_plant(built):
+    """Builds a Plant with valves in process on simulated time (more parameters by keyword)."""
+    return lambda **overrides: built(Plant, {**PLANT, **overrides})
 
 
 @pytest.fixture
@@ -180,17 +186,9 @@ COMMAND = {'output': 'valves', 'mode': 'hold', 'hold_pressure': '[20000.0, 20000
 
 
 @pytest.fixture
-def valve_command_node(probe):
-    """Builds a pressure_command with output valves in process."""
-    made = []
-
-    def build(**overrides):
-        made.append(InProcessNode(PressureCommand, {**COMMAND, **overrides}, probe))
-        return made[-1]
-
-    yield build
-    for node in made:
-        node.close()
+def valve_command_node(built):
+    """Builds a pressure_command with output valves in process (more parameters by keyword)."""
+    return lambda **overrides: built(PressureCommand, {**COMMAND, **overrides})
 
 
 def joint_state(t: float) -> JointState:

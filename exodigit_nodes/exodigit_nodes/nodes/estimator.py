@@ -24,10 +24,8 @@ from std_msgs.msg import Float64MultiArray
 
 from ..logic.estimation import Pair, SamplePairer, StiffnessWindow, ValidityTally
 from ..logic.inputs import (
-    MAX_PRESSURE_READING,
     InvalidInputError,
     joint_positions,
-    joint_vector,
     sent_seconds,
     stamp_age,
     stamp_seconds,
@@ -123,11 +121,7 @@ class Estimator(GloveNode):
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
         """Offer pressures (Pa) to the pairer at the time they were sent (refused: None)."""
-        try:
-            pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
-        except InvalidInputError as error:
-            self.reject(CHAMBER_PRESSURE, error)
-            pressure = None
+        pressure = self.pressure_reading(message.data)
         self.estimate(self.pairer.add_pressure(pressure, sent_seconds(info)), CHAMBER_PRESSURE)
 
     def estimate(self, pairs: list[Pair], topic: str) -> None:

@@ -58,7 +58,6 @@ from std_msgs.msg import Float64MultiArray
 
 from ..logic.estimation import Pair, SamplePairer
 from ..logic.inputs import (
-    MAX_PRESSURE_READING,
     InvalidInputError,
     joint_positions,
     joint_vector,
@@ -317,12 +316,8 @@ class PressureCommand(GloveNode):
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
         """Valves: keep a valid measured chamber pressure (Pa) with its arrival time."""
-        try:
-            pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
-        except InvalidInputError as error:
-            self.reject(CHAMBER_PRESSURE, error)
-            pressure = None
-        else:
+        pressure = self.pressure_reading(message.data)
+        if pressure is not None:
             self.pressure = (self.now_seconds(), pressure)
         if self.pairer is not None:
             self.take_pairs(self.pairer.add_pressure(pressure, sent_seconds(info)))
