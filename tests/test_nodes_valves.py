@@ -14,7 +14,8 @@ import math
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_nodes.logic.valve_loop import VENT, ValveLoop, ValveLoopSettings
+from exodigit_model.control import ValveLoop, ValveLoopSettings
+from exodigit_model.simulation import VENT
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from reliability_inprocess import InProcessNode, non_finite

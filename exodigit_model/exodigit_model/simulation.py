@@ -562,3 +562,9 @@ def _last(value):
 
 
 ACTUATIONS = ('regulator', 'valves')
+VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
+"""The openings of a vent behind valves (docs/spec/model.md §14): inlets closed, outlets open
+(the plant's watchdog, a stopping ``pressure_command``, a target of zero). Read-only."""
+CLOSED = np.zeros(6)
+"""Every valve closed: the chambers hold their air. Read-only."""
+VENT.flags.writeable = CLOSED.flags.writeable = False

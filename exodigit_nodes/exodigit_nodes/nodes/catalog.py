@@ -18,7 +18,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-from exodigit_model.control import MODE_DEFAULTS, MODES, SafetyLimits
+from exodigit_model.control import MODE_DEFAULTS, MODES, OUTPUTS, SafetyLimits, ValveLoopSettings
 from exodigit_model.joining import STEP_TOLERANCE
 from exodigit_model.simulation import ACTUATIONS
 
@@ -26,7 +26,6 @@ from exodigit_model import SimulationSettings
 
 from ..logic.pacing import CLOCKS, MAX_REAL_TIME_FACTOR
 from ..logic.parameters import ParamSpec, ParamTable, params_file_spec
-from ..logic.valve_loop import OUTPUTS, ValveLoopSettings
 
 PACKAGE = 'exodigit_nodes'
 SIM_DEFAULTS = SimulationSettings()
@@ -36,7 +35,8 @@ STAIRCASE, SINE = MODE_DEFAULTS['staircase'], MODE_DEFAULTS['sine']
 POSITION, FORCE = MODE_DEFAULTS['position'], MODE_DEFAULTS['force']
 """The safety limiter's defaults (exodigit_model.control), which are pressure_command's."""
 VALVE_LOOP = ValveLoopSettings()
-"""The valve pressure loop's defaults (:mod:`..logic.valve_loop`), which are pressure_command's."""
+"""The valve pressure loop's defaults (:class:`exodigit_model.control.ValveLoop`), which are
+pressure_command's."""
 DIAGNOSTIC_PERIOD = ParamSpec(
     'diagnostic_period',
     1.0,

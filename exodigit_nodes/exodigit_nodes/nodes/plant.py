@@ -38,6 +38,7 @@ from array import array
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
+from exodigit_model.simulation import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -52,7 +53,6 @@ from ..logic.pacing import TIME_SETTING_NAMES, known_node
 from ..logic.parameters import describe_files
 from ..logic.plant_report import StepCounts, plant_report
 from ..logic.plant_settings import PlantSettings, plant_settings
-from ..logic.valve_loop import VENT
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
 from .markers import GloveMarkers

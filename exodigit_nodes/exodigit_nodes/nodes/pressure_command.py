@@ -10,8 +10,9 @@ contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes 
 
 With ``output:=valves`` (for a plant with ``actuation:=valves``, docs/spec/model.md §14) the
 limited pressures are the targets of a pressure loop on the measured ``chamber_pressure``
-(:mod:`..logic.valve_loop`), and it publishes that loop's ``valve_command`` (six openings) instead:
-with no fresh ``chamber_pressure`` and on exit, a vent (inlets closed, outlets open).
+(:class:`exodigit_model.control.ValveLoop`, the loop of in-process trials too), and it publishes
+that loop's ``valve_command`` (six openings) instead: with no fresh ``chamber_pressure`` and on
+exit, a vent (inlets closed, outlets open).
 
 It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
 simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with one command computed
@@ -49,8 +50,11 @@ from exodigit_model.control import (
     SafetyLimits,
     Sine,
     Staircase,
+    ValveLoop,
+    ValveLoopSettings,
 )
 from exodigit_model.joining import STEP_TOLERANCE
+from exodigit_model.simulation import VENT
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
@@ -65,7 +69,6 @@ from ..logic.inputs import (
     stamp_age,
     stamp_seconds,
 )
-from ..logic.valve_loop import VENT, ValveLoop, ValveLoopSettings
 from .catalog import PRESSURE_COMMAND_NODE
 from .message_info import WithInfo
 from .messages import (
@@ -102,7 +105,7 @@ LIMIT_NAMES = frozenset(
     }
 )
 VALVE_NAMES = frozenset(('valve_deadband', 'valve_kp', 'valve_ki'))
-"""The valve loop's parameters (:class:`..logic.valve_loop.ValveLoopSettings`' fields)."""
+"""The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
 
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:

@@ -1,4 +1,4 @@
-"""The valve pressure loop and the valve_command check (exodigit_nodes.logic; no ROS, fast).
+"""The valve pressure loop (exodigit_model.control.ValveLoop; no ROS, fast).
 
 The loop is checked on toy chambers whose answer is known in closed form: an integrating
 chamber p ← p + g·(u_in − u_out) (fixed volume, flow proportional to the opening), on which a
@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_nodes.logic.inputs import InvalidInputError, joint_vector, valve_openings
-from exodigit_nodes.logic.valve_loop import CLOSED, VENT, ValveLoop, ValveLoopSettings
+from exodigit_model.control import ValveLoop, ValveLoopSettings
+from exodigit_model.simulation import CLOSED, VENT
 
 DT = 0.01
 """Step of the loop, s (the plant's 100 Hz)."""
@@ -33,46 +33,6 @@ def chamber_run(loop, target, gain, steps, p0=0.0, leak=0.0):
         pressures.append(p)
         openings.append(u)
     return np.array(pressures), np.array(openings)
-
-
-# -- valve_command check ---------------------------------------------------------------------
-
-
-@pytest.mark.parametrize('length', [0, 3, 5, 7, 12])
-def test_a_valve_command_of_the_wrong_length_is_rejected(length):
-    with pytest.raises(InvalidInputError, match=r'needs 6 values \(inlet MCP') as caught:
-        valve_openings([0.5] * length, 'valve_command')
-    assert caught.value.kind == 'wrong length'
-
-
-@pytest.mark.parametrize('bad', [math.nan, math.inf, -math.inf])
-def test_a_non_finite_valve_command_is_rejected(bad):
-    with pytest.raises(InvalidInputError, match='non-finite') as caught:
-        valve_openings([0.0, 0.1, bad, 1.0, 0.0, 0.0], 'valve_command')
-    assert caught.value.kind == 'non-finite'
-
-
-@pytest.mark.parametrize('bad', [-1e-9, 1.0 + 1e-9, -1.0, 2.0])
-def test_an_opening_outside_0_1_is_refused_not_clipped(bad):
-    with pytest.raises(InvalidInputError, match=r'outside \[0, 1\]') as caught:
-        valve_openings([0.0, 0.0, 0.0, 1.0, bad, 0.0], 'valve_command')
-    assert caught.value.kind == 'out of range'
-
-
-def test_openings_at_the_ends_and_between_pass_unchanged():
-    data = [0.0, 1.0, 0.25, 1.0, 0.0, 3e-310]
-    np.testing.assert_array_equal(valve_openings(data, 'valve_command'), data)
-
-
-def test_the_pressure_command_check_keeps_its_reasons():
-    """The length and finiteness checks are shared; a joint vector's reasons are unchanged."""
-    with pytest.raises(InvalidInputError, match=r'needs 3 values \(MCP, PIP, DIP\), got 6'):
-        joint_vector([0.0] * 6, 'pressure_command')
-    with pytest.raises(InvalidInputError, match='non-finite'):
-        joint_vector([0.0, math.nan, 0.0], 'pressure_command')
-
-
-# -- the loop ------------------------------------------------------------------------------
 
 
 def test_settings_refuse_bad_values_naming_the_field():
@@ -163,3 +123,31 @@ def test_reset_forgets_the_integral_and_configure_takes_new_gains():
     np.testing.assert_allclose(
         loop.openings(np.full(3, 10e3), np.full(3, 9e3), DT)[:3], 0.02, rtol=EXACT
     )
+
+
+def test_a_batch_loop_is_one_loop_per_glove_row_by_row():
+    """``count=N`` keeps an integral per glove: row n equals a one-glove loop fed row n alone."""
+    settings = ValveLoopSettings(valve_deadband=300.0, valve_kp=1 / 40e3, valve_ki=1 / 4e3)
+    rng = np.random.default_rng(7)
+    targets = np.array([[30e3, 0.0, 10e3], [5e3, 20e3, 40e3]])
+    batch = ValveLoop(settings, count=2)
+    singles = [ValveLoop(settings), ValveLoop(settings)]
+    for _ in range(3):  # three steps, then a reset: each starts every row over
+        for _ in range(3):
+            measured = rng.uniform(0.0, 45e3, size=(2, 3))
+            together = batch.openings(targets, measured, DT)
+            assert together.shape == (2, 6)
+            for n, single in enumerate(singles):
+                np.testing.assert_array_equal(
+                    together[n], single.openings(targets[n], measured[n], DT)
+                )
+        batch.reset()
+        for single in singles:
+            single.reset()
+
+
+def test_the_vent_and_closed_openings_cannot_be_changed_in_place():
+    """Every node and trial shares these two arrays: a write would change them all."""
+    for openings in (VENT, CLOSED):
+        with pytest.raises(ValueError, match='read-only'):
+            openings[0] = 0.5

@@ -1,4 +1,9 @@
-"""The pressure loop of ``pressure_command``'s ``output:=valves``: pressure targets to openings.
+"""The valve pressure loop: pressure targets and measured pressures to six valve openings.
+
+What ``pressure_command`` runs with ``output:=valves`` (docs/spec/ros.md, "Valves"), and what an
+in-process trial or figure runs in front of ``GloveSimulation(actuation='valves')``: one loop, so
+the two cannot disagree. Like the other closed loops of this package it controls one glove
+(arrays (3,) in, (6,) out) or a batch of N gloves ((N, 3) in, (N, 6) out).
 
 With valves (docs/spec/model.md §14) a chamber's pressure is not commanded but made: its inlet
 valve lets supply air in, its outlet valve lets it out to the atmosphere, and the pressure is
@@ -23,8 +28,7 @@ Per joint, error e = target − measured:
 * |e| ≤ deadband: hold (both closed), the integral kept;
 * else demand s = kp·e + ki·∫e dt clipped to [−1, 1]; s > 0 opens the inlet by s, s < 0 the
   outlet by −s (never both: air through both is air wasted); the integral does not wind up
-  against the clip (:class:`exodigit_model.control.PIController`, the position and force
-  loops' PI);
+  against the clip (:class:`.controllers.PIController`, the position and force loops' PI);
 * a target of zero vents: outlet fully open, inlet closed, integral cleared (what
   ``output:=pressure`` gets from a zero command, and what the plant's watchdog does).
 
@@ -39,7 +43,7 @@ step by 52 Pa at most; 5 s⁻¹ overshot it by 2.1 kPa. Deadband 300 Pa: 3 % of 
 conductance) drifts out of the deadband while it holds, and the integral refills it: on a chamber
 filled 16 kPa a step and leaking 20 kPa/s the error swings between −1.1 and +0.5 kPa with a mean
 inside the deadband, where a P loop (``valve_ki`` 0) holds it 500 Pa low
-(tests/test_nodes_valve_loop.py).
+(tests/test_control_valve_loop.py).
 """
 
 from __future__ import annotations
@@ -47,17 +51,13 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
-from exodigit_model.control import PIController
 from numpy.typing import NDArray
 
+from .controllers import PIController
+
 OUTPUTS = ('pressure', 'valves')
-"""What ``pressure_command`` publishes (its ``output`` parameter): ``pressure_command``, or
-``valve_command`` from this loop."""
-VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
-"""The openings of a vent: inlets closed, outlets open (the plant's watchdog, a stopping
-``pressure_command``, a target of zero)."""
-CLOSED = np.zeros(6)
-"""Every valve closed: the chambers hold their air."""
+"""What a pressure controller's targets become (``pressure_command``'s ``output`` parameter):
+the pressures themselves, for regulators, or this loop's openings, for valves."""
 
 
 @dataclass(frozen=True)
@@ -91,8 +91,8 @@ class ValveLoopSettings:
 
 
 def openings_of(demand: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Six openings of three signed demands in [−1, 1]: inlets max(s, 0), outlets max(−s, 0)."""
-    return np.concatenate([np.maximum(demand, 0.0), np.maximum(-demand, 0.0)])
+    """Six openings of three signed demands s in [−1, 1]: inlets max(s, 0), outlets max(−s, 0)."""
+    return np.concatenate([np.maximum(demand, 0.0), np.maximum(-demand, 0.0)], axis=-1)
 
 
 class ValveLoop:
@@ -102,10 +102,13 @@ class ValveLoop:
     ----------
     settings : ValveLoopSettings
         Deadband and gains (:meth:`configure` changes them).
+    count : int, optional
+        Gloves controlled together, each with its own integrators; None: one glove.
     """
 
-    def __init__(self, settings: ValveLoopSettings) -> None:
-        self.pi = PIController(settings.valve_kp, settings.valve_ki)
+    def __init__(self, settings: ValveLoopSettings, *, count: int | None = None) -> None:
+        self.count = count
+        self.pi = PIController(settings.valve_kp, settings.valve_ki, count=count)
         self.configure(settings)
 
     def configure(self, settings: ValveLoopSettings) -> None:
@@ -114,21 +117,21 @@ class ValveLoop:
         self.pi.kp, self.pi.ki = settings.valve_kp, settings.valve_ki
 
     def reset(self) -> None:
-        """An empty integral (a new session)."""
-        self.pi.reset()
+        """Empty integrals (a new session)."""
+        self.pi.reset(self.count)
 
     def openings(
         self, target: NDArray[np.float64], measured: NDArray[np.float64], dt: float
     ) -> NDArray[np.float64]:
         """The six openings that move ``measured`` (Pa) toward ``target`` (Pa) over ``dt`` (s).
 
-        ``target`` >= 0, as the safety limiter gives it; the order of the result is inlets MCP,
-        PIP, DIP, then outlets.
+        ``target`` >= 0, as the safety limiter gives it, shape (3,), or (N, 3) for a batch; the
+        result's last axis is inlets MCP, PIP, DIP, then outlets.
         """
         error = target - measured
         vent = target <= 0.0
         active = (np.abs(error) > self.settings.valve_deadband) & ~vent
-        raw = self.pi.output(np.zeros(3), np.where(active, error, 0.0), dt)
+        raw = self.pi.output(np.zeros(error.shape), np.where(active, error, 0.0), dt)
         demand = np.where(active, np.clip(raw, -1.0, 1.0), 0.0)
         self.pi.commit(raw, demand)
         self.pi.integral = np.where(vent, 0.0, self.pi.integral)
