@@ -3,7 +3,8 @@
 A ROS-free package (numpy, scipy, PyYAML, numba) implementing docs/model.md: the kinematics of
 the exo-digit and the finger, the Yeoh material, pressure and structural torques, the coupled
 quasi-static solve and its inverse, the contact-force estimators, the stepper that advances gloves
-in time, and the joiner that pairs the samples of a glove's streams by time.
+in time (behind pressure regulators or valves), and the joiner that pairs the samples of a
+glove's streams by time.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())
@@ -31,14 +32,17 @@ from .params import (
     params_from_dict,
     patient_file,
 )
-from .simulation import GloveSimulation, GloveState, SimulationSettings
+from .pneumatics import ChamberAir, Pneumatics
+from .simulation import ACTUATIONS, GloveSimulation, GloveState, SimulationSettings
 from .validity import OutsideModelWarning
 
 __all__ = [
+    'ACTUATIONS',
     'JOINT_NAMES',
     'PATIENT_PRESETS',
     'BatchEstimate',
     'BatchSolution',
+    'ChamberAir',
     'ChamberSettings',
     'Estimate',
     'ExoDigit',
@@ -55,6 +59,7 @@ __all__ = [
     'Material',
     'OutsideModelWarning',
     'ParameterError',
+    'Pneumatics',
     'Segment',
     'SimulationSettings',
     'Solution',
