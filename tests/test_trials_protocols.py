@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 from exodigit_model.gym import FlexExtendTarget
-from exodigit_model.simulation import step_time_ns
+from exodigit_model.settings import step_time_ns
 from exodigit_model.trials import (
     FUNCTIONAL_FLEXION,
     FUNCTIONAL_RANGE,

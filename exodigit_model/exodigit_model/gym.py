@@ -37,7 +37,8 @@ from .control import Feedback, Limited, SafetyLimiter, SafetyLimits
 from .control.shapes import check_shape
 from .model import GloveModel, as_joint_rows, as_joint_vector
 from .params import GloveParams, load_params
-from .simulation import NANOSECONDS, GloveSimulation, GloveState, SimulationSettings, step_time_ns
+from .settings import NANOSECONDS, SimulationSettings, step_time_ns
+from .simulation import GloveSimulation, GloveState
 from .trials.protocols import flex_extend
 
 ENV_ID = 'exodigit/Glove-v0'
@@ -388,7 +389,7 @@ class GloveEnv(gymnasium.Env):
     def target_of_step(self, step: int) -> NDArray[np.float64]:
         """q*(t_k), rad, (3,): the target at the time of step k of an episode.
 
-        t_k as the stepper reports it (:func:`~exodigit_model.simulation.step_time_ns`).
+        t_k as the stepper reports it (:func:`~exodigit_model.settings.step_time_ns`).
 
         Raises
         ------

@@ -29,7 +29,13 @@ from .chambers import ChamberSettings
 from .identification import StiffnessFit, fit_stiffness
 from .inverse import BatchEstimate, Estimate, Hold
 from .kernels.constants import DEGREE, PIECES, GloveConstants, pack
-from .kernels.inverse import contact_torques, estimate_rows, hold, robot_contact_torques
+from .kernels.inverse import (
+    contact_torques,
+    estimate_one,
+    estimate_rows,
+    hold,
+    robot_contact_torques,
+)
 from .kernels.kinematics import chord_terms, finger_points, frames
 from .kernels.linear import transpose_solve
 from .kernels.solves import (
@@ -380,7 +386,7 @@ class GloveModel:
         self, q, p, *, free=False, effort=None, q_previous=None, dt=None, lengths=None
     ) -> tuple[NDArray, NDArray]:
         motion, rate = self._motion(effort=effort, q_previous=q_previous, dt=dt)
-        x = self.unknowns(as_joint_vector('q', q), lengths)
+        x = self.unknowns(q, lengths)
         pressure = as_joint_vector('p', p)
         return evaluate_state(self.packed, x, pressure, free, motion, rate)
 
@@ -420,12 +426,15 @@ class GloveModel:
             return self.constants.arc_lengths
         return as_joint_vector('lengths', lengths)
 
-    def unknowns(self, q: ArrayLike, lengths: ArrayLike | None = None) -> NDArray[np.float64]:
-        """The solver's unknowns for angles ``q`` (and bottom-face ``lengths``, m).
+    def unknowns(
+        self, q: ArrayLike, lengths: ArrayLike | None = None, *, name: str = 'q'
+    ) -> NDArray[np.float64]:
+        """The solver's unknowns for angles ``q`` (and bottom-face ``lengths``, m): a new array.
 
         With extensible segments also the strains ε = ℓ/ℓ̂ − 1 (zero when ``lengths`` is None).
+        ``name``: what a ValueError calls ``q``.
         """
-        angles = as_joint_vector('q', q)
+        angles = as_joint_vector(name, q)
         if not self.extensible:
             return angles
         strain = self._lengths(lengths) / self.constants.arc_lengths - 1.0
@@ -473,12 +482,10 @@ class GloveModel:
         lengths = None
         if isinstance(q0, Solution):
             q0, lengths = q0.q, q0.lengths
-        start = motion[0] if q0 is None else as_joint_vector('q0', q0)
-        x = self.unknowns(start, lengths)
-        status, iterations, residual, forces, torque = solve_state(
-            self.packed, pressure, x, free, motion, rate
+        x = self.unknowns(motion[0] if q0 is None else q0, lengths, name='q0')  # checked, a copy
+        status, iterations, residual, forces, torque, valid, moving_range = solve_state(
+            self.packed, pressure, x, free, motion, (rate, *VALID_STRETCH)
         )
-        valid, moving_range = validity_rows(self.packed, x[None, :], *VALID_STRETCH)
         return Solution(
             q=x[:3],
             forces=forces,
@@ -488,8 +495,8 @@ class GloveModel:
             message=STATUS[int(status)],
             iterations=int(iterations),
             residual=float(residual),
-            in_valid_range=bool(valid[0]),
-            in_range_of_motion=bool(moving_range[0]),
+            in_valid_range=valid,
+            in_range_of_motion=moving_range,
             lengths=self._lengths_of(x),
         )
 
@@ -705,10 +712,14 @@ class GloveModel:
             :meth:`estimate` says which without warning.
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        forces, _, valid, moving_range = self._estimated(angles[None], pressure[None])
-        if not (valid[0] and moving_range[0]):  # the status only then: this is the hot path
-            warn_outside('estimate_forces', validity_status(bool(valid[0]), bool(moving_range[0])))
-        return forces[0]
+        converged, forces, valid, moving_range = estimate_one(
+            self.packed, angles, pressure, *VALID_STRETCH
+        )
+        if not converged:
+            self._estimated(angles[None], pressure[None])  # raises, naming the segment
+        if not (valid and moving_range):  # the status only then: this is the hot path
+            warn_outside('estimate_forces', validity_status(valid, moving_range))
+        return forces
 
     def estimate(self, q: ArrayLike, p: ArrayLike) -> Estimate:
         """The robot-side estimator: contact forces f (N) and bottom-face lengths ℓ (m).

@@ -33,15 +33,14 @@ order). The state then also has the air masses and the chambers' volumes.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
-from dataclasses import dataclass, fields, replace
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .chambers import Chambers, ChamberSettings, Saturation
+from .chambers import Chambers, Saturation
 from .kernels.solves import rest_rows
 from .kernels.stepping import run_glove, step_gloves, step_one
 from .kernels.valves import (
@@ -56,9 +55,9 @@ from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
 from .params import Finger
 from .patient import finger_rows
 from .pneumatics import ATMOSPHERIC_PRESSURE, air_constants
+from .settings import FIXED_SETTINGS, NANOSECONDS, SimulationSettings, step_time_ns
 from .solver import CONVERGED_STEP
 
-NANOSECONDS = 10**9
 ACTUATIONS = ('regulator', 'valves')
 """How the chambers are driven: pressure regulators (a pressure command, §13) or valves (six
 openings, docs/spec/model.md §14)."""
@@ -70,67 +69,6 @@ VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
 CLOSED = np.zeros(OPENINGS)
 """Every valve closed: the chambers hold their air. Read-only."""
 VENT.flags.writeable = CLOSED.flags.writeable = False
-
-
-def step_time_ns(step: int, rate_hz: float) -> int:
-    """t_k = round(k·10⁹/rate_hz) ns: the time of step k, without drift at any rate."""
-    return round(step * 1e9 / rate_hz)
-
-
-@dataclass(frozen=True)
-class SimulationSettings:
-    """How the glove is stepped and sensed (SI). The defaults are the ROS plant's.
-
-    Attributes
-    ----------
-    rate_hz : float
-        Steps per simulated second, Hz (Δt = 1/rate_hz).
-    pressure_time_constant : float
-        T of the chambers' first-order lag, s; 0 = ideal.
-    max_supply_pressure : float
-        Supply saturation: commands are clipped to [0, this], Pa.
-    angle_noise_std : float
-        Standard deviation of the joint-angle sensor noise, rad.
-    pressure_noise_std : float
-        Standard deviation of the chamber-pressure sensor noise, Pa.
-    seed : int
-        Seed of the sensor noise (the same seed gives the same noise, bit for bit).
-    """
-
-    rate_hz: float = 100.0
-    pressure_time_constant: float = 0.05
-    max_supply_pressure: float = 100e3
-    angle_noise_std: float = 0.0
-    pressure_noise_std: float = 0.0
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        """Refuse values that break a rule, naming the field, the value and the rule."""
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f'{item.name} = {value!r}: must be a number')
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f'{item.name} = {value!r}: must be finite and >= 0')
-        if self.rate_hz <= 0.0:
-            raise ValueError(f'rate_hz = {self.rate_hz!r}: must be > 0')
-        if not isinstance(self.seed, int):
-            raise ValueError(f'seed = {self.seed!r}: must be an integer')
-        ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
-
-    @property
-    def period(self) -> float:
-        """Δt, s."""
-        return 1.0 / self.rate_hz
-
-    @property
-    def chambers(self) -> ChamberSettings:
-        """The chamber part of these settings."""
-        return ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
-
-
-FIXED_SETTINGS = ('rate_hz', 'seed')
-"""Settings a running simulation cannot change (they define its time grid and noise streams)."""
 
 
 class GloveState(NamedTuple):

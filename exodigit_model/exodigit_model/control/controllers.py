@@ -21,11 +21,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ..model import GloveModel
 from .safety import SafetyLimiter
 from .shapes import check_shape, glove_shape
 
 if TYPE_CHECKING:
+    from ..model import GloveModel
     from ..simulation import GloveState
 
 MODES = {

@@ -30,6 +30,7 @@ from .jit import kernel
 from .kinematics import finger_terms, robot_jacobians, robot_terms
 from .linear import solve, transpose_product, transpose_solve
 from .newton import ARMIJO, MAX_HALVINGS, MAX_ITERATIONS, RTOL, XTOL, allowed, norm
+from .solves import in_range_of_motion, stretch_in_range
 from .statics import evaluate
 from .structural import structural_torque
 from .workspace import workspace
@@ -241,6 +242,24 @@ def estimate(glove, work, q, pressure):
     forces = np.empty(3)
     robot_side_forces(glove, work, q, pressure, forces)
     return True, np.zeros(3), forces, np.zeros(3)
+
+
+@kernel
+def estimate_one(packed, q, pressure, valid_low, valid_high):
+    """:func:`estimate` of one glove and its checks, in one call from Python.
+
+    Returns converged, f (N), and :func:`.solves.stretch_in_range` (of q and the strains) and
+    :func:`.solves.in_range_of_motion` of the state.
+    """
+    glove, work = unpack(packed), workspace()
+    converged, strains, forces, _ = estimate(glove, work, q, pressure)
+    x = np.empty(6 if glove.extensible else 3)
+    for k in range(3):
+        x[k] = q[k]
+        if glove.extensible:
+            x[3 + k] = strains[k]
+    valid = stretch_in_range(glove, x, valid_low, valid_high)
+    return converged, forces, valid, in_range_of_motion(glove, q)
 
 
 @kernel

@@ -18,11 +18,15 @@ from .workspace import MAX_UNKNOWNS, workspace
 
 
 @kernel
-def solve_state(packed, pressure, x, free, motion, rate):
+def solve_state(packed, pressure, x, free, motion, limits):
     """Newton from ``x`` (updated in place) at ``pressure`` (Pa), ``packed`` constants.
 
-    Returns status, iterations, residual norm (N·m), f (N) and τ_H (N·m).
+    ``limits``: 1/Δt of a stepped solve (1/s, 0 for a static one) and the validated stretch
+    range (12.1), low and high. Returns status, iterations, residual norm (N·m), f (N), τ_H
+    (N·m) and the checks of the result, :func:`stretch_in_range` and
+    :func:`in_range_of_motion` (one call from Python for the whole public solve).
     """
+    rate, valid_low, valid_high = limits
     glove = unpack(packed)
     forces = np.empty(3)
     torque = np.empty(3)
@@ -31,7 +35,8 @@ def solve_state(packed, pressure, x, free, motion, rate):
     status, iterations, residual = newton(
         glove, work, x, pressure, free, work.motion, rate, forces, torque
     )
-    return status, iterations, residual, forces, torque
+    valid = stretch_in_range(glove, x, valid_low, valid_high)
+    return status, iterations, residual, forces, torque, valid, in_range_of_motion(glove, x)
 
 
 @kernel

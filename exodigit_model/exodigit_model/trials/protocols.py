@@ -3,7 +3,7 @@
 A protocol is a duration (s), a rate f (Hz; the step Δt = 1/f) and a target posture
 q*(t) = (MCP, PIP, DIP), rad, flexion positive (docs/spec/model.md §1), for every time t >= 0 s
 from the start of the session. The session has ``duration · rate_hz`` steps; step k ends at
-t_k = k·Δt (exactly the simulation's time grid, :func:`~exodigit_model.simulation.step_time_ns`),
+t_k = k·Δt (exactly the simulation's time grid, :func:`~exodigit_model.settings.step_time_ns`),
 and a trial compares the finger there with q*(t_k). Three kinds, listed by name in
 :data:`PROTOCOLS` (docs/trials.md, "Protocols", has their sources):
 
@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..checks import ParameterError, check_non_negative, check_positive, set_field
 from ..model import as_joint_vector
-from ..simulation import NANOSECONDS, step_time_ns
+from ..settings import NANOSECONDS, step_time_ns
 
 DEFAULT_DURATION = 60.0
 """Session length, s: the one-minute session of a trial (judgement)."""

@@ -14,7 +14,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rclpy
@@ -34,7 +34,8 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from exodigit_model import GloveModel, ParameterError, load_params
+import exodigit_model
+from exodigit_model import ParameterError, load_params
 
 from ..logic.backlog import take_backlog
 from ..logic.inputs import MAX_PRESSURE_READING, InvalidInputError, RejectionTally, joint_vector
@@ -43,6 +44,9 @@ from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
 from .messages import CHAMBER_PRESSURE, DIAGNOSTICS, status
 from .qos import WRITER_QOS
+
+if TYPE_CHECKING:
+    from exodigit_model import GloveModel
 
 LOG_THROTTLE = 2.0
 """Shortest time between two repeats of a warning logged from a loop or callback, s."""
@@ -106,7 +110,8 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
 def load_model(paths: tuple[str, ...]) -> GloveModel:
     """The model of the ``params_file`` files (none: defaults); one-line ConfigurationError."""
     try:
-        return GloveModel(load_params(paths))
+        # The model, and numba with it, only in the nodes that use it (a recorder does not).
+        return exodigit_model.GloveModel(load_params(paths))
     except (ParameterError, OSError, ValueError) as error:
         raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
 

@@ -390,6 +390,10 @@ class GloveSim:
                 states.append(self._wait(next_state, 'the next state'))
             self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
         except GloveSimError as error:
+            error.add_note(
+                f'{len(states)} of {steps} states and {self._node.command_count()} answers '
+                f'heard; {self._node.command_publishers()}'
+            )
             self._release_run_until(error)
             raise
         self._release_run_until()

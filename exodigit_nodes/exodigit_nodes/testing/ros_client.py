@@ -157,9 +157,16 @@ class GloveClient(Node):
             return []
         me = (self.get_name(), self.get_namespace())
         return [
-            f'{info.node_namespace.rstrip("/")}/{info.node_name}'
-            for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
+            name
+            for name, info in self._command_publishers()
             if (info.node_name, info.node_namespace) != me and known_node(info)
+        ]
+
+    def _command_publishers(self) -> list[tuple[str, object]]:
+        """The graph's publishers of ``pressure_command``: (namespace/name, endpoint info)."""
+        return [
+            (f'{info.node_namespace.rstrip("/")}/{info.node_name}', info)
+            for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
         ]
 
     def hears_every_controller(self) -> bool:
@@ -211,6 +218,14 @@ class GloveClient(Node):
     def clear_commands(self) -> None:
         """Forget the commands heard so far."""
         self.commands.clear()
+
+    def command_publishers(self) -> str:
+        """The graph's publishers of ``pressure_command``, and how many our reader matched."""
+        names = [name for name, _ in self._command_publishers()]
+        matched = self.command_subscription.get_publisher_count()
+        return (
+            f'the graph lists {", ".join(names) or "no"} publishers, our reader matched {matched}'
+        )
 
     def command_count(self) -> int:
         """Commands heard since the last :meth:`clear_commands`."""
