@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 from exodigit_model.control import ValveLoop, ValveLoopSettings
-from exodigit_model.simulation import CLOSED, VENT
+from exodigit_model.settings import CLOSED, VENT
 
 DT = 0.01
 """Step of the loop, s (the plant's 100 Hz)."""

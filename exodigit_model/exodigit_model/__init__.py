@@ -14,7 +14,7 @@ glove's streams by time.
 import importlib
 
 EXPORTS = {
-    'ACTUATIONS': 'simulation',
+    'ACTUATIONS': 'settings',
     'JOINT_NAMES': 'params',
     'PATIENT_PRESETS': 'params',
     'BatchEstimate': 'inverse',

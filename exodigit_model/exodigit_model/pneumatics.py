@@ -28,24 +28,6 @@ from .checks import (
     check_three,
     set_field,
 )
-from .kernels.valves import (
-    AIR_ATMOSPHERE,
-    AIR_COLUMNS,
-    AIR_DENSITY,
-    AIR_GAS,
-    AIR_INLET_CONDUCTANCE,
-    AIR_INLET_CRITICAL,
-    AIR_LEAK,
-    AIR_OUTLET_CONDUCTANCE,
-    AIR_OUTLET_CRITICAL,
-    AIR_SUPPLY,
-    AIR_VOLUME,
-    AIR_VOLUME_PER_ANGLE,
-    AIR_VOLUME_PER_STRAIN,
-    LAMINAR_RATIO,
-    flow_function_of,
-    flow_of,
-)
 
 if TYPE_CHECKING:
     from .model import GloveModel
@@ -59,6 +41,8 @@ REFERENCE_DENSITY = 1.185
 """ρ0 of ISO 6358 (ANR), kg/m³."""
 REFERENCE_TEMPERATURE = 293.15
 """T0 of ISO 6358, K."""
+LAMINAR_RATIO = 0.999
+"""Pressure ratio above which the flow of (14.3) is laminar (linear in the pressure drop)."""
 
 
 @dataclass(frozen=True)
@@ -133,6 +117,8 @@ class Pneumatics:
 
 def flow_function(r: float, critical: float) -> float:
     """ψ(r) of (14.3) for the critical ratio b = ``critical``, 0 ≤ r ≤ 1."""
+    from .kernels.valves import flow_function_of
+
     return flow_function_of(float(r), float(critical))
 
 
@@ -148,6 +134,8 @@ def mass_flow(
 
     Antisymmetric: Q(P_d, P_u) = −Q(P_u, P_d).
     """
+    from .kernels.valves import flow_of
+
     return flow_of(
         float(conductance),
         float(critical),
@@ -194,22 +182,24 @@ def air_constants(model: GloveModel, supply: float) -> NDArray[np.float64]:
 
     ``supply``: the supply's gauge pressure, Pa, where the parameters leave it open (null).
     """
+    from .kernels import valves
+
     pneumatics = model.params.pneumatics
     if pneumatics.supply_pressure is not None:
         supply = pneumatics.supply_pressure
-    rows = np.zeros((3, AIR_COLUMNS))
+    rows = np.zeros((3, valves.AIR_COLUMNS))
     for k, chamber in enumerate(pneumatics.chambers):
-        rows[k, AIR_INLET_CONDUCTANCE] = chamber.inlet_conductance
-        rows[k, AIR_INLET_CRITICAL] = chamber.inlet_critical_ratio
-        rows[k, AIR_OUTLET_CONDUCTANCE] = chamber.outlet_conductance
-        rows[k, AIR_OUTLET_CRITICAL] = chamber.outlet_critical_ratio
-        rows[k, AIR_LEAK] = chamber.leak_conductance
+        rows[k, valves.AIR_INLET_CONDUCTANCE] = chamber.inlet_conductance
+        rows[k, valves.AIR_INLET_CRITICAL] = chamber.inlet_critical_ratio
+        rows[k, valves.AIR_OUTLET_CONDUCTANCE] = chamber.outlet_conductance
+        rows[k, valves.AIR_OUTLET_CRITICAL] = chamber.outlet_critical_ratio
+        rows[k, valves.AIR_LEAK] = chamber.leak_conductance
     volumes = volume_coefficients(model)
-    rows[:, AIR_VOLUME] = volumes[:, 0]
-    rows[:, AIR_VOLUME_PER_STRAIN] = volumes[:, 1]
-    rows[:, AIR_VOLUME_PER_ANGLE] = volumes[:, 2]
-    rows[:, AIR_GAS] = GAS_CONSTANT * pneumatics.temperature
-    rows[:, AIR_ATMOSPHERE] = ATMOSPHERIC_PRESSURE
-    rows[:, AIR_SUPPLY] = supply + ATMOSPHERIC_PRESSURE
-    rows[:, AIR_DENSITY] = density_factor(pneumatics.temperature)
+    rows[:, valves.AIR_VOLUME] = volumes[:, 0]
+    rows[:, valves.AIR_VOLUME_PER_STRAIN] = volumes[:, 1]
+    rows[:, valves.AIR_VOLUME_PER_ANGLE] = volumes[:, 2]
+    rows[:, valves.AIR_GAS] = GAS_CONSTANT * pneumatics.temperature
+    rows[:, valves.AIR_ATMOSPHERE] = ATMOSPHERIC_PRESSURE
+    rows[:, valves.AIR_SUPPLY] = supply + ATMOSPHERIC_PRESSURE
+    rows[:, valves.AIR_DENSITY] = density_factor(pneumatics.temperature)
     return rows

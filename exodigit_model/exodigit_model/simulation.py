@@ -55,20 +55,15 @@ from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
 from .params import Finger
 from .patient import finger_rows
 from .pneumatics import ATMOSPHERIC_PRESSURE, air_constants
-from .settings import FIXED_SETTINGS, NANOSECONDS, SimulationSettings, step_time_ns
+from .settings import (
+    ACTUATIONS,
+    FIXED_SETTINGS,
+    NANOSECONDS,
+    OPENINGS,
+    SimulationSettings,
+    step_time_ns,
+)
 from .solver import CONVERGED_STEP
-
-ACTUATIONS = ('regulator', 'valves')
-"""How the chambers are driven: pressure regulators (a pressure command, §13) or valves (six
-openings, docs/spec/model.md §14)."""
-OPENINGS = 6
-"""Openings of a valve command: u_in, then u_out, of MCP, PIP and DIP."""
-VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
-"""The openings of a vent: inlets closed, outlets open (the plant's watchdog, a stopping
-``pressure_command``, a target of zero). Read-only."""
-CLOSED = np.zeros(OPENINGS)
-"""Every valve closed: the chambers hold their air. Read-only."""
-VENT.flags.writeable = CLOSED.flags.writeable = False
 
 
 class GloveState(NamedTuple):

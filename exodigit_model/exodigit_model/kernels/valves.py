@@ -50,10 +50,9 @@ import math
 
 import numpy as np
 
+from ..pneumatics import LAMINAR_RATIO
 from .jit import kernel
 
-LAMINAR_RATIO = 0.999
-"""Pressure ratio above which the flow of (14.3) is laminar (linear in the pressure drop)."""
 SUBSTEPS = 4
 """ROS2 sub-steps of the mass balance per step (:func:`integrate_air`)."""
 ROS2_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from exodigit_model.control import MODE_DEFAULTS, MODES, OUTPUTS, SafetyLimits, ValveLoopSettings
 from exodigit_model.joining import STEP_TOLERANCE
-from exodigit_model.simulation import ACTUATIONS
+from exodigit_model.settings import ACTUATIONS
 
 from exodigit_model import SimulationSettings
 

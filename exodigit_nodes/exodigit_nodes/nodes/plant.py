@@ -38,7 +38,7 @@ from array import array
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_model.simulation import VENT
+from exodigit_model.settings import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState

@@ -54,7 +54,7 @@ from exodigit_model.control import (
     ValveLoopSettings,
 )
 from exodigit_model.joining import STEP_TOLERANCE
-from exodigit_model.simulation import VENT
+from exodigit_model.settings import VENT
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
