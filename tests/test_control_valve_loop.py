@@ -9,8 +9,19 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.control import ValveLoop, ValveLoopSettings
+from exodigit_model.control import (
+    MODE_DEFAULTS,
+    CommandLoop,
+    Feedback,
+    SafetyLimiter,
+    SafetyLimits,
+    Staircase,
+    ValveLoop,
+    ValveLoopSettings,
+)
 from exodigit_model.settings import CLOSED, VENT
+
+from exodigit_model import GloveSimulation
 
 DT = 0.01
 """Step of the loop, s (the plant's 100 Hz)."""
@@ -151,3 +162,44 @@ def test_the_vent_and_closed_openings_cannot_be_changed_in_place():
     for openings in (VENT, CLOSED):
         with pytest.raises(ValueError, match='read-only'):
             openings[0] = 0.5
+
+
+# -- on the default glove (GloveSimulation(actuation='valves')) ------------------------------
+
+
+def test_the_default_gain_makes_no_chamber_overshoot_within_one_step_of_the_default_glove():
+    """kp times the largest pressure change of one fully open step stays below 1 (module text).
+
+    The largest change is an inlet's from rest (a chamber fills slower as it swells and nears
+    the supply): if the model's chambers fill faster, or kp is raised, this fails.
+    """
+    kp = ValveLoopSettings().valve_kp
+    for openings in ([1.0, 1.0, 1.0, 0.0, 0.0, 0.0], [0.2, 0.2, 0.2, 0.0, 0.0, 0.0]):
+        simulation = GloveSimulation(actuation='valves')
+        for _ in range(10):  # one step from rest, then nine from ever higher pressures
+            before = simulation.state.pressure
+            change = simulation.step(openings).pressure - before
+            assert np.all(kp * change / openings[0] < 1.0)
+
+
+def test_the_default_loop_settles_every_stair_of_the_staircase_within_the_deadband():
+    """The staircase mode through the limiter and the loop: the last second of each 2 s stair
+    lies within the deadband of its level, and no chamber alternates filling and venting."""
+    defaults = MODE_DEFAULTS['staircase']
+    mode = Staircase(defaults['staircase_step'], defaults['staircase_peak'], 2.0)
+    command = CommandLoop(mode, SafetyLimiter(SafetyLimits()))
+    settings = ValveLoopSettings()
+    loop, simulation = ValveLoop(settings), GloveSimulation(actuation='valves')
+    state, period = simulation.state, simulation.period
+    levels, pressures, openings = [], [], []
+    for k in range(2000):  # 20 s: up to 50 kPa and back to 10 kPa
+        target = command.command(k * period, period, Feedback(state.q_measured, None)).pressure
+        u = loop.openings(target, state.pressure_measured, period)
+        state = simulation.step(u)
+        levels.append(mode.levels[k // 200]), pressures.append(state.pressure), openings.append(u)
+    settled = np.arange(2000) % 200 >= 100
+    error = np.array(levels)[:, None] - np.array(pressures)
+    assert np.abs(error[settled]).max() <= settings.valve_deadband
+    u = np.array(openings)
+    swaps = (u[:-1, :3] > 0) & (u[1:, 3:] > 0) | (u[:-1, 3:] > 0) & (u[1:, :3] > 0)
+    assert swaps.sum(axis=0).max() <= 2  # at the peak's turn only

@@ -12,16 +12,20 @@ the safety limiter give, and the three measured chamber pressures, into six open
 MCP, PIP, DIP, then outlets).
 
 Why a duty-cycle PI and not fill/hold/vent by a deadband (bang-bang), which most soft gloves'
-microcontrollers run with on/off 2/2 solenoid valves: the glove's chambers are small, so one
-step of a fully open valve moves their pressure far. With the defaults of docs/spec/model.md
-§10 and §14 (supply 100 kPa gauge, C = 5·10⁻¹⁰ m³/(s·Pa)) a chamber at rest holds 2.6 cm³
-(DIP) to 5.8 cm³ (MCP), and an open inlet fills it at ``Q·R·T/V`` ≈ 1.6–3.7 MPa/s: 16–37 kPa in
-one 10 ms step, so a bang-bang loop at 100 Hz rings by that much around its target. An opening
-in [0, 1] is the share of the step a valve is open (a PWM duty cycle, or a proportional valve),
-which the plant holds over the step (zero-order hold): a loop that opens in proportion to the
-error moves the pressure by a fraction of that. What is kept of fill/hold/vent is the deadband:
-within ``valve_deadband`` of its target a chamber holds (both valves closed: no valve chatters
-on sensor noise, and a glove at rest spends no air).
+microcontrollers run with on/off 2/2 solenoid valves: the glove's chambers are small, so one step
+of a fully open valve moves their pressure far. With the defaults of docs/spec/model.md §10 and §14
+(supply 100 kPa gauge, C = 5·10⁻¹⁰ m³/(s·Pa)) a chamber at rest holds 2.6 cm³ (DIP) to 5.8 cm³
+(MCP), and one 10 ms step of an open inlet raises the default glove's chambers by 13.9 (MCP), 17.9
+(PIP) and 28.1 kPa (DIP) from rest, 10-11 kPa at 45-80 kPa; an open outlet lowers them by 3-20 kPa
+a step. A fill/hold/vent loop at 100 Hz with a 300 Pa deadband on the default glove is 3.5-8.2 kPa
+RMS off the staircase and 5.8-12.2 kPa off the sine (up to 27 kPa), its valves swapping between
+fill and vent 17-56 times a second.
+
+An opening in [0, 1] is the share of the step a valve is open (a PWM duty cycle, or a proportional
+valve), which the plant holds over the step (zero-order hold): a loop that opens in proportion to
+the error moves the pressure by a fraction of that. What is kept of fill/hold/vent is the deadband:
+within ``valve_deadband`` of its target a chamber holds (both valves closed: no valve chatters on
+sensor noise, and a glove at rest spends no air).
 
 Per joint, error e = target − measured:
 
@@ -32,17 +36,32 @@ Per joint, error e = target − measured:
 * a target of zero vents: outlet fully open, inlet closed, integral cleared (what
   ``output:=pressure`` gets from a zero command, and what the plant's watchdog does).
 
-Defaults (:class:`ValveLoopSettings`), chosen on chambers of fixed volume filled and vented
-by eqs (14.3)-(14.4) at 100 Hz: kp = 1/(40 kPa), so that the largest change a fully open inlet
-makes in one step, ~37 kPa (DIP), times kp stays below 1 and no chamber overshoots within a step
-(a discrete loop of gain g per step rings for g > 1, is unstable for g > 2); MCP's error still
-falls by 40 % a step. ki = kp·1 s⁻¹ cuts the lag behind a target ramping at the limiter's
-default ``max_pressure_rate`` (100 kPa/s) from 2.2 to 1.3 kPa (MCP), and overshoots a 30 kPa
-step by 52 Pa at most; 5 s⁻¹ overshot it by 2.1 kPa. Deadband 300 Pa: 3 % of the staircase's
-10 kPa steps, above a pressure sensor's usual noise. A chamber that leaks (§14's leak
-conductance) drifts out of the deadband while it holds, and the integral refills it: on a chamber
-filled 16 kPa a step and leaking 20 kPa/s the error swings between −1.1 and +0.5 kPa with a mean
-inside the deadband, where a P loop (``valve_ki`` 0) holds it 500 Pa low
+Defaults (:class:`ValveLoopSettings`). kp = 3·10⁻⁵ /Pa (1/(33 kPa)): the largest change a fully
+open inlet makes in one step on the default glove, 28.1 kPa (DIP from rest, above), times kp is
+0.84 < 1, so no chamber overshoots within a step (a discrete loop of gain g per step rings for
+g > 1, is unstable for g > 2), with a margin for gloves whose chambers fill faster; kp = 1/(20 kPa)
+cuts the errors below by another 35-45 %, but DIP's first step from rest overshoots by 40 % of its
+error. ki = kp·1 s⁻¹. Deadband 300 Pa: 3 % of the staircase's 10 kPa steps. Measured in process
+(GloveSimulation(actuation='valves'), default glove and settings, the built-in modes' default
+targets through the default safety limiter, openings from the pressure of the step before), per
+chamber MCP, PIP, DIP:
+
+* staircase (20 s): 0.52, 0.40, 0.25 kPa RMS; at most 3.9, 3.1, 1.9 kPa behind while the limiter
+  ramps a stair at 100 kPa/s, within the deadband over the last second of every stair, no stair
+  overshot by more than 6 Pa; each valve opens 0.22-0.3 times a second;
+* sine (8 s): 0.66, 0.48, 0.28 kPa RMS, at most 1.1 kPa; the inlets pulse 7-20 times a second
+  while the target rises (a fraction of a step each: the deadband's hold between pulses), and a
+  chamber swaps from filling to venting only at the sine's turns (0.25 a second): no chatter;
+* against the former kp = 1/(40 kPa) (ki = kp·1 s⁻¹ too): 15-20 % less error (sine 0.81, 0.59,
+  0.34 kPa RMS; staircase at most 4.4, 3.6, 2.3 kPa behind), the same air.
+
+The deadband is no filter: with sensor noise (``pressure_noise_std``) a holding chamber leaves it
+on noise, and the staircase's chambers swap between filling and venting 1.5-3.3 times a second
+with 100 Pa of noise, 0.05-1.9 with 75 Pa, 0.05-1.0 with 50 Pa (the errors as without);
+``valve_deadband`` wants several standard deviations of the sensor's noise. A chamber that leaks
+(§14's leak conductance) drifts out of the deadband while it holds, and the integral refills it: on
+a chamber filled 16 kPa a step and leaking 20 kPa/s the error swings between −1.1 and +0.5 kPa with
+a mean inside the deadband, where a P loop (``valve_ki`` 0) holds it 500 Pa low
 (tests/test_control_valve_loop.py).
 """
 
@@ -75,8 +94,8 @@ class ValveLoopSettings:
     """
 
     valve_deadband: float = 300.0
-    valve_kp: float = 1.0 / 40e3
-    valve_ki: float = 1.0 / 40e3
+    valve_kp: float = 3e-5
+    valve_ki: float = 3e-5
 
     def __post_init__(self) -> None:
         """Refuse values that break a rule, naming the field, the value and the rule."""

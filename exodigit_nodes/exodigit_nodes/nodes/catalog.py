@@ -6,7 +6,7 @@ parameter table from it, the venv runner (:mod:`.glove`) and the hand runner sta
 argument defaults from it, and the ROS parameter files ``config/<executable>.yaml`` are generated
 from it (a test checks the committed files against it)::
 
-    python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config
+    python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config
 
 The README's parameter blocks are each node's ``--help`` (:meth:`.ParamTable.help`), also checked
 by a test. No rclpy here, so the launch file and the tests read the table without ROS;
