@@ -7,7 +7,6 @@ openings, and the recorded openings are the in-process controller (the mode behi
 limiter, then :class:`exodigit_model.control.ValveLoop`) fed the recorded states.
 """
 
-import signal
 import subprocess
 import sys
 
@@ -24,6 +23,7 @@ from exodigit_model.control import (
 )
 from exodigit_model.settings import VENT
 from exodigit_nodes.testing import GloveSim
+from ros_harness import stop_process
 
 from exodigit_model import GloveSimulation, SimulationSettings
 
@@ -66,12 +66,7 @@ def run(tmp_path_factory):
         try:
             record = glove.run(STEPS / glove.rate_hz)
         finally:
-            controller.send_signal(signal.SIGINT)
-            try:
-                controller.wait(5)
-            except subprocess.TimeoutExpired:
-                controller.kill()
-                controller.wait()
+            stop_process(controller)
     return rest, record
 
 
