@@ -1,9 +1,11 @@
 # exodigit: the two commands a user needs.
-#   make run [DURATION=20] [RECORD=1] [HAND=1]
+#   make run [DURATION=20] [RECORD=1] [HAND=1] [ACTUATION=valves]
 #                            the simulated glove, headless, with a live summary (Ctrl-C to stop);
 #                            RECORD=1 also records every topic to a rosbag2 (MCAP) bag
 #                            (with HAND=1 one per finger);
-#                            HAND=1 runs a whole hand instead (five gloves, one process)
+#                            HAND=1 runs a whole hand instead (five gloves, one process);
+#                            ACTUATION=valves drives the chambers by inlet and outlet valves
+#                            (plant actuation valves, pressure_command output valves)
 #   make test [PYTEST_WORKERS=2] [PYTEST_ARGS=...]
 #                            lint, format check and the whole test suite (what CI runs)
 # Both create .venv and install everything on first use; later calls only re-install when a
@@ -17,6 +19,7 @@ BIN := $(VENV)/bin
 DURATION ?= 0
 NAMESPACE ?= /glove
 RECORD ?=
+ACTUATION ?=
 PYTEST_ARGS ?=
 # Test workers (pytest-xdist; README "The two commands"): two, for this project's two-core VMs;
 # 0 runs every test in the one pytest process.
@@ -59,10 +62,11 @@ $(VENV)/.warm: $(VENV)/.installed $(WARM_INPUTS)
 
 run: warm
 ifdef HAND
-	$(BIN)/python -m exodigit_nodes.hand --duration $(DURATION) $(if $(RECORD),--record)
+	$(BIN)/python -m exodigit_nodes.hand --duration $(DURATION) $(if $(RECORD),--record) \
+		$(if $(ACTUATION),--actuation $(ACTUATION))
 else
 	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE) \
-		$(if $(RECORD),--record)
+		$(if $(RECORD),--record) $(if $(ACTUATION),--actuation $(ACTUATION))
 endif
 
 test: warm

@@ -18,6 +18,8 @@ from collections.abc import Callable
 
 import numpy as np
 from exodigit_model.kernels import jit
+from exodigit_model.kernels.valves import AIR_VOLUME, advance_masses
+from exodigit_model.pneumatics import air_constants, flow_function, mass_flow, rest_masses
 
 from exodigit_model import (
     GloveModel,
@@ -72,6 +74,14 @@ def commands(steps: int = STEPS) -> np.ndarray:
     """Pressure commands (steps, 3), Pa: sines from −15 to 125 kPa (both ends saturate)."""
     t = np.arange(steps)[:, None] * 0.01
     return 55e3 + 70e3 * np.sin(2.0 * np.pi * 1.5 * t + np.array([0.0, 1.0, 2.0]))
+
+
+def openings(steps: int = STEPS) -> np.ndarray:
+    """Valve openings (steps, 6): u_in then u_out of MCP, PIP, DIP, from −0.2 to 1.2 (both
+    ends clipped), filling and venting in turn."""
+    t = np.arange(steps)[:, None] * 0.01
+    inlet = 0.5 + 0.7 * np.sin(2.0 * np.pi * 1.5 * t + np.array([0.0, 1.0, 2.0]))
+    return np.concatenate([inlet, 1.0 - inlet], axis=1)
 
 
 def efforts(steps: int = STEPS) -> np.ndarray:
@@ -130,19 +140,28 @@ def solution(result) -> list[np.ndarray]:
 
 
 def states(simulation: GloveSimulation, history) -> list[np.ndarray]:
-    """Every field of a GloveState (a step's, or stacked steps'), and the simulation's counts."""
+    """Every field of a GloveState (a step's, or stacked steps'), and the simulation's counts.
+
+    A field that is None (the air of a glove with regulators) gives an empty array.
+    """
     counts = [
         simulation.chambers.saturation.below_zero,
         simulation.chambers.saturation.above_supply,
         simulation.solver_failures,
         simulation.step_count,
     ]
-    return [np.asarray(field) for field in history] + [np.array(counts)]
+    fields = [np.empty(0) if field is None else np.asarray(field) for field in history]
+    return [*fields, np.array(counts)]
 
 
 def stacked(steps) -> GloveState:
-    """A list of GloveStates as one state whose fields have a leading axis of steps."""
-    return GloveState(*(np.array(values) for values in zip(*steps, strict=True)))
+    """A list of GloveStates as one state whose fields have a leading axis of steps.
+
+    A field that is None in every step (the air of a glove with regulators) stays None.
+    """
+    return GloveState(
+        *(None if values[0] is None else np.array(values) for values in zip(*steps, strict=True))
+    )
 
 
 CASES: dict[str, Callable[[], list[np.ndarray]]] = {}
@@ -379,6 +398,48 @@ def simulation_population() -> list[np.ndarray]:
         for c, e in zip(commands(BATCH_STEPS), efforts(BATCH_STEPS), strict=True)
     ]
     return rest + states(simulation, stacked(history)) + states(simulation, simulation.reset())
+
+
+@case
+def valves_step_and_run() -> list[np.ndarray]:
+    stepped = GloveSimulation(models()['stroke'], NOISY, actuation='valves')
+    history = [stepped.step(u, e) for u, e in zip(openings(), efforts(), strict=True)]
+    ran = GloveSimulation(models()['extensible patient'], NOISY, actuation='valves')
+    record = ran.run(openings(), efforts())
+    return (
+        states(stepped, stacked(history))
+        + states(ran, record)
+        + states(ran, ran.reset())
+        + states(ran, ran.step(openings()[1]))
+    )
+
+
+@case
+def valves_population() -> list[np.ndarray]:
+    named = models()
+    fingers = [named[name].params.finger for name in ('default', 'stroke', 'patient')]
+    simulation = GloveSimulation(named['extensible'], NOISY, fingers=fingers, actuation='valves')
+    scales = np.array([0.3, 0.7, 1.1])[:, None]
+    history = [
+        simulation.step(scales * u, scales * e)
+        for u, e in zip(openings(BATCH_STEPS), efforts(BATCH_STEPS), strict=True)
+    ]
+    return states(simulation, stacked(history)) + states(simulation, simulation.reset())
+
+
+@case
+def air() -> list[np.ndarray]:
+    rows = air_constants(models()['default'], 150e3)
+    masses = rest_masses(rows[:, AIR_VOLUME], 293.15)
+    start, end = rows[:, AIR_VOLUME], rows[:, AIR_VOLUME] * 1.1
+    return [
+        advance_masses(rows, masses, start, end, np.array([1.0, 0.5, 0.2, 0.0, 0.3, 0.0]), DT),
+        advance_masses(
+            rows, 3.0 * masses, end, start, np.array([0.0, 0.2, 0.0, 1.0, 0.7, 0.4]), DT
+        ),
+        np.array([flow_function(r, 0.3) for r in (0.1, 0.3, 0.5, 0.999, 0.9995, 1.0)]),
+        np.array([mass_flow(5e-10, 0.3, p, 2e5, 300.0) for p in (1e5, 1.9999e5, 2e5, 5e5)]),
+    ]
 
 
 @case

@@ -31,6 +31,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import subprocess
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -88,6 +89,16 @@ def wait_until(condition: Callable[[], Any], timeout: float, interval: float = 0
         if value or time.monotonic() > deadline:
             return value
         time.sleep(interval)
+
+
+def stop_process(process, timeout: float = 5.0) -> None:
+    """Stop a test's controller process: SIGINT (its clean stop), SIGKILL after ``timeout`` s."""
+    process.send_signal(signal.SIGINT)
+    try:
+        process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
 
 
 class NodeLauncher:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from exodigit_nodes.logic.ros_env import discovery_settings
 from exodigit_nodes.runner.run_record import RunRecord, csv_columns, new_run_directory, read_csv
-from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay
+from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay, net_openings
 from png_files import png_size
 
 NODES = ('plant', 'estimator', 'pressure_command')
@@ -285,3 +285,14 @@ def test_flush_joins_the_last_step_once_nothing_more_will_come():
     assert [s.values['chamber_pressure'][0] for s in last] == [3000.0]
     assert_one_step(last[0])
     assert signals.flush() == []
+
+
+def test_a_valve_command_shows_as_each_joint_s_net_opening_in_percent():
+    # With actuation valves the summary's 'valves' row is u_in − u_out per joint: + fills,
+    # − vents, 0 holds (fails if the inlets and outlets were paired otherwise).
+    net = net_openings([0.4, 0.0, 0.0, 0.0, 0.25, 0.0])
+    np.testing.assert_array_equal(net, [0.4, -0.25, 0.0])
+    assert net_openings([0.4, 0.0, 0.0]) is None  # a malformed message is no signal
+    signals = GloveSignals(NODES)
+    signals.update('valve_command', net)
+    assert 'u_net_pct=[40 -25 0]' in signals.line(now=0.0)

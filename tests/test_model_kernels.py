@@ -5,6 +5,7 @@
    ``EXODIGIT_JIT=0`` (plain Python): the two must give the same arrays.
 2. ``GloveSimulation.run`` must give what as many calls of ``step`` give, bit for bit.
 3. A batch of gloves must give, row by row, what single gloves give, bit for bit.
+   2 and 3 also behind valves (docs/spec/model.md §14).
 4. ``run`` must refuse bad input with a ValueError naming the argument, before any step.
 """
 
@@ -18,7 +19,16 @@ import pytest
 from exodigit_model.kernels import jit
 from exodigit_model.solver import CONVERGED_STEP, NOT_FINITE
 from exodigit_model.structural import PIECE_WIDTH, PIECES, U_MIN
-from kernel_cases import EFFORT, NOISY, STRUCTURAL_ANGLES, commands, efforts, models, stacked
+from kernel_cases import (
+    EFFORT,
+    NOISY,
+    STRUCTURAL_ANGLES,
+    commands,
+    efforts,
+    models,
+    openings,
+    stacked,
+)
 
 from exodigit_model import GloveSimulation, GloveState, SimulationSettings
 
@@ -214,9 +224,7 @@ def test_each_glove_of_a_batch_steps_as_a_single_glove(name):
         state = batch.step(rows, pushes)
         alone = [single.step(rows[r], pushes[r]) for r, single in enumerate(singles)]
         for r, expected in enumerate(alone):
-            per_glove = state._replace(
-                **{f: getattr(state, f)[r] for f in state._fields if f not in SHARED}
-            )
+            per_glove = glove_of(state, r)
             assert_same_states(expected, per_glove, f'glove {r}', skip=('saturated',))
         assert state.saturated == any(expected.saturated for expected in alone)
         below += bool(np.any(rows < 0.0))
@@ -226,6 +234,51 @@ def test_each_glove_of_a_batch_steps_as_a_single_glove(name):
     assert batch.solver_failures == sum(single.solver_failures for single in singles)
     assert below > 0 and above > 0
     assert (batch.solver_failures > 0) == (name == 'soft')
+
+
+def glove_of(state: GloveState, r: int) -> GloveState:
+    """Glove ``r``'s row of a batch's state (the fields the batch has once, and None, as
+    they are)."""
+    rows = {
+        field: getattr(state, field)[r]
+        for field in state._fields
+        if field not in SHARED and getattr(state, field) is not None
+    }
+    return state._replace(**rows)
+
+
+@pytest.mark.parametrize('name', ('stroke', 'extensible patient'))
+def test_run_behind_valves_gives_what_as_many_steps_give(name):
+    model, rows, pushes = models()[name], openings(), efforts()
+    ran = GloveSimulation(model, NOISY, actuation='valves')
+    stepped = GloveSimulation(model, NOISY, actuation='valves')
+    for simulation in (ran, stepped):
+        simulation.step(rows[0], pushes[0])
+    record = ran.run(rows[1:], pushes[1:])
+    history = stacked([stepped.step(u, e) for u, e in zip(rows[1:], pushes[1:], strict=True)])
+    assert record.mass.shape == (len(rows) - 1, 3) and record.command.shape[1:] == (6,)
+    assert_same_states(history, record, 'run', skip=MEASURED)
+    assert_same_states(stepped.state, ran.state, 'state', skip=MEASURED)
+    assert counts(ran) == counts(stepped)
+    after = [simulation.step(rows[-1], EFFORT) for simulation in (stepped, ran)]
+    assert_same_states(after[0], after[1], 'next step', skip=MEASURED)
+    below, above, _, _ = counts(ran)
+    assert below > 0 and above > 0  # the openings are clipped at both ends
+
+
+@pytest.mark.parametrize('name', ('stroke', 'extensible patient'))
+def test_each_glove_of_a_batch_behind_valves_steps_as_a_single_glove(name):
+    model, count, steps = models()[name], 4, 60
+    scales = np.linspace(0.05, 1.1, count)[:, None]
+    batch = GloveSimulation(model, QUIET, count=count, actuation='valves')
+    singles = [GloveSimulation(model, QUIET, actuation='valves') for _ in range(count)]
+    for command, effort in zip(openings(steps), efforts(steps), strict=True):
+        rows, pushes = scales * command, scales * effort
+        state = batch.step(rows, pushes)
+        alone = [single.step(rows[r], pushes[r]) for r, single in enumerate(singles)]
+        for r, expected in enumerate(alone):
+            assert_same_states(expected, glove_of(state, r), f'glove {r}', skip=('saturated',))
+    assert batch.step_count == steps and np.ptp(state.mass[:, 0]) > 0.0
 
 
 # -- 4. bad input to run() ------------------------------------------------------------------

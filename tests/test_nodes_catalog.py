@@ -28,9 +28,10 @@ by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.exe
 ROS_PARAMETERS = ('use_sim_time',)
 """Parameters rclpy declares on every node (not in the table)."""
 SI_UNIT = re.compile(
-    r'.*?, (samples|(?:Hz|Pa|rad|N|m|s)(?:[·/(]+(?:Hz|Pa|rad|N|m|s)\)?)*)(?: \(.*\))?'
+    r'.*?, (samples|(?:1/\(?)?(?:Hz|Pa|rad|N|m|s)(?:[·/(]+(?:Hz|Pa|rad|N|m|s)\)?)*)(?: \(.*\))?'
 )
-"""A number's description: '<meaning>, <SI unit>', then perhaps one remark in parentheses."""
+"""A number's description: '<meaning>, <SI unit>' (a gain's may be one over a unit, 1/Pa), then
+perhaps one remark in parentheses."""
 DIMENSIONLESS = {
     'seed': 'the seed of a random generator',
     'real_time_factor': 'simulated seconds per wall second',

@@ -8,7 +8,6 @@ the module, put to rest before each test. The markers drawn at the published len
 checked on a plant built in process (`reliability_inprocess.InProcessNode`)."""
 
 import math
-import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -21,7 +20,7 @@ from exodigit_nodes.testing import GloveSim
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
 from reliability_inprocess import InProcessNode
-from ros_harness import wait_until
+from ros_harness import stop_process, wait_until
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
@@ -101,12 +100,7 @@ def run_with_controller(glove, duration):
     try:
         return glove.run(duration)
     finally:
-        controller.send_signal(signal.SIGINT)
-        try:
-            controller.wait(5)
-        except subprocess.TimeoutExpired:
-            controller.kill()
-            controller.wait()
+        stop_process(controller)
 
 
 def test_the_plant_publishes_the_segment_lengths_of_the_solve(glove, model, rest):

@@ -18,7 +18,6 @@ refused at start: tests/test_nodes_startup.py.
 
 import itertools
 import math
-import signal
 import subprocess
 import sys
 import time
@@ -38,7 +37,7 @@ from lockstep_controller import command_at
 from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 from reliability_inprocess import InProcessNode
-from ros_harness import RosProbe, wait_until
+from ros_harness import RosProbe, stop_process, wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Header
@@ -116,15 +115,6 @@ def start_controller(glove, *extra):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
-
-
-def stop(process):
-    process.send_signal(signal.SIGINT)
-    try:
-        process.wait(5)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
 
 
 # -- the plant through the testing kit ------------------------------------------------------
@@ -237,7 +227,7 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove, delay):
         with pytest.raises(GloveSimError, match='run'):
             glove.step([1e3, 1e3, 1e3])
     finally:
-        stop(controller)
+        stop_process(controller)
     expected = replay_external(rest, [20, 10])
     for record, runs in zip(records, expected, strict=True):
         assert len(record.t) == len(runs)
@@ -258,7 +248,7 @@ def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove, probe_for)
         with pytest.raises(GloveSimError, match=r'waited 0\.5 s for the next state'):
             glove.run(0.2)
     finally:
-        stop(controller)
+        stop_process(controller)
     probe = probe_for(glove.domain_id)
     plant = f'{glove.namespace}/plant'
     assert probe.get_parameters(plant, ['run_until', 'pause_at']) == [0.0, 0.0]
@@ -290,7 +280,7 @@ def test_force_mode_in_lockstep_answers_each_state_with_the_estimate_of_that_ste
         # step 60 here (it was a 3 s run).
         record = glove.run(1.0)
     finally:
-        stop(controller)
+        stop_process(controller)
     assert len(record.t) == len(record.command) == 100
     np.testing.assert_allclose(record.forces[-1], [0.1, 0.1, 0.1], rtol=0, atol=SETTLED_FORCE)
 

@@ -94,6 +94,7 @@ LAUNCH_API = {
     'launch.substitutions': [
         'AndSubstitution',
         'EqualsSubstitution',
+        'IfElseSubstitution',
         'LaunchConfiguration',
         'NotEqualsSubstitution',
     ],
@@ -182,6 +183,9 @@ def resolve(value, configurations: dict[str, str], api):
     if isinstance(value, api.AndSubstitution):
         left, right = (truth(resolve(side, configurations, api)) for side in value.args)
         return str(left and right).lower()
+    if isinstance(value, api.IfElseSubstitution):
+        condition = truth(resolve(value.args[0], configurations, api))
+        return value.kwargs['if_value' if condition else 'else_value']
     if isinstance(value, api.ParameterValue):
         text = resolve(value.args[0], configurations, api)
         kind = value.kwargs['value_type']
@@ -375,3 +379,19 @@ def test_a_clean_exit_ends_the_launch_with_code_0(entities, launch_api):
         assert any(isinstance(a, launch_api.Shutdown) for a in actions)
         # Ctrl-C: launch is already stopping every node; nothing more to do.
         assert on_exit(FakeEvent(0), types.SimpleNamespace(is_shutdown=True)) is None
+
+
+def test_actuation_valves_reaches_the_plant_and_pressure_command_as_the_runner_gives_it(
+    entities, launch_api
+):
+    """``actuation:=valves`` is ``--actuation valves``: the plant takes valve_command and
+    pressure_command publishes it (output valves); by default neither changes."""
+    launched = node_parameters(entities, launch_api, actuation='valves')
+    given = runner_overrides(['--actuation', 'valves'])
+    assert launched['plant']['actuation'] == given['plant']['actuation'] == 'valves'
+    assert launched['pressure_command']['output'] == given['pressure_command']['output']
+    assert given['pressure_command']['output'] == 'valves'
+    default = node_parameters(entities, launch_api)
+    assert default['plant']['actuation'] == 'regulator'
+    assert default['pressure_command']['output'] == 'pressure'
+    assert 'actuation' not in runner_overrides([])['plant']

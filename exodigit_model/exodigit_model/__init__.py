@@ -3,7 +3,8 @@
 A ROS-free package (numpy, scipy, PyYAML, numba) implementing docs/model.md: the kinematics of
 the exo-digit and the finger, the Yeoh material, pressure and structural torques, the coupled
 quasi-static solve and its inverse, the contact-force estimators, the stepper that advances gloves
-in time, and the joiner that pairs the samples of a glove's streams by time.
+in time (behind pressure regulators or valves), and the joiner that pairs the samples of a
+glove's streams by time.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())
@@ -13,10 +14,12 @@ in time, and the joiner that pairs the samples of a glove's streams by time.
 import importlib
 
 EXPORTS = {
+    'ACTUATIONS': 'settings',
     'JOINT_NAMES': 'params',
     'PATIENT_PRESETS': 'params',
     'BatchEstimate': 'inverse',
     'BatchSolution': 'model',
+    'ChamberAir': 'pneumatics',
     'ChamberSettings': 'chambers',
     'Estimate': 'inverse',
     'ExoDigit': 'params',
@@ -33,6 +36,7 @@ EXPORTS = {
     'Material': 'params',
     'OutsideModelWarning': 'validity',
     'ParameterError': 'params',
+    'Pneumatics': 'pneumatics',
     'Segment': 'params',
     'SimulationSettings': 'settings',
     'Solution': 'model',

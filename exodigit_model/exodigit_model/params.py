@@ -29,6 +29,7 @@ from .checks import (
     read_yaml,
     set_field,
 )
+from .pneumatics import ChamberAir, Pneumatics
 
 JOINT_NAMES = ('mcp', 'pip', 'dip')
 """The three joints, always in this order (docs/spec/model.md §1)."""
@@ -225,17 +226,19 @@ class Finger:
 
 @dataclass(frozen=True)
 class GloveParams:
-    """Everything the model needs: material, exo-digit geometry and finger."""
+    """Everything the model needs: material, exo-digit geometry, finger and the chambers' air."""
 
     material: Material
     exo_digit: ExoDigit
     finger: Finger
+    pneumatics: Pneumatics
 
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict in the YAML layout of docs/spec/model.md §10 (lists, not tuples)."""
         data = asdict(self)
         data['exo_digit']['segments'] = list(data['exo_digit']['segments'])
         data['finger']['joints'] = list(data['finger']['joints'])
+        data['pneumatics']['chambers'] = list(data['pneumatics']['chambers'])
         return data
 
 
@@ -286,7 +289,7 @@ def params_from_dict(data: Mapping[str, Any] | None = None) -> GloveParams:
 
 
 def _params(merged: Mapping[str, Any]) -> GloveParams:
-    exo, finger = merged['exo_digit'], merged['finger']
+    exo, finger, pneumatics = merged['exo_digit'], merged['finger'], merged['pneumatics']
     segments = tuple(
         build_checked(Segment, f'exo_digit.segments[{i}]', s)
         for i, s in enumerate(exo['segments'])
@@ -295,10 +298,15 @@ def _params(merged: Mapping[str, Any]) -> GloveParams:
         build_checked(FingerJoint, f'finger.joints[{i}]', j)
         for i, j in enumerate(finger['joints'])
     )
+    chambers = tuple(
+        build_checked(ChamberAir, f'pneumatics.chambers[{i}]', c)
+        for i, c in enumerate(pneumatics['chambers'])
+    )
     return GloveParams(
         material=build_checked(Material, 'material', merged['material']),
         exo_digit=build_checked(ExoDigit, 'exo_digit', exo, segments=segments),
         finger=build_checked(Finger, 'finger', finger, joints=joints),
+        pneumatics=build_checked(Pneumatics, 'pneumatics', pneumatics, chambers=chambers),
     )
 
 

@@ -1,7 +1,9 @@
-"""How the glove is stepped and sensed (docs/spec/model.md §13): the settings and the time grid.
+"""How the glove is stepped, driven and sensed: settings, time grid, actuations (§13, §14).
 
-Plain data, apart from the model and its compiled kernels: the ROS nodes' parameter tables
-read these defaults without loading the stepper (:mod:`.simulation`).
+The settings and time grid of docs/spec/model.md §13, and what drives the chambers: pressure
+regulators, or valves and the layout of their command (§14). Plain data, apart from the model
+and its compiled kernels: the ROS nodes' parameter tables and the command node read these
+without loading the stepper (:mod:`.simulation`).
 """
 
 from __future__ import annotations
@@ -9,9 +11,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 from .chambers import ChamberSettings
 
 NANOSECONDS = 10**9
+ACTUATIONS = ('regulator', 'valves')
+"""How the chambers are driven: pressure regulators (a pressure command, §13) or valves (six
+openings, docs/spec/model.md §14)."""
+OPENINGS = 6
+"""Openings of a valve command: u_in, then u_out, of MCP, PIP and DIP."""
+VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
+"""The openings of a vent: inlets closed, outlets open (the plant's watchdog, a stopping
+``pressure_command``, a target of zero). Read-only."""
+CLOSED = np.zeros(OPENINGS)
+"""Every valve closed: the chambers hold their air. Read-only."""
+VENT.flags.writeable = CLOSED.flags.writeable = False
 
 
 def step_time_ns(step: int, rate_hz: float) -> int:

@@ -18,6 +18,12 @@ per step, or a population: one glove per patient, the exo-digit shared and each 
 finger (``fingers``). The ROS plant, the in-process API and the Gymnasium environment all use
 it, so they cannot disagree.
 
+Behind valves (``actuation='valves'``, docs/spec/model.md §14) the command of a step is six
+openings in [0, 1], u_in then u_out (MCP, PIP, DIP), held over the step: step 1 integrates the
+chambers' air masses through the valves instead of the lag, and step 2 solves the statics with
+the pressures of the gas law at those masses (:mod:`.kernels.valves` has the scheme and its
+order). The state then also has the air masses and the chambers' volumes.
+
 >>> from exodigit_model import GloveSimulation
 >>> simulation = GloveSimulation(settings=SimulationSettings(pressure_time_constant=0.0))
 >>> state = simulation.step([30e3, 30e3, 30e3])
@@ -37,10 +43,26 @@ from numpy.typing import ArrayLike, NDArray
 from .chambers import Chambers, Saturation
 from .kernels.solves import rest_rows
 from .kernels.stepping import run_glove, step_gloves, step_one
+from .kernels.valves import (
+    AIR_GAS,
+    AIR_VOLUME,
+    AIR_VOLUME_PER_ANGLE,
+    AIR_VOLUME_PER_STRAIN,
+    GAS_MASS,
+    GAS_VOLUME,
+)
 from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
 from .params import Finger
 from .patient import finger_rows
-from .settings import FIXED_SETTINGS, NANOSECONDS, SimulationSettings, step_time_ns
+from .pneumatics import ATMOSPHERIC_PRESSURE, air_constants
+from .settings import (
+    ACTUATIONS,
+    FIXED_SETTINGS,
+    NANOSECONDS,
+    OPENINGS,
+    SimulationSettings,
+    step_time_ns,
+)
 from .solver import CONVERGED_STEP
 
 
@@ -59,7 +81,8 @@ class GloveState(NamedTuple):
     time_ns : int
         t_k, ns.
     command : ndarray
-        The pressure command the step applied, after saturation, Pa.
+        The pressure command the step applied, after saturation, Pa; behind valves the
+        openings, after clipping to [0, 1], shape (6,) or (N, 6).
     pressure : ndarray
         True chamber pressures, Pa.
     pressure_measured : ndarray
@@ -89,7 +112,12 @@ class GloveState(NamedTuple):
     in_range_of_motion : bool or ndarray of bool
         Whether every joint lies within the finger's range of motion (each glove's own).
     saturated : bool
-        Whether the command had to be clipped to [0, max_supply_pressure] in this step.
+        Whether the command had to be clipped to [0, max_supply_pressure] in this step (behind
+        valves: an opening to [0, 1]).
+    mass : ndarray or None
+        The chambers' air masses, kg, behind valves (None with regulators).
+    volume : ndarray or None
+        The chambers' volumes (14.1), m³, behind valves (None with regulators).
     """
 
     step: int
@@ -111,6 +139,8 @@ class GloveState(NamedTuple):
     in_valid_range: bool | NDArray[np.bool_]
     in_range_of_motion: bool | NDArray[np.bool_]
     saturated: bool
+    mass: NDArray[np.float64] | None = None
+    volume: NDArray[np.float64] | None = None
 
 
 class GloveSimulation:
@@ -133,12 +163,17 @@ class GloveSimulation:
         ``GloveSimulation(GloveModel(replace(model.params, finger=fingers[i])))`` would, bit for
         bit (sensor noise aside, see Notes). ``count`` may be left out; given, it must be
         ``len(fingers)``.
+    actuation : str, optional
+        One of :data:`ACTUATIONS`: ``'regulator'`` (a pressure command per chamber, §13) or
+        ``'valves'`` (six openings, §14, with the model's ``pneumatics`` parameters; a supply
+        pressure they leave open is ``max_supply_pressure``).
 
     Raises
     ------
     ValueError
         For a ``count`` that is not a positive integer, ``fingers`` that is not a non-empty
-        sequence of :class:`~exodigit_model.params.Finger`, or both that disagree.
+        sequence of :class:`~exodigit_model.params.Finger`, both that disagree, or an unknown
+        ``actuation``.
 
     Notes
     -----
@@ -156,7 +191,10 @@ class GloveSimulation:
         *,
         count: int | None = None,
         fingers: Iterable[Finger] | None = None,
+        actuation: str = 'regulator',
     ) -> None:
+        if actuation not in ACTUATIONS:
+            raise ValueError(f'actuation = {actuation!r}: must be one of {", ".join(ACTUATIONS)}')
         if count is not None and (
             isinstance(count, bool) or not isinstance(count, int) or count < 1
         ):
@@ -169,6 +207,11 @@ class GloveSimulation:
         self.settings = SimulationSettings() if settings is None else settings
         self.count = count
         self.shape = (3,) if count is None else (count, 3)
+        self.actuation = actuation
+        self.valves = actuation == 'valves'
+        self.command_shape = (*self.shape[:-1], OPENINGS) if self.valves else self.shape
+        """The shape of a step's command: (3,) or (N, 3) pressures, or (6,) or (N, 6) openings."""
+        self._air = self._air_constants()
         self._finger_rows = self._patients()
         rest = rest_rows(self.model.packed, *self._finger_rows, *VALID_STRETCH)
         self._rest = rest if count is not None else tuple(_last(value) for value in rest)
@@ -197,6 +240,13 @@ class GloveSimulation:
             raise ValueError(f'{fixed[0]} is fixed once the simulation exists')
         self.settings = replace(self.settings, **changes)
         self.chambers.configure(self.settings.chambers)
+        self._air = self._air_constants()
+
+    def _air_constants(self) -> NDArray[np.float64]:
+        """The kernels' pneumatic constants: (3, AIR_COLUMNS) behind valves, else none."""
+        if not self.valves:
+            return np.empty((0, 3))
+        return air_constants(self.model, self.settings.max_supply_pressure)
 
     # -- stepping --------------------------------------------------------------------------
 
@@ -212,6 +262,9 @@ class GloveSimulation:
     def step(self, command: ArrayLike, effort: ArrayLike | None = None) -> GloveState:
         """Advance one step of Δt under the pressure ``command`` (Pa, shape (3,) or (N, 3)).
 
+        Behind valves ``command`` is the six openings of each glove, shape (6,) or (N, 6):
+        u_in of MCP, PIP, DIP, then u_out, held over the step and clipped to [0, 1].
+
         ``effort`` is the patient's voluntary effort u of eq 11.1 during the step (N·m, the
         shape of the command; None: none).
 
@@ -226,21 +279,34 @@ class GloveSimulation:
         ValueError
             If ``command`` or ``effort`` has the wrong shape or a non-finite value.
         """
-        command = self._rows('command', command)
+        command = self._command(command)
         effort = self._zeros if effort is None else self._rows('effort', effort)
         glove = self.model.packed
-        if self.count is None:
+        gas = None
+        if self.count is None and not self.valves:
             block, outcome = step_one(glove, self._block, command, effort, *self._stepping)
             self._block = block
             state, applied, qdot = _state_of(block), block[5, :3], block[6, :3]
             status, iterations, residual, valid, moving_range, below, above = outcome
         else:
+            single = self.count is None  # behind valves one glove steps as a batch of one
             state, applied, qdot, status, iterations, residual, flags = step_gloves(
-                glove, *self._finger_rows, self._kernel_state, command, effort, *self._stepping
+                glove,
+                *self._finger_rows,
+                self._air,
+                self._kernel_state,
+                command[None] if single else command,
+                effort[None] if single else effort,
+                *self._stepping,
             )
             self._kernel_state = state
             valid, moving_range = flags[:, 0], flags[:, 1]
             below, above = flags[:, 2].any(), flags[:, 3].any()
+            if single:
+                state, applied, qdot = tuple(value[0] for value in state), applied[0], qdot[0]
+                status, iterations, residual = status.item(), iterations.item(), residual.item()
+                valid, moving_range = valid.item(), moving_range.item()
+            gas = state[6] if self.valves else None
         converged = status <= CONVERGED_STEP
         self.chambers.pressure, self.chambers.command = state[2], applied
         self.chambers.record(below, above)
@@ -268,6 +334,8 @@ class GloveSimulation:
             in_valid_range=valid,
             in_range_of_motion=moving_range,
             saturated=self.chambers.saturated_now,
+            mass=None if gas is None else gas[..., GAS_MASS, :],
+            volume=None if gas is None else gas[..., GAS_VOLUME, :],
         )
         return self.state
 
@@ -280,7 +348,8 @@ class GloveSimulation:
         Parameters
         ----------
         commands : array_like, shape (T, 3), or (T, N, 3) for a batch
-            The pressure command of each step, Pa.
+            The pressure command of each step, Pa; behind valves the openings, (T, 6) or
+            (T, N, 6).
         efforts : array_like, shape like ``commands``, optional
             The patient's voluntary effort of each step, N·m (None: none).
 
@@ -290,24 +359,34 @@ class GloveSimulation:
             Every field with a leading axis of T (``step``, ``t``, ``time_ns``, ``converged``,
             … as arrays of T); :attr:`state` is the last step's.
         """
-        rows = self._steps('commands', commands)
-        efforts = np.zeros_like(rows) if efforts is None else self._steps('efforts', efforts)
-        if efforts.shape != rows.shape:
-            raise ValueError(
-                f'efforts must have the shape of commands {rows.shape}, got {efforts.shape}'
-            )
+        rows = self._steps('commands', commands, self.command_shape)
+        steps = (rows.shape[0], *self.shape)
+        if efforts is None:
+            efforts = np.zeros(steps)
+        else:
+            efforts = self._steps('efforts', efforts, self.shape)
+            if efforts.shape != steps:
+                raise ValueError(
+                    f'efforts must have the shape {steps} (one row per step), got {efforts.shape}'
+                )
         if self.count is not None:
             states = [self.step(rows[t], efforts[t]) for t in range(rows.shape[0])]
-            return GloveState(*(np.array(values) for values in zip(*states, strict=True)))
+            return GloveState(*(_stacked(values) for values in zip(*states, strict=True)))
+        if self.valves:
+            start = tuple(np.ascontiguousarray(value[0]) for value in self._kernel_state)
+        else:
+            start = (*_state_of(self._block, contiguous=True), self._air)
         state, record = run_glove(
-            self.model.packed,
-            _state_of(self._block, contiguous=True),
-            rows,
-            efforts,
-            *self._stepping,
+            self.model.packed, self._air, start, rows, efforts, *self._stepping
         )
-        applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record
-        self._block = _block_of(state)
+        applied, pressure, qdot, forces, torque, x, status, iterations, residual, flags = record[
+            :10
+        ]
+        gas = record[10] if self.valves else None
+        if self.valves:
+            self._kernel_state = tuple(value[None] for value in state)
+        else:
+            self._block = _block_of(state)
         self.chambers.pressure, self.chambers.command = state[2], applied[-1]
         self.chambers.saturation = Saturation(
             self.chambers.saturation.below_zero + int(np.count_nonzero(flags[:, 2])),
@@ -340,18 +419,38 @@ class GloveSimulation:
             in_valid_range=flags[:, 0],
             in_range_of_motion=flags[:, 1],
             saturated=flags[:, 2] | flags[:, 3],
+            mass=None if gas is None else gas[:, GAS_MASS],
+            volume=None if gas is None else gas[:, GAS_VOLUME],
         )
         self.state = GloveState(*(_last(value) for value in run))
         return run
 
-    def _steps(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
-        """``value`` as T >= 1 finite rows of this simulation's commands, or a ValueError."""
-        shape = ('T', *self.shape)
+    def _command(self, value: ArrayLike) -> NDArray[np.float64]:
+        """``value`` checked to the shape of this simulation's commands (a ValueError)."""
+        if not self.valves:
+            return self._rows('command', value)
         try:
             array = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
             array = None
-        if array is None or array.shape[1:] != self.shape or array.ndim != len(shape):
+        if array is None or array.shape != self.command_shape:
+            got = 'no array of numbers' if array is None else f'shape {array.shape}'
+            raise ValueError(
+                f'command must have shape {self.command_shape} (openings u_in then u_out of '
+                f'MCP, PIP, DIP), got {got}'
+            )
+        if not np.all(np.isfinite(array)):
+            raise ValueError('command must be finite')
+        return array
+
+    def _steps(self, name: str, value: ArrayLike, rows: tuple) -> NDArray[np.float64]:
+        """``value`` as T >= 1 finite ``rows``, one per step, or a ValueError."""
+        shape = ('T', *rows)
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            array = None
+        if array is None or array.shape[1:] != rows or array.ndim != len(shape):
             got = 'no array of numbers' if array is None else f'shape {array.shape}'
             raise ValueError(f'{name} must have shape {shape} (one row per step), got {got}')
         if array.shape[0] == 0:
@@ -408,18 +507,22 @@ class GloveSimulation:
         x, forces, torque, status, _, residual, valid, moving_range = self._rest
         q = x[..., :3]
         earlier = np.repeat(q[..., None, :], 2, axis=-2)  # still: the rest, two steps back
-        state = (x, q.copy(), zeros, forces, torque, earlier)
-        if self.count is None:
-            self._block = _block_of(state)
+        gas = self._vented(x)
+        state = (x, q.copy(), zeros, forces, torque, earlier, gas)
+        if self.count is None and not self.valves:
+            self._block = _block_of(state[:6])
+        elif self.count is None:
+            self._kernel_state = tuple(np.ascontiguousarray(value[None]) for value in state)
         else:
             self._kernel_state = state
         self.chambers.pressure = zeros
+        self.chambers.command = np.zeros(self.command_shape)
         time_ns = step_time_ns(self.step_count, self.settings.rate_hz)
         return GloveState(
             step=self.step_count,
             t=time_ns / NANOSECONDS,
             time_ns=time_ns,
-            command=zeros,
+            command=self.chambers.command,
             pressure=zeros,
             pressure_measured=zeros,
             q=q,
@@ -435,7 +538,25 @@ class GloveSimulation:
             in_valid_range=valid,
             in_range_of_motion=moving_range,
             saturated=False,
+            mass=gas[..., GAS_MASS, :] if self.valves else None,
+            volume=gas[..., GAS_VOLUME, :] if self.valves else None,
         )
+
+    def _vented(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The air of gloves vented at unknowns ``x`` (:mod:`.kernels.valves`' ``gas``).
+
+        Behind valves (..., GAS_ROWS, 3): the masses P_atm·V/(R·T) of the volumes (14.1) at
+        ``x`` (computed as the kernels do), the volumes, and the same volumes a step before
+        (still); with regulators (..., 0, 3).
+        """
+        if not self.valves:
+            return np.empty((*x.shape[:-1], 0, 3))
+        air = self._air
+        volume = air[:, AIR_VOLUME] + air[:, AIR_VOLUME_PER_ANGLE] * x[..., :3]
+        if self.model.extensible:
+            volume = volume + air[:, AIR_VOLUME_PER_STRAIN] * x[..., 3:]
+        mass = ATMOSPHERIC_PRESSURE * volume / air[:, AIR_GAS]
+        return np.stack([mass, volume, volume], axis=-2)
 
     @property
     def _stepping(self) -> tuple:
@@ -492,7 +613,14 @@ def _block_of(state: tuple) -> NDArray[np.float64]:
     return block
 
 
+def _stacked(values: tuple):
+    """One field of a batch's steps stacked along a leading axis (None where it is None)."""
+    return None if values[0] is None else np.array(values)
+
+
 def _last(value):
     """The last step's entry of one field of a run, as :meth:`GloveSimulation.step` gives it."""
+    if value is None:
+        return None
     last = value[-1]
     return last.item() if isinstance(last, np.generic) else last

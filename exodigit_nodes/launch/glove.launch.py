@@ -4,6 +4,7 @@
     ros2 launch exodigit_nodes glove.launch.py namespace:=/left/index mode:=staircase
     ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
     ros2 launch exodigit_nodes glove.launch.py clock:=sim lockstep:=true real_time_factor:=0.0
+    ros2 launch exodigit_nodes glove.launch.py actuation:=valves
 
 Each node reads its defaults from its ``config/<executable>.yaml`` in the package share
 directory; the launch arguments below override them. The nodes, the modes and the arguments'
@@ -11,7 +12,9 @@ defaults come from the node table, ``exodigit_nodes.nodes.catalog`` (the install
 which those config files are generated. Simulated time (docs/spec/ros.md Part II) is what
 ``python -m exodigit_nodes.glove --clock sim --real-time-factor X --lockstep`` sets: the plant
 owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
-``use_sim_time`` and pressure_command answers each joint_states in lockstep.
+``use_sim_time`` and pressure_command answers each joint_states in lockstep. ``actuation:=valves``
+is ``--actuation valves``: the plant's chambers driven by valves (``valve_command``) and
+pressure_command's ``output`` valves (docs/spec/ros.md, "Valves").
 
 Like that runner, the glove is one unit: when any of its nodes exits, launch stops the other two
 and ends; ``ros2 launch`` then exits 1 if that node failed (non-zero code, or killed by a
@@ -30,6 +33,7 @@ from launch.event_handlers import OnProcessExit
 from launch.substitutions import (
     AndSubstitution,
     EqualsSubstitution,
+    IfElseSubstitution,
     LaunchConfiguration,
     NotEqualsSubstitution,
 )
@@ -88,6 +92,11 @@ def generate_launch_description():
     params_file = ParameterValue(LaunchConfiguration('params_file'), value_type=str)
     joint_prefix = ParameterValue(LaunchConfiguration('joint_prefix'), value_type=str)
     mode = ParameterValue(LaunchConfiguration('mode'), value_type=str)
+    actuation = LaunchConfiguration('actuation')
+    # pressure_command publishes what the plant takes: valve_command for valves
+    output = IfElseSubstitution(
+        EqualsSubstitution(actuation, 'valves'), if_value='valves', else_value='pressure'
+    )
     real_time_factor = ParameterValue(LaunchConfiguration('real_time_factor'), value_type=float)
     lockstep = ParameterValue(LaunchConfiguration('lockstep'), value_type=bool)
     node_sim_time = ParameterValue(use_sim_time, value_type=bool)
@@ -110,6 +119,13 @@ def generate_launch_description():
             default_value=COMMAND['mode'].default,
             choices=list(COMMAND['mode'].choices),
             description=COMMAND['mode'].description,
+        ),
+        DeclareLaunchArgument(
+            'actuation',
+            default_value=PLANT['actuation'].default,
+            choices=list(PLANT['actuation'].choices),
+            description=PLANT['actuation'].description
+            + '; with valves pressure_command publishes valve_command (output valves)',
         ),
         DeclareLaunchArgument(
             'params_file',
@@ -170,6 +186,7 @@ def generate_launch_description():
                 'use_sim_time': plant_sim_time,
                 'params_file': params_file,
                 'joint_prefix': joint_prefix,
+                'actuation': ParameterValue(actuation, value_type=str),
                 'clock': ParameterValue(clock, value_type=str),
                 'real_time_factor': real_time_factor,
                 'lockstep': lockstep,
@@ -185,6 +202,7 @@ def generate_launch_description():
                 'use_sim_time': node_sim_time,
                 'params_file': params_file,
                 'mode': mode,
+                'output': ParameterValue(output, value_type=str),
                 'lockstep': lockstep,
             },
         ),

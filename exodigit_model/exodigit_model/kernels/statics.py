@@ -33,6 +33,11 @@ The finger side depends on q only, so ∂f/∂ε = 0. With no finger (free motio
 
 Every residual is affine in p, and each row is judged against the size of the terms it is made
 of (``scale``, what :mod:`.newton` compares the residual norm with).
+
+Valves (docs/spec/model.md §14): a chamber whose air mass m is given (``work.masses``) has the
+pressure of the gas law at the unknowns, p(x) = m·R·T/V(x) − P_atm (14.1, 14.2), instead of a
+given one; the Jacobian gains the chamber's "gas spring" ∂τ/∂p·∂p/∂V·∂V/∂x, with
+∂p/∂V = −m·R·T/V², ∂V/∂q = r_pA_p and ∂V/∂ε = A_c·ℓ̂.
 """
 
 from __future__ import annotations
@@ -45,6 +50,13 @@ from .linear import transpose_product, transpose_solve
 from .patient import finger_torque
 from .section import resultants
 from .structural import structural_torque
+from .valves import (
+    AIR_ATMOSPHERE,
+    AIR_VOLUME_PER_ANGLE,
+    AIR_VOLUME_PER_STRAIN,
+    absolute_pressure,
+    chamber_volume,
+)
 
 
 @kernel(counted=False, forceinline=True)
@@ -139,8 +151,18 @@ def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, 
         if extensible:
             transpose_product(work.j_length, forces, stretching)
     total = 0.0
+    air, masses, gauge, spring = work.air, work.masses, work.gauge, work.spring
     for k in range(3):
-        drive = moments[k] * pressure[k]
+        if masses[k] > 0.0:  # the gas law (14.2); an empty volume gives no finite residual
+            volume = chamber_volume(air[k], x, k)
+            absolute, spring[k] = math.inf, 0.0
+            if volume > 0.0:
+                absolute = absolute_pressure(air[k], masses[k], volume)
+                spring[k] = -absolute / volume
+            gauge[k] = absolute - air[k, AIR_ATMOSPHERE]
+        else:
+            gauge[k] = pressure[k]
+        drive = moments[k] * gauge[k]
         residual[k] = tau[k] + drive - coupling[k]
         size = abs(tau[k]) + abs(drive) + abs(coupling[k])
         total += size * size
@@ -148,7 +170,7 @@ def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, 
         for k in range(3):
             if segments_stretch[k]:
                 layer = layer_stiffness[k] * x[3 + k]
-                area = areas[k] * pressure[k]
+                area = areas[k] * gauge[k]
                 residual[3 + k] = rest[k] * (-axial[k] - layer + area - stretching[k])
                 size = rest[k] * (abs(axial[k]) + abs(layer) + abs(area) + abs(stretching[k]))
                 total += size * size
@@ -216,3 +238,15 @@ def jacobian_of(glove, work, x, free, jacobian, forces):
                 jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + layer_stiffness[m])
             else:
                 jacobian[3 + m, 3 + m] = 1.0
+    masses, spring, air = work.masses, work.spring, work.air
+    moments, areas = glove.pressure_moments, glove.pressure_areas
+    for m in range(3):
+        if masses[m] > 0.0:  # the gas spring: ∂p_m/∂x through V_m (14.1)
+            by_angle = spring[m] * air[m, AIR_VOLUME_PER_ANGLE]
+            jacobian[m, m] += moments[m] * by_angle
+            if extensible:
+                by_strain = spring[m] * air[m, AIR_VOLUME_PER_STRAIN]
+                jacobian[m, 3 + m] += moments[m] * by_strain
+                if segments_stretch[m]:
+                    jacobian[3 + m, m] += rest[m] * areas[m] * by_angle
+                    jacobian[3 + m, 3 + m] += rest[m] * areas[m] * by_strain

@@ -1,4 +1,4 @@
-"""One glove (or many) stepped in time (docs/spec/model.md §13): chambers, then the solve.
+"""One glove (or many) stepped in time (docs/spec/model.md §13-14): chambers, then the solve.
 
 A step of length Δt from the state (x, p) under the command u:
 
@@ -7,6 +7,13 @@ A step of length Δt from the state (x, p) under the command u:
 2. the stepped solve (11.4) at the new p, q̇ = (q − q_prev)/Δt inside the equation, from a
    prediction of the angles (:func:`predict`: where the last steps' motion goes on, when it is
    smooth); a solve that does not converge keeps the last good state.
+
+Behind valves (§14, given the chambers' pneumatic constants ``air``, one row each; none: the
+regulator above) the command is six openings, u_in then u_out: step 1 clips them to [0, 1] and
+integrates the chambers' air masses over the step (:func:`.valves.admit_air`), step 2 solves the
+statics with the pressures of the gas law at those masses (:mod:`.statics`), and the pressures
+and volumes follow from the solved angles (:func:`.valves.settle_air`). The state then carries
+the air (``gas``: masses, volumes and the volumes one step before, :mod:`.valves`).
 
 :func:`step_into` advances one glove; :func:`step_one` and :func:`run_glove` take one step or
 many (recorded) from Python; :func:`step_gloves` advances a batch, one glove after the other,
@@ -28,6 +35,7 @@ from .constants import (
 from .jit import kernel
 from .newton import CONVERGED_STEP, newton
 from .solves import in_range_of_motion, stretch_in_range
+from .valves import GAS_ROWS, admit_air, settle_air
 from .workspace import workspace
 
 
@@ -110,7 +118,7 @@ def predict(glove, x, q_before, earlier, start):
 
 
 @kernel(counted=False, forceinline=True)
-def step_into(glove, work, state, new, command, effort, limits):
+def step_into(glove, work, state, new, command, effort, limits, air):
     """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
 
     Parameters
@@ -119,19 +127,24 @@ def step_into(glove, work, state, new, command, effort, limits):
     work : Workspace
         Scratch (:mod:`.workspace`); its ``motion`` holds the finger's history.
     state : tuple of ndarray
-        (x, q_before, pressure, forces, torque, earlier): the unknowns of the last good state,
-        the angles one step before it (rad), the chamber pressures (Pa), f (N), τ_H (N·m) and
-        (2, 3) the angles two and three steps before it (rad; :func:`predict`).
+        (x, q_before, pressure, forces, torque, earlier, gas): the unknowns of the last good
+        state, the angles one step before it (rad), the chamber pressures (Pa), f (N), τ_H
+        (N·m), (2, 3) the angles two and three steps before it (rad; :func:`predict`) and the
+        air, (GAS_ROWS, 3) behind valves (:mod:`.valves`), else (0, 3).
     new : tuple of ndarray
         The first five of ``state`` after the step (the last good x, f, τ_H where the solve
-        failed), the clipped command (Pa), q̇ = (q − q_prev)/Δt (rad/s) and ``earlier``:
-        filled. Where the solve failed, the glove is still: its history is the last good
-        angles.
-    command, effort : ndarray, shape (3,)
-        The pressure command (Pa) and the patient's voluntary effort (N·m).
+        failed), the clipped command (Pa, or openings), q̇ = (q − q_prev)/Δt (rad/s),
+        ``earlier`` and ``gas``: filled. Where the solve failed, the glove is still: its
+        history is the last good angles (behind valves the air still flows: the masses are
+        the step's, the pressures those of the gas law at the last good volumes).
+    command, effort : ndarray
+        The pressure command (3,), Pa, or behind valves the openings (6,), and the patient's
+        voluntary effort (3,), N·m.
     limits : tuple of float
         exp(−Δt/T), the supply pressure (Pa), 1/Δt (1/s) and the validated stretch range
         (12.1), low and high.
+    air : ndarray
+        The chambers' pneumatic constants, (3, AIR_COLUMNS) behind valves, else (0, 3).
 
     Returns
     -------
@@ -140,13 +153,18 @@ def step_into(glove, work, state, new, command, effort, limits):
         in_range_of_motion (of the solve's result), below, above (the command clipped at zero,
         at the supply).
     """
-    x, q_before, pressure, forces, torque, earlier = state
-    new_x, new_q_before, new_pressure, new_forces, new_torque, applied, qdot, new_earlier = new
+    x, q_before, pressure, forces, torque, earlier, gas = state
+    new_x, new_q_before, new_pressure, new_forces, new_torque, applied, qdot, new_earlier = new[:8]
+    new_gas = new[8]
     decay, supply, rate, valid_low, valid_high = limits
-    for k in range(3):
-        applied[k] = command[k]
-        new_pressure[k] = pressure[k]
-    below, above = advance_chambers(new_pressure, applied, decay, supply)
+    valves = air.shape[0] > 0
+    if valves:
+        below, above = admit_air(work, air, gas, new_gas, command, applied, 1.0 / rate)
+    else:
+        for k in range(3):
+            applied[k] = command[k]
+            new_pressure[k] = pressure[k]
+        below, above = advance_chambers(new_pressure, applied, decay, supply)
     motion = work.motion
     predicted = predict(glove, x, q_before, earlier, new_x)
     for k in range(3):
@@ -175,6 +193,8 @@ def step_into(glove, work, state, new, command, effort, limits):
         for k in range(3):
             new_forces[k] = forces[k]
             new_torque[k] = torque[k]
+    if valves:
+        settle_air(air, gas, new_gas, new_x, new_pressure, failed)
     for k in range(3):
         new_earlier[0, k] = x[k] if failed else q_before[k]
         new_earlier[1, k] = x[k] if failed else earlier[0, k]
@@ -184,38 +204,42 @@ def step_into(glove, work, state, new, command, effort, limits):
 
 
 @kernel
-def fresh(n):
-    """New arrays for one glove's ``new`` of :func:`step_into` (``n`` unknowns)."""
+def fresh(n, air):
+    """New arrays for one glove's ``new`` of :func:`step_into` (``n`` unknowns, ``air``)."""
+    valves = air.shape[0] > 0
     return (
         np.empty(n),
         np.empty(3),
         np.empty(3),
         np.empty(3),
         np.empty(3),
-        np.empty(3),
+        np.empty(6 if valves else 3),
         np.empty(3),
         np.empty((2, 3)),
+        np.empty((GAS_ROWS if valves else 0, 3)),
     )
 
 
 @kernel
-def fresh_rows(rows, n):
+def fresh_rows(rows, n, air):
     """New arrays for a batch's ``new`` of :func:`step_into`: :func:`fresh` with a leading N."""
+    valves = air.shape[0] > 0
     return (
         np.empty((rows, n)),
         np.empty((rows, 3)),
         np.empty((rows, 3)),
         np.empty((rows, 3)),
         np.empty((rows, 3)),
-        np.empty((rows, 3)),
+        np.empty((rows, 6 if valves else 3)),
         np.empty((rows, 3)),
         np.empty((rows, 2, 3)),
+        np.empty((rows, GAS_ROWS if valves else 0, 3)),
     )
 
 
 @kernel
 def step_one(packed, block, command, effort, decay, supply, rate, valid_low, valid_high):
-    """One glove one step on, from Python (``packed`` constants): :func:`step_into`.
+    """One glove one step on under a pressure command, from Python: :func:`step_into`.
 
     The state travels as one array (fewer arrays to pass between Python and compiled code):
     ``block`` (9, n) holds x, then q_before, the pressure, f and τ_H in the first three columns
@@ -229,7 +253,8 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
     # contiguous, and step_into takes one layout (:func:`.jit.kernel`).
     earlier, new_earlier = np.empty((2, 3)), np.empty((2, 3))
     earlier[:, :] = block[7:, :3]
-    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], earlier)
+    regulator = np.empty((0, 3))  # no air: no gas state, no pneumatic constants
+    state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], earlier, regulator)
     rows = (
         new[0],
         new[1, :3],
@@ -239,19 +264,23 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
         new[5, :3],
         new[6, :3],
         new_earlier,
+        regulator,
     )
     limits = (decay, supply, rate, valid_low, valid_high)
-    outcome = step_into(glove, work, state, rows, command, effort, limits)
+    outcome = step_into(glove, work, state, rows, command, effort, limits, regulator)
     new[7:, :3] = new_earlier
     return new, outcome
 
 
 @kernel(counted=False)
-def run_rows(glove, work, state, new, commands, efforts, limits, record):
+def run_rows(glove, work, state, new, commands, efforts, limits, air, record):
     """:func:`step_into` for every row of ``commands``, from ``state`` (updated), recorded."""
-    applied, pressure, qdot, forces, torque, unknowns, status, iterations, residual, flags = record
+    applied, pressure, qdot, forces, torque, unknowns, status, iterations, residual, flags = (
+        record[:10]
+    )
+    gas = record[10]
     for t in range(commands.shape[0]):
-        outcome = step_into(glove, work, state, new, commands[t], efforts[t], limits)
+        outcome = step_into(glove, work, state, new, commands[t], efforts[t], limits, air)
         status[t], iterations[t], residual[t] = outcome[0], outcome[1], outcome[2]
         flags[t, 0], flags[t, 1], flags[t, 2], flags[t, 3] = outcome[3:]
         for k in range(state[0].size):
@@ -263,27 +292,35 @@ def run_rows(glove, work, state, new, commands, efforts, limits, record):
             state[4][k] = new[4][k]
             state[5][0, k] = new[7][0, k]
             state[5][1, k] = new[7][1, k]
+        for row in range(state[6].shape[0]):
+            for k in range(3):
+                state[6][row, k] = new[8][row, k]
+                gas[t, row, k] = new[8][row, k]
         for k in range(new[0].size):
             unknowns[t, k] = new[0][k]
+        for k in range(new[5].size):
+            applied[t, k] = new[5][k]
         for k in range(3):
             pressure[t, k] = new[2][k]
             forces[t, k] = new[3][k]
             torque[t, k] = new[4][k]
-            applied[t, k] = new[5][k]
             qdot[t, k] = new[6][k]
 
 
 @kernel
-def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, valid_high):
-    """:func:`step_into` for every row of ``commands`` and ``efforts`` (T, 3), recorded.
+def run_glove(packed, air, state, commands, efforts, decay, supply, rate, valid_low, valid_high):
+    """:func:`step_into` for every row of ``commands`` (T, 3 or 6) and ``efforts`` (T, 3).
+
+    ``air`` and ``state`` as :func:`step_into` takes them.
 
     Returns
     -------
     state : tuple of ndarray
         The state after the last step (new arrays).
     record : tuple of ndarray
-        Per step: the clipped command, the pressure, q̇, f, τ_H (T, 3) and the unknowns x
-        (T, n); status, iterations, residual (T,); the flags of the outcome (T, 4).
+        Per step: the clipped command (T, 3 or 6), the pressure, q̇, f, τ_H (T, 3) and the
+        unknowns x (T, n); status, iterations, residual (T,); the flags of the outcome (T, 4);
+        the air (T, GAS_ROWS, 3) behind valves, else (T, 0, 3).
     """
     glove, work = unpack(packed), workspace()
     steps, n = commands.shape[0], state[0].size
@@ -294,9 +331,10 @@ def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, 
         state[3].copy(),
         state[4].copy(),
         state[5].copy(),
+        state[6].copy(),
     )
     record = (
-        np.empty((steps, 3)),
+        np.empty((steps, commands.shape[1])),
         np.empty((steps, 3)),
         np.empty((steps, 3)),
         np.empty((steps, 3)),
@@ -306,14 +344,15 @@ def run_glove(packed, state, commands, efforts, decay, supply, rate, valid_low, 
         np.empty(steps, np.int64),
         np.empty(steps),
         np.empty((steps, 4), np.bool_),
+        np.empty((steps, state[6].shape[0], 3)),
     )
     limits = (decay, supply, rate, valid_low, valid_high)
-    run_rows(glove, work, current, fresh(n), commands, efforts, limits, record)
+    run_rows(glove, work, current, fresh(n, air), commands, efforts, limits, air, record)
     return current, record
 
 
 @kernel(counted=False)
-def step_rows(glove, fingers, work, states, new, commands, efforts, limits, outcomes):
+def step_rows(glove, fingers, work, states, new, commands, efforts, limits, air, outcomes):
     """:func:`step_into` for every glove of a batch (its row of each array) on its finger.
 
     ``fingers``: the rows of the gloves' finger constants, link half lengths (N, 3) and laws
@@ -330,6 +369,7 @@ def step_rows(glove, fingers, work, states, new, commands, efforts, limits, outc
             states[3][r],
             states[4][r],
             states[5][r],
+            states[6][r],
         )
         row = (
             new[0][r],
@@ -340,8 +380,9 @@ def step_rows(glove, fingers, work, states, new, commands, efforts, limits, outc
             new[5][r],
             new[6][r],
             new[7][r],
+            new[8][r],
         )
-        outcome = step_into(patient, work, state, row, commands[r], efforts[r], limits)
+        outcome = step_into(patient, work, state, row, commands[r], efforts[r], limits, air)
         status[r], iterations[r], residual[r] = outcome[0], outcome[1], outcome[2]
         flags[r, 0], flags[r, 1], flags[r, 2], flags[r, 3] = outcome[3:]
 
@@ -351,6 +392,7 @@ def step_gloves(
     packed,
     finger_half_lengths,
     laws,
+    air,
     states,
     commands,
     efforts,
@@ -367,11 +409,12 @@ def step_gloves(
     finger's packed constants gives, bit for bit.
 
     Returns the new states, the clipped commands, q̇ (N, 3), status, iterations, residual (N,)
-    and the flags (N, 4) of :func:`run_glove`.
+    and the flags (N, 4) of :func:`run_glove`. ``air`` and ``states`` (rows of what
+    :func:`step_into` takes) give the actuation: behind valves with ``air``.
     """
     glove, work = unpack(packed), workspace()
     rows = commands.shape[0]
-    new = fresh_rows(rows, states[0].shape[1])
+    new = fresh_rows(rows, states[0].shape[1], air)
     outcomes = (
         np.empty(rows, np.int64),
         np.empty(rows, np.int64),
@@ -380,7 +423,7 @@ def step_gloves(
     )
     limits = (decay, supply, rate, valid_low, valid_high)
     fingers = (finger_half_lengths, laws)
-    step_rows(glove, fingers, work, states, new, commands, efforts, limits, outcomes)
+    step_rows(glove, fingers, work, states, new, commands, efforts, limits, air, outcomes)
     status, iterations, residual, flags = outcomes
-    state = (new[0], new[1], new[2], new[3], new[4], new[7])
+    state = (new[0], new[1], new[2], new[3], new[4], new[7], new[8])
     return state, new[5], new[6], status, iterations, residual, flags

@@ -27,6 +27,7 @@ from exodigit_model import (
     patient_file,
 )
 from exodigit_model.material import yeoh_stress
+from exodigit_model.pneumatics import ATMOSPHERIC_PRESSURE, flow_function, mass_flow
 
 from . import jit
 from .patient import finger_torque
@@ -40,6 +41,8 @@ EFFORT = np.array([0.01, 0.0, -0.01])
 DT = 0.01
 #: Steps of a simulation's run.
 STEPS = 5
+#: Valve openings (u_in, then u_out, of MCP, PIP, DIP) of the cases behind valves.
+OPENINGS = np.array([1.0, 0.5, 0.2, 0.0, 0.1, 0.0])
 
 
 def _models() -> dict[str, GloveModel]:
@@ -113,10 +116,26 @@ def exercise_simulation(model: GloveModel) -> None:
     population.reset()
 
 
+def exercise_valves(model: GloveModel) -> None:
+    """The simulations of :func:`exercise_simulation` behind valves, and the air's functions."""
+    one = GloveSimulation(model, actuation='valves')
+    one.step(OPENINGS)
+    one.step(OPENINGS, EFFORT)
+    one.run(np.tile(OPENINGS, (STEPS, 1)))
+    one.run(np.tile(OPENINGS, (STEPS, 1)), np.tile(EFFORT, (STEPS, 1)))
+    batch = GloveSimulation(model, count=4, actuation='valves')
+    batch.step(np.tile(OPENINGS, (4, 1)), np.tile(EFFORT, (4, 1)))
+    batch.run(np.tile(OPENINGS, (STEPS, 4, 1)))
+    batch.reset()
+    flow_function(0.5, 0.3)
+    mass_flow(5e-10, 0.3, 2 * ATMOSPHERIC_PRESSURE, ATMOSPHERIC_PRESSURE, 293.15)
+
+
 CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
     ('model', exercise_model),
     ('geometry', exercise_geometry),
     ('simulation', exercise_simulation),
+    ('valves', exercise_valves),
 ]
 """What to run on every model of :func:`_models`: (name, function of the model)."""
 

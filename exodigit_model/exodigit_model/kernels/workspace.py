@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .jit import kernel
+from .valves import AIR_COLUMNS
 
 MAX_UNKNOWNS = 6
 """Unknowns of the largest solve: q and ε of the extensible glove."""
@@ -33,7 +34,13 @@ class Workspace(NamedTuple):
     Newton (MAX_UNKNOWNS, or its square): ``residual``, ``jacobian``, ``trial``,
     ``trial_residual``, ``trial_jacobian``, ``step``, ``matrix`` (the linear solve's copy);
     ``trial_forces`` and ``trial_torque`` (3). Stepping: ``motion`` (3, 3), the finger's
-    history of a step (:func:`.statics.finger_load`).
+    history of a step (:func:`.statics.finger_load`). Valves (docs/spec/model.md §14): ``air``
+    (3, AIR_COLUMNS), the chambers' pneumatic constants (:mod:`.valves`), and ``masses`` (3),
+    their air masses, kg: a chamber with a mass takes its pressure from the gas law (14.2) at
+    the unknowns, one without (zero, as a fresh workspace has) the pressure it is given;
+    ``gauge`` (3), the pressures of the last residual, Pa, and ``spring`` (3), their slopes
+    ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (3, 3), the integration's
+    (:func:`.valves.admit_air`).
     """
 
     j_robot: np.ndarray
@@ -65,6 +72,11 @@ class Workspace(NamedTuple):
     trial_forces: np.ndarray
     trial_torque: np.ndarray
     motion: np.ndarray
+    air: np.ndarray
+    masses: np.ndarray
+    gauge: np.ndarray
+    spring: np.ndarray
+    air_scratch: np.ndarray
     half_turn: np.ndarray
     chord: np.ndarray
     chord_slope: np.ndarray
@@ -76,7 +88,10 @@ class Workspace(NamedTuple):
 
 
 _SQUARE = MAX_UNKNOWNS * MAX_UNKNOWNS
-_REAL = (9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9)
+_REAL = (
+    *(9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9),
+    *(3 * AIR_COLUMNS, 3, 3, 3, 9),
+)
 """Sizes of the real fields, in order."""
 _REAL_ENDS = tuple(int(end) for end in np.cumsum(_REAL))
 _COMPLEX = (3, 3, 3, 3, 4, 4, 3, 9)
@@ -121,6 +136,11 @@ def workspace():
         r[e[25] : e[26]],
         r[e[26] : e[27]],
         r[e[27] : e[28]].reshape((3, 3)),
+        r[e[28] : e[29]].reshape((3, AIR_COLUMNS)),
+        r[e[29] : e[30]],
+        r[e[30] : e[31]],
+        r[e[31] : e[32]],
+        r[e[32] : e[33]].reshape((3, 3)),
         c[0 : z[0]],
         c[z[0] : z[1]],
         c[z[1] : z[2]],

@@ -24,8 +24,46 @@ class InvalidInputError(ValueError):
         self.kind = kind
 
 
+JOINTS = 'MCP, PIP, DIP'
+"""The values of a joint vector, in order."""
+OPENINGS = 'inlet MCP, inlet PIP, inlet DIP, outlet MCP, outlet PIP, outlet DIP'
+"""The values of a valve command, in order (docs/spec/model.md §14)."""
+MAX_PRESSURE_READING = 10e6
+"""Largest |chamber pressure| accepted as a measurement, Pa."""
 MAX_ANGLE = math.pi
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
+
+
+def finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
+    """The values of a vector message as an array: as many as ``names`` lists, all finite.
+
+    The checks every vector topic shares (pressures, efforts, targets, valve openings).
+
+    Parameters
+    ----------
+    data : sequence of float
+        The ``data`` field of a Float64MultiArray.
+    what : str
+        Name of the topic, for the reason.
+    names : str
+        The values in order, comma-separated (``'MCP, PIP, DIP'``): their count is the length.
+
+    Raises
+    ------
+    InvalidInputError
+        A wrong length or a non-finite value.
+    """
+    size = len(names.split(','))
+    if len(data) != size:
+        raise InvalidInputError(
+            'wrong length', f'{what} needs {size} values ({names}), got {len(data)}'
+        )
+    values = np.array(data, dtype=float)
+    if not np.isfinite(values).all():
+        raise InvalidInputError(
+            'non-finite', f'{what} holds a non-finite value: {values.tolist()}'
+        )
+    return values
 
 
 def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> NDArray[np.float64]:
@@ -40,18 +78,32 @@ def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> N
     bound : float
         Largest magnitude accepted (in the topic's unit).
     """
-    if len(data) != 3:
-        raise InvalidInputError(
-            'wrong length', f'{what} needs 3 values (MCP, PIP, DIP), got {len(data)}'
-        )
-    values = np.array(data, dtype=float)
-    if not np.isfinite(values).all():
-        raise InvalidInputError(
-            'non-finite', f'{what} holds a non-finite value: {values.tolist()}'
-        )
+    values = finite_values(data, what, JOINTS)
     if np.abs(values).max() > bound:
         raise InvalidInputError(
             'out of range', f'{what} value beyond ±{bound:g}: {values.tolist()}'
+        )
+    return values
+
+
+def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
+    """Six finite openings in [0, 1] (docs/spec/ros.md, "Valves"), or :class:`InvalidInputError`.
+
+    The order of a ``valve_command``: the inlet valves of MCP, PIP, DIP, then their outlet valves
+    (:data:`OPENINGS`). An opening outside [0, 1] is refused, not clipped: no valve opens
+    beyond fully or less than closed, so such a command is a controller's bug.
+
+    Parameters
+    ----------
+    data : sequence of float
+        The ``data`` field of a Float64MultiArray.
+    what : str
+        Name of the topic, for the reason.
+    """
+    values = finite_values(data, what, OPENINGS)
+    if ((values < 0.0) | (values > 1.0)).any():
+        raise InvalidInputError(
+            'out of range', f'{what} opening outside [0, 1]: {values.tolist()}'
         )
     return values
 

@@ -1,5 +1,8 @@
 """What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Nodes and topics").
 
+With valves (docs/spec/model.md §14) the report also gives the openings applied and each
+chamber's air mass and volume.
+
 :func:`plant_report` turns the plant's state and counters into the report's problems (each a
 reason for WARN), notes (said, but no reason for WARN) and the key-value pairs shown beside
 them. The plant node adds its simulated time's problems and values and publishes the status.
@@ -92,4 +95,8 @@ def plant_report(
         'cycles': str(counts.cycles),
         'late cycles': str(counts.late_cycles),
     }
+    if state.mass is not None:  # valves (docs/spec/model.md §14): the air in each chamber
+        values['valve openings (in, then out)'] = str(state.command.tolist())
+        values['air mass (kg)'] = str(state.mass.tolist())
+        values['chamber volume (m³)'] = str(state.volume.tolist())
     return PlantReport(problems, notes, values)

@@ -6,7 +6,7 @@ parameter table from it, the venv runner (:mod:`.glove`) and the hand runner sta
 argument defaults from it, and the ROS parameter files ``config/<executable>.yaml`` are generated
 from it (a test checks the committed files against it)::
 
-    python -m exodigit_nodes.nodes.catalog --write-config exodigit_nodes/config
+    python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config
 
 The README's parameter blocks are each node's ``--help`` (:meth:`.ParamTable.help`), also checked
 by a test. No rclpy here, so the launch file and the tests read the table without ROS;
@@ -18,8 +18,9 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-from exodigit_model.control import MODE_DEFAULTS, MODES, SafetyLimits
+from exodigit_model.control import MODE_DEFAULTS, MODES, OUTPUTS, SafetyLimits, ValveLoopSettings
 from exodigit_model.joining import STEP_TOLERANCE
+from exodigit_model.settings import ACTUATIONS
 
 from exodigit_model import SimulationSettings
 
@@ -33,6 +34,9 @@ SAFETY = SafetyLimits()
 STAIRCASE, SINE = MODE_DEFAULTS['staircase'], MODE_DEFAULTS['sine']
 POSITION, FORCE = MODE_DEFAULTS['position'], MODE_DEFAULTS['force']
 """The safety limiter's defaults (exodigit_model.control), which are pressure_command's."""
+VALVE_LOOP = ValveLoopSettings()
+"""The valve pressure loop's defaults (:class:`exodigit_model.control.ValveLoop`), which are
+pressure_command's."""
 DIAGNOSTIC_PERIOD = ParamSpec(
     'diagnostic_period',
     1.0,
@@ -106,23 +110,36 @@ PLANT_NODE = NodeEntry(
                 read_only=True,
             ),
             ParamSpec(
+                'actuation',
+                ACTUATIONS[0],
+                'How the chambers are driven (docs/spec/model.md §14): regulator (subscribe '
+                'pressure_command, chamber pressures with a first-order lag) or valves '
+                '(subscribe valve_command, six inlet and outlet openings; the pressures follow '
+                'the air mass)',
+                choices=ACTUATIONS,
+                read_only=True,
+            ),
+            ParamSpec(
                 'pressure_time_constant',
                 SIM_DEFAULTS.pressure_time_constant,
-                'First-order chamber lag T, s (0 = ideal: chambers follow the command at once)',
+                'regulator: first-order chamber lag T, s (0 = ideal: chambers follow the '
+                'command at once)',
                 low=0.0,
                 high=10.0,
             ),
             ParamSpec(
                 'max_supply_pressure',
                 SIM_DEFAULTS.max_supply_pressure,
-                'Supply saturation: commands are clipped to [0, this], Pa (reported)',
+                'Supply pressure, Pa (regulator commands are clipped to [0, this], reported; '
+                "with valves the inlets' supply unless the model file's pneumatics sets one)",
                 low=1e3,
                 high=1e6,
             ),
             ParamSpec(
                 'command_timeout',
                 0.5,
-                'No valid pressure_command for this long: the chambers vent to zero, s '
+                'No valid command (pressure_command, or valve_command with valves) for this '
+                'long: the chambers vent (to zero; valves: inlets closed, outlets open), s '
                 '(simulated s with clock sim; lockstep uses lockstep_timeout instead)',
                 low=0.01,
                 high=60.0,
@@ -187,8 +204,8 @@ PLANT_NODE = NodeEntry(
             ParamSpec(
                 'lockstep',
                 False,
-                'sim: one step in flight: after each step wait for a pressure_command '
-                '(the answer)',
+                'sim: one step in flight: after each step wait for a command (the answer: '
+                'pressure_command, or valve_command with valves)',
                 read_only=True,
             ),
             ParamSpec(
@@ -283,6 +300,15 @@ PRESSURE_COMMAND_NODE = NodeEntry(
                 choices=tuple(MODES),
             ),
             ParamSpec('rate_hz', 100.0, 'Command rate, Hz', low=1.0, high=1000.0, read_only=True),
+            ParamSpec(
+                'output',
+                OUTPUTS[0],
+                'What it publishes: pressure (pressure_command, the targets) or valves '
+                '(valve_command: openings from a pressure loop on chamber_pressure toward the '
+                'targets, for a plant with actuation valves)',
+                choices=OUTPUTS,
+                read_only=True,
+            ),
             ParamSpec(
                 'lockstep',
                 False,
@@ -407,6 +433,27 @@ PRESSURE_COMMAND_NODE = NodeEntry(
                 'largest joint_states stamp age accepted, s',
                 low=0.01,
                 high=60.0,
+            ),
+            ParamSpec(
+                'valve_deadband',
+                VALVE_LOOP.valve_deadband,
+                'valves: pressure error within which a chamber holds (both valves closed), Pa',
+                low=0.0,
+                high=1e5,
+            ),
+            ParamSpec(
+                'valve_kp',
+                VALVE_LOOP.valve_kp,
+                'valves: proportional gain (opening per Pa of error), 1/Pa',
+                low=1e-9,
+                high=1.0,
+            ),
+            ParamSpec(
+                'valve_ki',
+                VALVE_LOOP.valve_ki,
+                'valves: integral gain (opening per Pa·s of integrated error), 1/(Pa·s)',
+                low=0.0,
+                high=10.0,
             ),
             DIAGNOSTIC_PERIOD,
         ]

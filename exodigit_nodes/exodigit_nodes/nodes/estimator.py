@@ -26,7 +26,6 @@ from ..logic.estimation import Pair, SamplePairer, StiffnessWindow, ValidityTall
 from ..logic.inputs import (
     InvalidInputError,
     joint_positions,
-    joint_vector,
     sent_seconds,
     stamp_age,
     stamp_seconds,
@@ -47,9 +46,6 @@ from .messages import (
 )
 from .node_base import GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
-
-MAX_PRESSURE_READING = 10e6
-"""Largest |chamber pressure| accepted as a measurement, Pa."""
 
 
 class Estimator(GloveNode):
@@ -125,11 +121,7 @@ class Estimator(GloveNode):
 
     def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
         """Offer pressures (Pa) to the pairer at the time they were sent (refused: None)."""
-        try:
-            pressure = joint_vector(message.data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
-        except InvalidInputError as error:
-            self.reject(CHAMBER_PRESSURE, error)
-            pressure = None
+        pressure = self.pressure_reading(message.data)
         self.estimate(self.pairer.add_pressure(pressure, sent_seconds(info)), CHAMBER_PRESSURE)
 
     def estimate(self, pairs: list[Pair], topic: str) -> None:

@@ -10,8 +10,8 @@ level: its nodes live in the namespace itself, with no joint prefix, on the mode
 One table of options, :func:`command_options`, serves the glove and hand runners, ``hand_nodes``
 (the one process that runs every finger's nodes) and ``launch/hand.launch.py``; its entries and
 checks are in :mod:`.run_options` (the time options are the plant's parameters of the same
-names, ``mode`` is ``pressure_command``'s). :func:`hand_config` reads and checks the parsed
-options of any of them.
+names, ``mode`` is ``pressure_command``'s, ``actuation`` the plant's, with ``pressure_command``'s
+``output`` to match). :func:`hand_config` reads and checks the parsed options of any of them.
 """
 
 from __future__ import annotations
@@ -80,6 +80,11 @@ def command_options(command: str) -> tuple[RunOption, ...]:
         if glove
         else namespace_option('/hand', 'the hand; finger f in <namespace>/f'),
         parameter_option('mode', note='' if glove else ' (every finger)'),
+        parameter_option(
+            'actuation',
+            note=' (every finger)' * (not glove) + '; with valves pressure_command publishes '
+            'valve_command from its pressure loop (output valves)',
+        ),
         RunOption(
             'params_file',
             '',
@@ -147,6 +152,9 @@ class HandConfig:
         Absolute namespace of the hand.
     mode : str
         ``pressure_command`` mode of every finger.
+    actuation : str
+        Every plant's ``actuation``; with ``valves`` every ``pressure_command`` has ``output``
+        valves.
     patient : str
         ``nominal``, a patient preset or a patient YAML merged over every plant's finger file.
     estimator : bool
@@ -162,6 +170,7 @@ class HandConfig:
     fingers: tuple[str, ...] = FINGERS
     namespace: str = '/hand'
     mode: str = PRESSURE_COMMAND_NODE.table['mode'].default
+    actuation: str = PLANT_NODE.table['actuation'].default
     patient: str = NOMINAL_PATIENT
     estimator: bool = True
     clock: str = PLANT_NODE.table['clock'].default
@@ -212,8 +221,13 @@ class HandConfig:
             values['params_file'] = list(files)
         if plant and glove.joint_prefix:
             values['joint_prefix'] = glove.joint_prefix
+        valves = self.actuation == 'valves'
+        if plant and valves:
+            values['actuation'] = self.actuation
         if executable == PRESSURE_COMMAND_NODE.executable:
             values['mode'] = self.mode
+            if valves:
+                values['output'] = 'valves'
         return values
 
     def arguments(self) -> list[str]:
@@ -222,6 +236,7 @@ class HandConfig:
             'fingers': ','.join(self.fingers),
             'namespace': self.namespace,
             'mode': self.mode,
+            'actuation': self.actuation,
             'patient': self.patient,
             'estimator': text(self.estimator),
             'clock': self.clock,
@@ -255,6 +270,7 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
         fingers=fingers,
         namespace=options.namespace,
         mode=options.mode,
+        actuation=options.actuation,
         patient=options.patient,
         estimator=getattr(options, 'estimator', 'true') == 'true',
         clock=options.clock,

@@ -11,6 +11,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 PRESSURE_COMMAND = 'pressure_command'
+VALVE_COMMAND = 'valve_command'
 CHAMBER_PRESSURE = 'chamber_pressure'
 JOINT_STATES = 'joint_states'
 CONTACT_FORCES = 'contact_forces'
@@ -31,6 +32,8 @@ STEP = 'step'
 
 JOINT_DIMENSION = 'joint'
 """Label of the one layout dimension of every joint-vector topic."""
+VALVE_DIMENSION = 'valve'
+"""Label of the one layout dimension of ``valve_command`` (six openings: inlets, then outlets)."""
 
 
 def set_double_request(name: str, value: float) -> SetParameters.Request:
@@ -39,16 +42,26 @@ def set_double_request(name: str, value: float) -> SetParameters.Request:
     return SetParameters.Request(parameters=[Parameter(name=name, value=double)])
 
 
-def joint_vector_message() -> Float64MultiArray:
-    """A Float64MultiArray with the ``joint`` layout (size 3), to be filled and reused."""
+def vector_message(label: str, size: int) -> Float64MultiArray:
+    """A Float64MultiArray with one layout dimension (``label``, ``size``), to fill and reuse."""
     message = Float64MultiArray()
-    message.layout.dim = [MultiArrayDimension(label=JOINT_DIMENSION, size=3, stride=3)]
-    message.data = array('d', [0.0, 0.0, 0.0])
+    message.layout.dim = [MultiArrayDimension(label=label, size=size, stride=size)]
+    message.data = array('d', [0.0] * size)
     return message
 
 
+def joint_vector_message() -> Float64MultiArray:
+    """A Float64MultiArray with the ``joint`` layout (size 3), to be filled and reused."""
+    return vector_message(JOINT_DIMENSION, 3)
+
+
+def valve_command_message() -> Float64MultiArray:
+    """A ``valve_command`` with the ``valve`` layout (size 6), to be filled and reused."""
+    return vector_message(VALVE_DIMENSION, 6)
+
+
 def fill(message: Float64MultiArray, values) -> Float64MultiArray:
-    """Put three floats into a message from :func:`joint_vector_message`; returns it."""
+    """Put the floats into a message from :func:`vector_message`; returns it."""
     message.data = array('d', values)
     return message
 

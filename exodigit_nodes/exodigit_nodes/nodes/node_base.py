@@ -16,8 +16,10 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from numpy.typing import NDArray
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -36,11 +38,11 @@ import exodigit_model
 from exodigit_model import ParameterError, load_params
 
 from ..logic.backlog import take_backlog
-from ..logic.inputs import InvalidInputError, RejectionTally
+from ..logic.inputs import MAX_PRESSURE_READING, InvalidInputError, RejectionTally, joint_vector
 from ..logic.lifetime import StopRequest, stop_with_parent
 from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
-from .messages import DIAGNOSTICS, status
+from .messages import CHAMBER_PRESSURE, DIAGNOSTICS, status
 from .qos import WRITER_QOS
 
 if TYPE_CHECKING:
@@ -213,6 +215,17 @@ class GloveNode(Node):
             f'dropped a message on {topic}: {error} ({self.rejections.total} dropped so far)',
             throttle_duration_sec=LOG_THROTTLE,
         )
+
+    def pressure_reading(self, data) -> NDArray[np.float64] | None:
+        """The chamber pressures (Pa) of a ``chamber_pressure``'s ``data``; None if refused.
+
+        A refused message is counted and warned about (:meth:`reject`).
+        """
+        try:
+            return joint_vector(data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
+        except InvalidInputError as error:
+            self.reject(CHAMBER_PRESSURE, error)
+            return None
 
     def publish_status(self, level: bytes, text: str, values: dict[str, str], stamp=None) -> None:
         """Publish one DiagnosticStatus of this node on /diagnostics, stamped ``stamp`` (now).

@@ -9,6 +9,14 @@ lower rates.
 ``reset`` (std_srvs/Trigger) puts pressures, angles and lengths back to rest. With no command for
 ``command_timeout`` it vents.
 
+Actuation (read-only ``actuation``, docs/spec/model.md §14): ``regulator`` (default) takes
+``pressure_command``, the pressures each chamber's regulator makes (after a first-order lag);
+``valves`` takes ``valve_command`` instead, six openings in [0, 1] (inlets MCP, PIP, DIP, then
+outlets) of the valves that fill each chamber from the supply and vent it, whose pressure then
+follows its air mass. A vent (watchdog, reset, no command yet) is zero pressure for a regulator,
+inlets closed and outlets open for valves. Any other command is refused (logged, counted,
+nothing applied).
+
 Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
 ``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
 ns, published on ``/clock`` before that step's outputs, paced at ``real_time_factor`` simulated
@@ -30,6 +38,7 @@ from array import array
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
+from exodigit_model.settings import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
@@ -39,7 +48,7 @@ from visualization_msgs.msg import MarkerArray
 
 from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState
 
-from ..logic.inputs import InvalidInputError, joint_vector
+from ..logic.inputs import InvalidInputError, joint_vector, valve_openings
 from ..logic.pacing import TIME_SETTING_NAMES, known_node
 from ..logic.parameters import describe_files
 from ..logic.plant_report import StepCounts, plant_report
@@ -57,6 +66,7 @@ from .messages import (
     PRESSURE_COMMAND,
     RESET,
     SEGMENT_LENGTHS,
+    VALVE_COMMAND,
     fill,
     joint_vector_message,
 )
@@ -83,6 +93,10 @@ class Plant(GloveNode):
         values, settings = self.values, self.settings
         self.sim_clock = values['clock'] == 'sim'
         self.lockstep = values['lockstep']
+        self.valves = values['actuation'] == 'valves'
+        self.command_topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
+        self.vent = VENT if self.valves else np.zeros(3)
+        """The command of a vent: outlets open (valves) or zero pressure (regulator)."""
         self.watchdog = Watchdog(settings.command_timeout)
         self.use_simulation(self.new_simulation())
         self.period = self.simulation.period
@@ -113,7 +127,7 @@ class Plant(GloveNode):
         )
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, WRITER_QOS)
         self.command_subscription = self.create_subscription(
-            Float64MultiArray, PRESSURE_COMMAND, self.on_command, READER_QOS
+            Float64MultiArray, self.command_topic, self.on_command, READER_QOS
         )
         self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, READER_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
@@ -144,9 +158,13 @@ class Plant(GloveNode):
         )
         self.get_logger().info(
             f'plant running at {values["rate_hz"]:g} Hz on {time_source}, model from '
-            f'{describe_files(values["params_file"])}, chamber lag '
-            f'{settings.simulation.pressure_time_constant:g} s, command timeout '
-            f'{settings.command_timeout:g} s'
+            f'{describe_files(values["params_file"])}, '
+            + (
+                f'valves on {VALVE_COMMAND}'
+                if self.valves
+                else f'chamber lag {settings.simulation.pressure_time_constant:g} s'
+            )
+            + f', command timeout {settings.command_timeout:g} s'
         )
 
     # -- parameters ------------------------------------------------------------------------
@@ -199,7 +217,11 @@ class Plant(GloveNode):
         ConfigurationError
             If ``params_file`` does not load (one line naming it).
         """
-        return GloveSimulation(load_model(self.values['params_file']), self.settings.simulation)
+        return GloveSimulation(
+            load_model(self.values['params_file']),
+            self.settings.simulation,
+            actuation=self.values['actuation'],
+        )
 
     def use_simulation(self, simulation: GloveSimulation) -> None:
         """Simulate on ``simulation`` from its state on: no command, effort or failure yet."""
@@ -213,7 +235,7 @@ class Plant(GloveNode):
 
     def forget_inputs(self) -> None:
         """No command and no effort until new ones come (the watchdog has seen none)."""
-        self.command = np.zeros(3)
+        self.command = self.vent
         self.effort: tuple[float, np.ndarray] | None = None  # (time received, N·m)
         self.watchdog.clear()
 
@@ -230,17 +252,21 @@ class Plant(GloveNode):
     # -- inputs ----------------------------------------------------------------------------
 
     def on_command(self, message: Float64MultiArray) -> None:
-        """Keep a valid command (Pa) and feed the watchdog; drop and count anything else.
+        """Keep a valid command (Pa, or openings) and feed the watchdog; drop and count the rest.
 
         In lockstep any command, valid or not, is the answer to the latest step.
         """
+        topic = self.command_topic
         try:
-            self.command = joint_vector(message.data, PRESSURE_COMMAND)
+            if self.valves:
+                self.command = valve_openings(message.data, topic)
+            else:
+                self.command = joint_vector(message.data, topic)
         except InvalidInputError as error:
-            self.reject(PRESSURE_COMMAND, error)
+            self.reject(topic, error)
         else:
             if self.watchdog.feed(self.time_now()):
-                self.get_logger().info(f'{PRESSURE_COMMAND} again: venting stopped')
+                self.get_logger().info(f'{topic} again: venting stopped')
         if self.lockstep:
             self.time.on_answer(self)
 
@@ -304,13 +330,13 @@ class Plant(GloveNode):
         """Whether the plant vents at ``now`` (s, node or simulated time); says so once."""
         if self.watchdog.update(now):
             self.get_logger().warning(
-                f'no valid {PRESSURE_COMMAND} for over {self.watchdog.timeout:g} s: venting'
+                f'no valid {self.command_topic} for over {self.watchdog.timeout:g} s: venting'
             )
         return self.watchdog.tripped or self.watchdog.last_feed is None
 
     def advance(self, stamp, *, vent: bool) -> GloveState:
-        """Step the simulation with the latest command (zero when venting); publish if stamped."""
-        state = self.simulation.step(np.zeros(3) if vent else self.command, self.current_effort())
+        """Step the simulation with the latest command (or a vent); publish if stamped."""
+        state = self.simulation.step(self.vent if vent else self.command, self.current_effort())
         self.state = state
         if state.saturated:
             self.get_logger().warning(
@@ -375,7 +401,7 @@ class Plant(GloveNode):
         if not (
             self.readers_matched()
             and self.command_subscription.get_publisher_count()
-            >= self.count_publishers(PRESSURE_COMMAND)
+            >= self.count_publishers(self.command_topic)
         ):
             return []
         publishers = self.get_publishers_info_by_topic(self.command_subscription.topic_name)

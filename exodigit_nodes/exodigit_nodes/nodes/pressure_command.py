@@ -8,10 +8,17 @@ parameter or topic) and ``force`` (target contact forces with PI on
 no faster than max_pressure_rate, ramping down when a joint leaves its range of motion or a
 contact force exceeds max_contact_force. On exit (Ctrl-C, SIGTERM) it publishes zero pressure.
 
+With ``output:=valves`` (for a plant with ``actuation:=valves``, docs/spec/model.md §14) the
+limited pressures are the targets of a pressure loop on the measured ``chamber_pressure``
+(:class:`exodigit_model.control.ValveLoop`, the loop of in-process trials too), and it publishes
+that loop's ``valve_command`` (six openings) instead: with no fresh ``chamber_pressure`` and on
+exit, a vent (inlets closed, outlets open).
+
 It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
 simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with one command computed
 from that state and its stamp (in ``force`` mode: from that state and the estimate stamped with
-the same stamp).
+the same stamp; with valves: from that state and the ``chamber_pressure`` of the same step,
+paired by the times they were sent as the estimator pairs them).
 
 When its time goes back (a plant's ``reset_simulation``: a new session, e.g. the next patient of
 a trial), it starts over as if just started: no integral, no rate limit carried over, no feedback
@@ -43,27 +50,37 @@ from exodigit_model.control import (
     SafetyLimits,
     Sine,
     Staircase,
+    ValveLoop,
+    ValveLoopSettings,
 )
+from exodigit_model.joining import STEP_TOLERANCE
+from exodigit_model.settings import VENT
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from ..logic.estimation import Pair, SamplePairer
 from ..logic.inputs import (
     InvalidInputError,
     joint_positions,
     joint_vector,
+    sent_seconds,
     stamp_age,
     stamp_seconds,
 )
 from .catalog import PRESSURE_COMMAND_NODE
+from .message_info import WithInfo
 from .messages import (
+    CHAMBER_PRESSURE,
     ESTIMATED_CONTACT_FORCES,
     JOINT_STATES,
     JOINT_TARGETS,
     PRESSURE_COMMAND,
+    VALVE_COMMAND,
     fill,
     joint_vector_message,
+    valve_command_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
@@ -87,6 +104,8 @@ LIMIT_NAMES = frozenset(
         'feedback_timeout',
     }
 )
+VALVE_NAMES = frozenset(('valve_deadband', 'valve_kp', 'valve_ki'))
+"""The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
 
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
@@ -102,10 +121,11 @@ def safety_limits(values: dict[str, Any]) -> SafetyLimits:
 
 @dataclass(frozen=True)
 class CommandSettings:
-    """The command node's settings: its parameter values and the safety limits they give."""
+    """The command node's settings: its parameter values, the safety limits and valve loop."""
 
     values: dict[str, Any]
     limits: SafetyLimits
+    valve_loop: ValveLoopSettings
 
 
 class PressureCommand(GloveNode):
@@ -122,18 +142,30 @@ class PressureCommand(GloveNode):
         self.limit_counts: dict[str, int] = {}
         self.last_back_off = ''
         self.back_offs_reported = 0
-        self.sent = np.zeros(3)
+        self.valves = self.values['output'] == 'valves'
+        self.safe = VENT if self.valves else np.zeros(3)
+        """What it sends on exit: a vent (valves) or zero pressure."""
+        self.sent = self.safe
+        self.target = np.zeros(3)
+        self.valve_loop = ValveLoop(self.settings.valve_loop)
         self.lockstep = self.values['lockstep']
-        self.pending: dict[str, tuple[float, np.ndarray] | None] = {'angles': None, 'forces': None}
+        self.pressure: tuple[float, np.ndarray] | None = None
+        self.pairer = SamplePairer(STEP_TOLERANCE) if self.valves and self.lockstep else None
+        """Lockstep valves: pairs each state with its step's chamber_pressure."""
+        self.pending: dict[str, Any] = {'angles': None, 'forces': None, 'pressure': None}
         self.start_over(self.session_start())
         if not self.lockstep:  # in lockstep the stamps are the time (on_joint_states)
             self.time_jumps = self.get_clock().create_jump_callback(
                 BACKWARDS, post_callback=self.on_time_jump
             )
 
-        self.command_message = joint_vector_message()
+        self.command_message = valve_command_message() if self.valves else joint_vector_message()
         # Subscriptions before the publisher: when the plant sees our commands' publisher, it
         # has (practically always) seen our joint_states subscription announced first.
+        if self.valves:
+            self.create_subscription(
+                Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), READER_QOS
+            )
         self.forces_subscription = self.create_subscription(
             JointState, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
         )
@@ -154,14 +186,16 @@ class PressureCommand(GloveNode):
         else:
             self.listen_to_states()
         self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, READER_QOS)
-        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
+        self.topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
+        self.publisher = self.create_publisher(Float64MultiArray, self.topic, WRITER_QOS)
         if not self.lockstep:
             self.create_timer(self.period, self.tick)
         self.create_timer(self.values['diagnostic_period'], self.report)
         pace = 'in lockstep with joint_states' if self.lockstep else f'at {self.period**-1:g} Hz'
         self.get_logger().info(
             f'pressure_command: mode {self.values["mode"]} {pace}, '
-            f'max {self.values["max_pressure"]:g} Pa, {self.values["max_pressure_rate"]:g} Pa/s'
+            f'max {self.values["max_pressure"]:g} Pa, {self.values["max_pressure_rate"]:g} Pa/s, '
+            f'publishing {self.topic}'
         )
 
     # -- parameters ------------------------------------------------------------------------
@@ -185,12 +219,14 @@ class PressureCommand(GloveNode):
                 f'joint_targets {list(values["joint_targets"])} rad must lie inside '
                 'joint_lower_limits .. joint_upper_limits'
             )
-        return CommandSettings(values, limits)
+        valve_loop = ValveLoopSettings(**{name: values[name] for name in VALVE_NAMES})
+        return CommandSettings(values, limits, valve_loop)
 
     def apply(self, settings: CommandSettings, changed: set[str]) -> None:
-        """New limits at once; a new controller (session restarts) when its parameters change."""
+        """New limits and valve loop at once; a new controller (session restarts) when its own."""
         self.loop.limiter.limits = settings.limits
-        if changed - LIMIT_NAMES:
+        self.valve_loop.configure(settings.valve_loop)
+        if changed - LIMIT_NAMES - VALVE_NAMES:
             if 'joint_targets' in changed:
                 self.topic_targets = None
             self.loop.controller = self.make_controller()
@@ -231,7 +267,8 @@ class PressureCommand(GloveNode):
         self.last_tick: float | None = None
         self.angles: tuple[float, np.ndarray] | None = None
         self.forces: tuple[float, np.ndarray] | None = None
-        self.pending['angles'] = None
+        self.pending['angles'] = self.pending['pressure'] = None
+        self.valve_loop.reset()
 
     def on_time_jump(self, jump: TimeJump) -> None:
         """The node clock went back (``/clock`` jumped back: a new session): start over."""
@@ -244,7 +281,9 @@ class PressureCommand(GloveNode):
 
     def listen_to_states(self) -> None:
         """Subscribe ``joint_states`` (the state each command answers in lockstep)."""
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_states, READER_QOS)
+        self.create_subscription(
+            JointState, JOINT_STATES, WithInfo(self.on_joint_states), READER_QOS
+        )
 
     def listen_once_estimated(self) -> None:
         """Lockstep force mode: subscribe states once every estimator publisher is matched."""
@@ -256,27 +295,53 @@ class PressureCommand(GloveNode):
         self.listen_to_states()
         self.get_logger().info(f'estimator matched: answering {JOINT_STATES}')
 
-    def on_joint_states(self, message: JointState) -> None:
+    def on_joint_states(self, message: JointState, info: dict) -> None:
         """Keep valid, recently stamped joint angles (rad) with their arrival time.
 
         In lockstep the state's stamp is the time itself (a node that has just started has not
-        heard ``/clock`` yet), so it is not compared with the node clock.
+        heard ``/clock`` yet), so it is not compared with the node clock. In lockstep with
+        valves a state is answered once paired with its step's pressure (a refused state keeps
+        its place in the pairing, and is not answered).
         """
-        now = self.now_seconds()
+        stamp = stamp_seconds(message.header.stamp)
         try:
             angles = joint_positions(message)
-            stamp = stamp_seconds(message.header.stamp)
             if not self.lockstep:
-                stamp_age(stamp, now, self.values['feedback_timeout'], JOINT_STATES)
+                stamp_age(stamp, self.now_seconds(), self.values['feedback_timeout'], JOINT_STATES)
         except InvalidInputError as error:
             self.reject(JOINT_STATES, error)
-            return
+            angles = None
+        if self.pairer is not None:
+            number = info['publication_sequence_number']
+            self.take_pairs(self.pairer.add_angles(angles, sent_seconds(info), number, stamp))
+        elif angles is not None:
+            self.take_state(stamp, angles, None)
+
+    def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
+        """Valves: keep a valid measured chamber pressure (Pa) with its arrival time."""
+        pressure = self.pressure_reading(message.data)
+        if pressure is not None:
+            self.pressure = (self.now_seconds(), pressure)
+        if self.pairer is not None:
+            self.take_pairs(self.pairer.add_pressure(pressure, sent_seconds(info)))
+
+    def take_pairs(self, pairs: list[Pair]) -> None:
+        """Lockstep valves: take each state paired with its pressure (``Pair.state``: stamp)."""
+        for pair in pairs:
+            self.take_state(pair.state, pair.angles, pair.pressure)
+
+    def take_state(self, stamp: float, angles: np.ndarray, pressure: np.ndarray | None) -> None:
+        """Take a valid state stamped ``stamp`` (s); in lockstep, answer it.
+
+        ``angles`` in rad; ``pressure`` (lockstep valves) the chamber pressures of its step, Pa.
+        """
         if self.lockstep and self.last_tick is not None and stamp < self.last_tick:
             self.start_over(None)  # time went back: a new session, from this state
             self.get_logger().info(f'{JOINT_STATES} went back to t = {stamp:.9f} s: a new session')
-        self.angles = (now, angles)
+        self.angles = (self.now_seconds(), angles)
         if self.lockstep:
             self.pending['angles'] = (stamp, angles)
+            self.pending['pressure'] = pressure
             self.answer()
 
     def on_forces(self, message: JointState) -> None:
@@ -329,7 +394,8 @@ class PressureCommand(GloveNode):
         elapsed = self.period if self.last_tick is None else now - self.last_tick
         dt = min(max(elapsed, 0.0), self.period)
         self.last_tick = now
-        self.command(now, dt, Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now)))
+        feedback = Feedback(self.fresh(self.angles, now), self.fresh(self.forces, now))
+        self.command(now, dt, feedback, self.fresh(self.pressure, now))
 
     def answer(self) -> None:
         """Lockstep: one command for the pending state (and, in force mode, its estimate).
@@ -346,16 +412,23 @@ class PressureCommand(GloveNode):
                 return
         elif state is None:
             return
-        self.pending = {'angles': None, 'forces': None}
+        pressure = self.pending['pressure']
+        self.pending = {'angles': None, 'forces': None, 'pressure': None}
         stamp, angles = state
         if self.started is None:
             self.started = stamp
         dt = self.period if self.last_tick is None else max(stamp - self.last_tick, 0.0)
         self.last_tick = stamp
-        self.command(stamp, dt, Feedback(angles, None if forces is None else forces[1]))
+        self.command(stamp, dt, Feedback(angles, None if forces is None else forces[1]), pressure)
 
-    def command(self, now: float, dt: float, feedback: Feedback) -> None:
-        """Compute, limit and publish the command at ``now`` (s) after ``dt`` (s)."""
+    def command(
+        self, now: float, dt: float, feedback: Feedback, measured: np.ndarray | None
+    ) -> None:
+        """Compute, limit and publish the command at ``now`` (s) after ``dt`` (s).
+
+        With valves the limited pressures are the loop's targets and ``measured`` the chamber
+        pressures (Pa) it closes on: None (none fresh) vents.
+        """
         result = self.loop.command(now - self.started, dt, feedback)
         if result.missing:
             self.get_logger().warning(
@@ -371,14 +444,25 @@ class PressureCommand(GloveNode):
             self.get_logger().warning(
                 '; '.join(result.reasons.values()), throttle_duration_sec=LOG_THROTTLE
             )
-        self.sent = result.pressure
+        self.target = result.pressure
+        if not self.valves:
+            self.sent = result.pressure
+        elif measured is None:
+            self.get_logger().warning(
+                f'no fresh {CHAMBER_PRESSURE} for over {self.values["feedback_timeout"]:g} s: '
+                'venting',
+                throttle_duration_sec=LOG_THROTTLE,
+            )
+            self.sent = VENT
+        else:
+            self.sent = self.valve_loop.openings(result.pressure, measured, dt)
         self.publisher.publish(fill(self.command_message, self.sent))
 
     def on_shutdown(self) -> None:
-        """Send zero pressure; the process then waits until subscribers have it (``deliver``)."""
-        self.sent = np.zeros(3)
+        """Send zero pressure (a vent); the process then waits until subscribers have it."""
+        self.sent = self.safe
         self.publisher.publish(fill(self.command_message, self.sent))
-        self.get_logger().info('stopping: sent zero pressure')
+        self.get_logger().info('stopping: sent ' + ('a vent' if self.valves else 'zero pressure'))
 
     def report(self) -> None:
         """One /diagnostics status: mode, command, limits acting, feedback age."""
@@ -390,9 +474,13 @@ class PressureCommand(GloveNode):
         if backed_off:
             problems.append(f'{backed_off} steps {self.last_back_off}')
             self.back_offs_reported += backed_off
+        if self.valves and self.fresh(self.pressure, now) is None:
+            problems.append(f'no fresh {CHAMBER_PRESSURE}: venting')
+        sent = 'valve command sent (in, then out)' if self.valves else 'command sent (Pa)'
         values = {
             'mode': self.values['mode'],
-            'command sent (Pa)': str(self.sent.tolist()),
+            sent: str(self.sent.tolist()),
+            'pressure target (Pa)': str(self.target.tolist()),
             'joint_states age (s)': 'none'
             if self.angles is None
             else f'{now - self.angles[0]:.3f}',

@@ -12,7 +12,14 @@ source matches a reliable publisher too).
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .messages import CLOCK, DIAGNOSTICS, JOINT_TARGETS, PATIENT_EFFORT, PRESSURE_COMMAND
+from .messages import (
+    CLOCK,
+    DIAGNOSTICS,
+    JOINT_TARGETS,
+    PATIENT_EFFORT,
+    PRESSURE_COMMAND,
+    VALVE_COMMAND,
+)
 
 WRITER_DEPTH = 1000
 """Samples each publisher keeps, for readers that have not acknowledged them and for readers
@@ -79,11 +86,13 @@ RECORD_ANY_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 """Recording subscriptions of topics that any node may publish with rclpy's default (volatile)
-profile: a user's controller on ``pressure_command``, ``patient_effort`` and ``joint_targets``,
-every node on ``/diagnostics``, another simulator on ``/clock``. Volatile, so that such a
-publisher matches; what it sent before the match is not recorded."""
+profile: a user's controller on ``pressure_command``, ``valve_command``, ``patient_effort`` and
+``joint_targets``, every node on ``/diagnostics``, another simulator on ``/clock``. Volatile, so
+that such a publisher matches; what it sent before the match is not recorded."""
 
-OPEN_TOPICS = frozenset({PRESSURE_COMMAND, PATIENT_EFFORT, JOINT_TARGETS, DIAGNOSTICS, CLOCK})
+OPEN_TOPICS = frozenset(
+    {PRESSURE_COMMAND, VALVE_COMMAND, PATIENT_EFFORT, JOINT_TARGETS, DIAGNOSTICS, CLOCK}
+)
 """Topics that nodes other than the glove's own publish (docs/spec/ros.md, "QoS"): recorded with
 :data:`RECORD_ANY_QOS`. Every other glove topic has only the plant or the estimator as its
 publisher."""

@@ -2,13 +2,13 @@
 
 ``python -m exodigit_nodes.glove``, ``python -m exodigit_nodes.hand``, ``hand_nodes`` and
 ``launch/hand.launch.py`` build their options from :class:`RunOption` entries made here (one
-table of them: :func:`.hand_config.command_options`): the
-namespace, the ``pressure_command`` mode, the patient, and the simulated-time options, which
-are the plant's parameters of the same names (:mod:`.catalog`) with their defaults, descriptions
-and checks. Values stay text on the command line (``--lockstep`` alone means true, as does
-``--lockstep true``; in a launch ``lockstep:=true``); :func:`time_settings` reads and checks
-them, and :func:`check_sim_only` refuses the simulated-time ones with the wall clock. Every
-refusal is a :class:`..logic.options.UsageError` naming the option (no rclpy).
+table of them: :func:`.hand_config.command_options`): the namespace, the ``pressure_command``
+mode, the plant's actuation, the patient, and the simulated-time options, which are the plant's
+parameters of the same names (:mod:`.catalog`) with their defaults, descriptions and checks.
+Values stay text on the command line (``--lockstep`` alone means true, as does ``--lockstep
+true``; in a launch ``lockstep:=true``); :func:`time_settings` reads and checks them, and
+:func:`check_sim_only` refuses the simulated-time ones with the wall clock. Every refusal is a
+:class:`..logic.options.UsageError` naming the option (no rclpy).
 """
 
 from __future__ import annotations
@@ -72,7 +72,10 @@ def text(value) -> str:
 
 
 def parameter_option(name: str, *, note: str = '') -> RunOption:
-    """The option of a plant parameter (``mode``: of pressure_command's), as its table says."""
+    """The option of a plant parameter (``mode``: of pressure_command's), as its table says.
+
+    ``note`` is added to its help.
+    """
     spec = PRESSURE_COMMAND_NODE.table[name] if name == 'mode' else PLANT_NODE.table[name]
     switch = isinstance(spec.default, bool)
     return RunOption(

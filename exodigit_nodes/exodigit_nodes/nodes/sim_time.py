@@ -4,11 +4,12 @@
 member takes step k at t_k together, ``/clock`` is published once per step before the members'
 outputs, and the steps are paced at ``real_time_factor`` simulated seconds per wall second
 (0 = as fast as possible, :class:`.pacing.Pacer`). With ``lockstep`` each step waits until every
-member has its answer (a ``pressure_command``); a member whose controller stays silent for
-``lockstep_timeout`` wall seconds unlocks the clock: the silent members vent and every member
-steps on at real time until the silent ones answer again. ``set_paused`` (std_srvs/SetBool) and
-``step`` (std_srvs/Trigger, one step while paused) are served by the owner node, ``pause_at``
-pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
+member has its answer (a command: ``pressure_command``, or ``valve_command`` with valves); a
+member whose controller stays silent for ``lockstep_timeout`` wall seconds unlocks the clock: the
+silent members vent and every member steps on at real time until the silent ones answer again.
+``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger, one step while paused) are
+served by the owner node, ``pause_at`` pauses once simulated time reaches it, and no step goes
+past ``run_until`` until it is raised.
 ``reset_simulation`` (std_srvs/Trigger, as Gazebo's) starts a new session: every member rebuilt
 from its parameters (a new patient's ``params_file`` and ``seed``), simulated time back to zero,
 the rest state published as step 1; so ``/clock`` jumps back, the standard signal on which the
@@ -35,7 +36,7 @@ from std_srvs.srv import SetBool, Trigger
 from exodigit_model import GloveSimulation, GloveState
 
 from ..logic.pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
-from .messages import CLOCK, PRESSURE_COMMAND, RESET_SIMULATION, SET_PAUSED, STEP
+from .messages import CLOCK, RESET_SIMULATION, SET_PAUSED, STEP
 from .node_base import ConfigurationError
 from .qos import WRITER_QOS
 
@@ -60,6 +61,8 @@ class Member(Protocol):
 
     period: float
     state: GloveState
+    command_topic: str
+    """The topic of its commands, whose messages answer its steps."""
 
     def controller_present(self) -> bool:
         """Lockstep start: a controller publishes commands and every output reader is matched."""
@@ -166,7 +169,7 @@ class SimulatedTime:
         self.awaiting.discard(member)
         if member in self.silent:
             self.silent.discard(member)
-            member.get_logger().info(f'{PRESSURE_COMMAND} again: stepping in lockstep again')
+            member.get_logger().info(f'{member.command_topic} again: stepping in lockstep again')
             if not self.silent:
                 self.restart_pacing()
         self.try_step(time.monotonic())
@@ -186,8 +189,8 @@ class SimulatedTime:
             self.awaiting = set()
             for member in newly_silent:
                 member.get_logger().warning(
-                    f'no {PRESSURE_COMMAND} within lockstep_timeout {timeout:g} s: venting and '
-                    'stepping on at real time until a command comes'
+                    f'no {member.command_topic} within lockstep_timeout {timeout:g} s: venting '
+                    'and stepping on at real time until a command comes'
                 )
             self.restart_pacing()
         budget = wall + FREE_RUN_BUDGET

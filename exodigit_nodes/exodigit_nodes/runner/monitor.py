@@ -19,7 +19,14 @@ from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
 from exodigit_nodes.nodes.message_info import WithInfo
 from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
 from exodigit_nodes.nodes.qos import RECORD_ANY_QOS, RECORD_QOS
-from exodigit_nodes.runner.summary import JOINT_LABELS, SIGNALS, STAMPED, GloveSignals, Sample
+from exodigit_nodes.runner.summary import (
+    JOINT_LABELS,
+    SIGNALS,
+    STAMPED,
+    GloveSignals,
+    Sample,
+    net_openings,
+)
 
 
 def status_node(status_name: str, namespace: str, nodes) -> str | None:
@@ -74,6 +81,8 @@ class GloveMonitor(Node):
                 callback, message_type = self._on_joint_state, JointState
             elif topic in STAMPED:
                 callback, message_type = self._stamped_callback(topic), JointState
+            elif topic == 'valve_command':
+                callback, message_type = self._on_valve_command, Float64MultiArray
             else:
                 callback, message_type = self._array_callback(topic), Float64MultiArray
             self._inputs.append(
@@ -137,6 +146,11 @@ class GloveMonitor(Node):
             self._update(topic, message.effort, info, stamp_seconds(message.header.stamp))
 
         return callback
+
+    def _on_valve_command(self, message: Float64MultiArray, info: dict) -> None:
+        values = net_openings(message.data)
+        if values is not None:
+            self._update('valve_command', values, info)
 
     def _on_joint_state(self, message: JointState, info: dict) -> None:
         self._update('joint_states', message.position, info, stamp_seconds(message.header.stamp))

@@ -52,6 +52,7 @@ class Signal:
 #: Every signal the summary shows and the run record keeps, by topic name.
 SIGNALS = {
     'pressure_command': Signal('command', 'p_cmd', 1e-3, 'kPa', 'kpa'),
+    'valve_command': Signal('valves', 'u_net', 100.0, '%', 'pct', decimals=0),
     'chamber_pressure': Signal('chamber', 'p', 1e-3, 'kPa', 'kpa'),
     'joint_states': Signal('angle', 'q', 180.0 / math.pi, 'deg', 'deg'),
     'contact_forces': Signal('force sim', 'f', 1.0, 'N', 'n', decimals=3),
@@ -59,6 +60,8 @@ SIGNALS = {
     'estimated_finger_stiffness': Signal('K_H est', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
     'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
+#: Openings of a ``valve_command`` (with actuation valves): inlets MCP, PIP, DIP, then outlets.
+VALVE_OPENINGS = 6
 #: The plant topics a `Sample` joins, in the order the plant publishes them in a step
 #: (``Plant.publish_state``): the first leads (`exodigit_model.joining`).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
@@ -69,6 +72,18 @@ STAMPED = ('estimated_contact_forces',)
 ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
+
+
+def net_openings(openings) -> np.ndarray | None:
+    """Per joint, u_in − u_out of a ``valve_command`` (the ``valves`` signal: + fills, − vents).
+
+    None for a message of another length (another publisher's malformed one: the plant reports
+    those, not the summary).
+    """
+    values = np.asarray(openings, dtype=float)
+    if values.shape != (VALVE_OPENINGS,):
+        return None
+    return values[:3] - values[3:]
 
 
 class Level(IntEnum):

@@ -6,8 +6,9 @@ for the test however long it takes) and ``real_time_factor:=0``, and talks to th
 node of its own (its own context, so it never touches the caller's ``rclpy.init``). Two ways to
 drive the glove:
 
-* the test is the controller: :meth:`GloveSim.step` sends one ``pressure_command`` and returns the
-  state of the step it caused (docs/spec/ros.md Part II: one command in, the next state out);
+* the test is the controller: :meth:`GloveSim.step` sends one ``pressure_command`` (with
+  ``actuation='valves'``: one ``valve_command``, six openings) and returns the state of the step
+  it caused (docs/spec/ros.md Part II: one command in, the next state out);
 * the controller is a ROS node of the user's, started with :attr:`GloveSim.env` in
   :attr:`GloveSim.namespace`: :meth:`GloveSim.run` lets the plant step in lockstep with it for
   exactly that many simulated seconds and returns the record. Between runs the plant is paused, so
@@ -31,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..logic.inputs import InvalidInputError, valve_openings
 from ..logic.pacing import CONTROLLERS_LABEL
 from ..nodes.dds import use_profile
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
@@ -51,6 +53,8 @@ FIXED_PLANT = {
     'start_paused': True,
 }
 """Plant parameters the kit sets itself (they define how it drives the plant)."""
+KIT_OPTIONS = ('actuation',)
+"""Plant parameters given as :class:`GloveSim`'s own keyword arguments (the client needs them)."""
 _NAMESPACES = itertools.count(1)
 
 
@@ -62,11 +66,15 @@ def patient_parameters(
     Raises
     ------
     ValueError
-        If ``plant`` names a parameter the kit sets itself (:data:`FIXED_PLANT`).
+        If ``plant`` names a parameter the kit sets itself (:data:`FIXED_PLANT`) or takes as
+        its own keyword argument (:data:`KIT_OPTIONS`).
     """
     fixed = sorted(set(plant or {}) & set(FIXED_PLANT))
     if fixed:
         raise ValueError(f'plant parameter {fixed[0]} is set by the testing kit itself')
+    own = sorted(set(plant or {}) & set(KIT_OPTIONS))
+    if own:
+        raise ValueError(f'plant parameter {own[0]} is GloveSim({own[0]}=...), not plant')
     path = '' if params_file is None else str(Path(params_file).resolve())
     return {**(plant or {}), 'params_file': path}
 
@@ -86,6 +94,10 @@ class GloveSim:
     estimator : bool
         Also start the ``estimator`` node (its estimate of each step is in
         :attr:`SimState.estimated_forces`).
+    actuation : str
+        The plant's ``actuation``: ``'regulator'`` (commands are three pressures,
+        ``pressure_command``) or ``'valves'`` (six openings in [0, 1], inlets MCP, PIP, DIP then
+        outlets, ``valve_command``; docs/spec/model.md §14).
     plant : mapping, optional
         More plant parameters (e.g. ``{'pressure_time_constant': 0.05, 'angle_noise_std':
         1e-3, 'seed': 3, 'rate_hz': 200.0}``). The kit's own (clock, lockstep, pacing) cannot be
@@ -105,6 +117,8 @@ class GloveSim:
     ...     state = glove.reset()
     ...     for _ in range(100):
     ...         state = glove.step([30e3, 30e3, 30e3])
+    >>> with GloveSim(actuation='valves') as glove:      # doctest: +SKIP
+    ...     state = glove.step([0.2, 0.2, 0.2, 0.0, 0.0, 0.0])  # inlets 20 % open
     """
 
     def __init__(
@@ -112,6 +126,7 @@ class GloveSim:
         params_file: str | os.PathLike | None = None,
         *,
         estimator: bool = False,
+        actuation: str = 'regulator',
         plant: Mapping[str, Any] | None = None,
         namespace: str | None = None,
         domain_id: int | None = None,
@@ -138,7 +153,15 @@ class GloveSim:
             log_dir = self._temporary.name
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        parameters = {**PLANT_DEFAULTS, **patient_parameters(params_file, plant), **FIXED_PLANT}
+        from ..nodes.catalog import PLANT_NODE
+
+        self.actuation = PLANT_NODE.table['actuation'].check(actuation)
+        parameters = {
+            **PLANT_DEFAULTS,
+            **patient_parameters(params_file, plant),
+            'actuation': self.actuation,
+            **FIXED_PLANT,
+        }
         self.rate_hz = float(parameters.get('rate_hz', 100.0))
         self._processes: list[NodeProcess] = []
         self._node = None
@@ -179,7 +202,11 @@ class GloveSim:
             signal_handler_options=SignalHandlerOptions.NO,
         )
         self._node = GloveClient(
-            self.namespace, self._context, estimator=estimator, rate_hz=self.rate_hz
+            self.namespace,
+            self._context,
+            estimator=estimator,
+            rate_hz=self.rate_hz,
+            valves=self.actuation == 'valves',
         )
         self._executor = EventsExecutor(context=self._context)
         self._executor.add_node(self._node)
@@ -268,23 +295,31 @@ class GloveSim:
         return self.state
 
     def step(self, command: ArrayLike) -> SimState:
-        """Send one pressure command (Pa, MCP, PIP, DIP); return the state of the step it causes.
+        """Send one command; return the state of the step it causes.
+
+        The command is three pressures (Pa, MCP, PIP, DIP), or with ``actuation='valves'`` six
+        openings in [0, 1] (inlets MCP, PIP, DIP, then outlets).
 
         Raises
         ------
         ValueError
-            If ``command`` is not three finite numbers.
+            If ``command`` is not three finite numbers (valves: six in [0, 1]).
         GloveSimError
-            If another node publishes ``pressure_command`` (use :meth:`run` for that), or the
+            If another node publishes this glove's commands (use :meth:`run` for that), or the
             glove does not answer within ``timeout``.
         """
         values = np.asarray(command, dtype=float)
-        if values.shape != (3,) or not np.isfinite(values).all():
+        if self.actuation == 'valves':
+            try:
+                values = valve_openings(values.ravel().tolist(), 'command')
+            except InvalidInputError as error:
+                raise ValueError(f'{error} (got {command!r})') from None
+        elif values.shape != (3,) or not np.isfinite(values).all():
             raise ValueError(f'command must be three finite pressures in Pa, got {command!r}')
         if self._node.other_controllers():
             raise GloveSimError(
-                f'another node publishes {self.namespace}/pressure_command: a test cannot '
-                'step the glove beside it; use run() for an external controller'
+                f'another node publishes {self.namespace}/{self._node.command_topic}: a test '
+                'cannot step the glove beside it; use run() for an external controller'
             )
         self._set_paused(False)
         self._node.send(values)
@@ -298,7 +333,8 @@ class GloveSim:
     def run(self, seconds: float) -> SimRecord:
         """Step in lockstep with your controller node for exactly ``seconds`` simulated seconds.
 
-        The controller must answer every ``joint_states`` with one ``pressure_command``. The
+        The controller must answer every ``joint_states`` with one command (``pressure_command``,
+        or ``valve_command`` with valves). The
         first run after :meth:`reset` or :meth:`step` starts with a fresh state (one step with
         the latest command) so that a node started since sees a state to answer; later runs go
         on exactly where the last one stopped. Start your node after ``reset()``. The plant
@@ -321,7 +357,8 @@ class GloveSim:
         if not (math.isfinite(seconds) and steps >= 1):
             raise ValueError(f'seconds = {seconds!r}: must give at least one step')
         controllers = self._wait(
-            self._node.other_controllers, 'your controller to publish pressure_command'
+            self._node.other_controllers,
+            f'your controller to publish {self._node.command_topic}',
         )
         self._set_paused(True)
         if not self._external_synced:
@@ -380,7 +417,7 @@ class GloveSim:
             self._paused = paused
 
     def _wait_matched(self, controllers: list[str]) -> None:
-        """Wait until the plant and our ``pressure_command`` reader have matched ``controllers``.
+        """Wait until the plant and our command reader have matched ``controllers``.
 
         The plant before the state each is to answer; our reader to count their answers.
         """

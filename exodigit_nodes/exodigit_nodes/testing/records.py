@@ -72,7 +72,7 @@ class SimRecord(StateHistory):
     """The states of a :meth:`GloveSim.run` and the commands that answered them.
 
     Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
-    plant applies in the next step), Pa, shape (n, 3).
+    plant applies in the next step), Pa, shape (n, 3); with valves the openings, shape (n, 6).
     """
 
     command: NDArray[np.float64]

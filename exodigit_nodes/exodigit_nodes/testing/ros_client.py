@@ -30,9 +30,11 @@ from ..nodes.messages import (
     SEGMENT_LENGTHS,
     SET_PAUSED,
     STEP,
+    VALVE_COMMAND,
     fill,
     joint_vector_message,
     set_double_request,
+    valve_command_message,
 )
 from ..nodes.qos import RECORD_ANY_QOS, RECORD_QOS, WRITER_QOS
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
@@ -57,9 +59,13 @@ class GloveClient(Node):
         Whether an estimator runs (its estimates are part of each state).
     rate_hz : float
         The plant's step rate.
+    valves : bool
+        The plant takes ``valve_command`` (six openings), not ``pressure_command``.
     """
 
-    def __init__(self, namespace: str, context, *, estimator: bool, rate_hz: float) -> None:
+    def __init__(
+        self, namespace: str, context, *, estimator: bool, rate_hz: float, valves: bool
+    ) -> None:
         super().__init__('glove_sim_client', namespace=namespace, context=context)
         self.queues: dict[str, deque] = {
             JOINT_STATES: deque(),
@@ -86,11 +92,12 @@ class GloveClient(Node):
                     JointState, ESTIMATED_CONTACT_FORCES, self._estimate_queue, RECORD_QOS
                 )
             )
+        self.command_topic = VALVE_COMMAND if valves else PRESSURE_COMMAND
         self.command_subscription = self.create_subscription(
-            Float64MultiArray, PRESSURE_COMMAND, self._vector_queue(None), RECORD_ANY_QOS
+            Float64MultiArray, self.command_topic, self._vector_queue(None), RECORD_ANY_QOS
         )
-        self.command_message = joint_vector_message()
-        self.publisher = self.create_publisher(Float64MultiArray, PRESSURE_COMMAND, WRITER_QOS)
+        self.command_message = valve_command_message() if valves else joint_vector_message()
+        self.publisher = self.create_publisher(Float64MultiArray, self.command_topic, WRITER_QOS)
         plant = f'{namespace.rstrip("/")}/plant'
         self.reset_client = self.create_client(Trigger, RESET)
         self.reset_simulation_client = self.create_client(Trigger, RESET_SIMULATION)
@@ -162,7 +169,7 @@ class GloveClient(Node):
         return bool(readers[0] & readers[1])
 
     def other_controllers(self) -> list[str]:
-        """Names of the other nodes that publish this glove's ``pressure_command``.
+        """Names of the other nodes that publish this glove's commands.
 
         The graph's count of publishers first: it is cheap, and asked before every ``step``.
         """
@@ -183,7 +190,7 @@ class GloveClient(Node):
         ]
 
     def hears_every_controller(self) -> bool:
-        """Whether our ``pressure_command`` reader has matched every publisher the graph lists.
+        """Whether our command reader has matched every publisher the graph lists.
 
         The graph lists a publisher before our reader has matched it, and what a volatile
         publisher sends in between never reaches us: a run counting its controller's answers
@@ -229,7 +236,7 @@ class GloveClient(Node):
         return None
 
     def send(self, command: np.ndarray) -> None:
-        """Publish one pressure command, Pa."""
+        """Publish one command (Pa, or openings)."""
         self.publisher.publish(fill(self.command_message, command))
 
     def clear_commands(self) -> None:
