@@ -279,7 +279,7 @@ class GloveSimulation:
         ValueError
             If ``command`` or ``effort`` has the wrong shape or a non-finite value.
         """
-        command = self._command(command)
+        command = self._openings(command) if self.valves else self._rows('command', command)
         effort = self._zeros if effort is None else self._rows('effort', effort)
         glove = self.model.packed
         gas = None
@@ -334,9 +334,11 @@ class GloveSimulation:
             in_valid_range=valid,
             in_range_of_motion=moving_range,
             saturated=self.chambers.saturated_now,
-            mass=None if gas is None else gas[..., GAS_MASS, :],
-            volume=None if gas is None else gas[..., GAS_VOLUME, :],
         )
+        if gas is not None:
+            self.state = self.state._replace(
+                mass=gas[..., GAS_MASS, :], volume=gas[..., GAS_VOLUME, :]
+            )
         return self.state
 
     def run(self, commands: ArrayLike, efforts: ArrayLike | None = None) -> GloveState:
@@ -425,10 +427,8 @@ class GloveSimulation:
         self.state = GloveState(*(_last(value) for value in run))
         return run
 
-    def _command(self, value: ArrayLike) -> NDArray[np.float64]:
-        """``value`` checked to the shape of this simulation's commands (a ValueError)."""
-        if not self.valves:
-            return self._rows('command', value)
+    def _openings(self, value: ArrayLike) -> NDArray[np.float64]:
+        """``value`` checked to the shape of the valves' openings (a ValueError)."""
         try:
             array = np.asarray(value, dtype=float)
         except (TypeError, ValueError):

@@ -34,10 +34,11 @@ The finger side depends on q only, so ∂f/∂ε = 0. With no finger (free motio
 Every residual is affine in p, and each row is judged against the size of the terms it is made
 of (``scale``, what :mod:`.newton` compares the residual norm with).
 
-Valves (docs/spec/model.md §14): a chamber whose air mass m is given (``work.masses``) has the
-pressure of the gas law at the unknowns, p(x) = m·R·T/V(x) − P_atm (14.1, 14.2), instead of a
-given one; the Jacobian gains the chamber's "gas spring" ∂τ/∂p·∂p/∂V·∂V/∂x, with
-∂p/∂V = −m·R·T/V², ∂V/∂q = r_pA_p and ∂V/∂ε = A_c·ℓ̂.
+Valves (docs/spec/model.md §14): chambers whose air masses m are given (``work.masses``, zero
+in a fresh workspace: none) have the pressures of the gas law at the unknowns,
+p(x) = m·R·T/V(x) − P_atm (14.1, 14.2), instead of given ones; the Jacobian gains the
+chambers' "gas spring" ∂τ/∂p·∂p/∂V·∂V/∂x, with ∂p/∂V = −m·R·T/V², ∂V/∂q = r_pA_p and
+∂V/∂ε = A_c·ℓ̂ (:func:`gas_spring`).
 """
 
 from __future__ import annotations
@@ -50,13 +51,7 @@ from .linear import transpose_product, transpose_solve
 from .patient import finger_torque
 from .section import resultants
 from .structural import structural_torque
-from .valves import (
-    AIR_ATMOSPHERE,
-    AIR_VOLUME_PER_ANGLE,
-    AIR_VOLUME_PER_STRAIN,
-    absolute_pressure,
-    chamber_volume,
-)
+from .valves import AIR_VOLUME_PER_ANGLE, AIR_VOLUME_PER_STRAIN, gas_pressures
 
 
 @kernel(counted=False, forceinline=True)
@@ -151,17 +146,11 @@ def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, 
         if extensible:
             transpose_product(work.j_length, forces, stretching)
     total = 0.0
-    air, masses, gauge, spring = work.air, work.masses, work.gauge, work.spring
+    gauge = pressure
+    if work.masses[0] > 0.0:  # behind valves: the gas law (14.2) at x
+        gas_pressures(work.air, work.masses, x, work.gauge, work.spring)
+        gauge = work.gauge
     for k in range(3):
-        if masses[k] > 0.0:  # the gas law (14.2); an empty volume gives no finite residual
-            volume = chamber_volume(air[k], x, k)
-            absolute, spring[k] = math.inf, 0.0
-            if volume > 0.0:
-                absolute = absolute_pressure(air[k], masses[k], volume)
-                spring[k] = -absolute / volume
-            gauge[k] = absolute - air[k, AIR_ATMOSPHERE]
-        else:
-            gauge[k] = pressure[k]
         drive = moments[k] * gauge[k]
         residual[k] = tau[k] + drive - coupling[k]
         size = abs(tau[k]) + abs(drive) + abs(coupling[k])
@@ -238,15 +227,24 @@ def jacobian_of(glove, work, x, free, jacobian, forces):
                 jacobian[3 + m, 3 + m] = -rest[m] * (force_rate[m] + layer_stiffness[m])
             else:
                 jacobian[3 + m, 3 + m] = 1.0
-    masses, spring, air = work.masses, work.spring, work.air
-    moments, areas = glove.pressure_moments, glove.pressure_areas
+    if work.masses[0] > 0.0:  # behind valves: the gas spring, ∂p/∂x through V (14.1)
+        gas_spring(glove, work.air, work.spring, extensible, jacobian)
+
+
+@kernel(counted=False, forceinline=True)
+def gas_spring(glove, air, spring, extensible, jacobian):
+    """The gas spring of (14.2) added to ``jacobian``: ∂τ/∂p·∂p/∂V·∂V/∂x per chamber.
+
+    ``spring`` holds ∂p/∂V at the last :func:`residual_of`'s x (:func:`.valves.gas_pressures`).
+    """
+    rest, moments, areas = glove.arc_lengths, glove.pressure_moments, glove.pressure_areas
+    segments_stretch = glove.extensible_segments
     for m in range(3):
-        if masses[m] > 0.0:  # the gas spring: ∂p_m/∂x through V_m (14.1)
-            by_angle = spring[m] * air[m, AIR_VOLUME_PER_ANGLE]
-            jacobian[m, m] += moments[m] * by_angle
-            if extensible:
-                by_strain = spring[m] * air[m, AIR_VOLUME_PER_STRAIN]
-                jacobian[m, 3 + m] += moments[m] * by_strain
-                if segments_stretch[m]:
-                    jacobian[3 + m, m] += rest[m] * areas[m] * by_angle
-                    jacobian[3 + m, 3 + m] += rest[m] * areas[m] * by_strain
+        by_angle = spring[m] * air[m, AIR_VOLUME_PER_ANGLE]
+        jacobian[m, m] += moments[m] * by_angle
+        if extensible:
+            by_strain = spring[m] * air[m, AIR_VOLUME_PER_STRAIN]
+            jacobian[m, 3 + m] += moments[m] * by_strain
+            if segments_stretch[m]:
+                jacobian[3 + m, m] += rest[m] * areas[m] * by_angle
+                jacobian[3 + m, 3 + m] += rest[m] * areas[m] * by_strain

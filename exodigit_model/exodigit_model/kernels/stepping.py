@@ -253,7 +253,7 @@ def step_one(packed, block, command, effort, decay, supply, rate, valid_low, val
     # contiguous, and step_into takes one layout (:func:`.jit.kernel`).
     earlier, new_earlier = np.empty((2, 3)), np.empty((2, 3))
     earlier[:, :] = block[7:, :3]
-    regulator = np.empty((0, 3))  # no air: no gas state, no pneumatic constants
+    regulator = new[9:]  # no rows, so no air: no gas state, no pneumatic constants
     state = (block[0], block[1, :3], block[2, :3], block[3, :3], block[4, :3], earlier, regulator)
     rows = (
         new[0],

@@ -229,6 +229,21 @@ def absolute_pressure(row, mass, volume):
 
 
 @kernel(counted=False, forceinline=True)
+def gas_pressures(air, masses, x, gauge, spring):
+    """The gauge pressures of the gas law (14.2) at the unknowns ``x`` into ``gauge``, Pa.
+
+    Their slopes ∂p/∂V into ``spring``, Pa/m³; a chamber without volume gets no finite pressure.
+    """
+    for k in range(3):
+        volume = chamber_volume(air[k], x, k)
+        absolute, spring[k] = math.inf, 0.0
+        if volume > 0.0:
+            absolute = absolute_pressure(air[k], masses[k], volume)
+            spring[k] = -absolute / volume
+        gauge[k] = absolute - air[k, AIR_ATMOSPHERE]
+
+
+@kernel(counted=False, forceinline=True)
 def admit_air(work, air, gas, new_gas, openings, applied, period):
     """The first half of a valve step: openings clipped, masses integrated over the step.
 

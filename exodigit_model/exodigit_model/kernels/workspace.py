@@ -36,8 +36,9 @@ class Workspace(NamedTuple):
     ``trial_forces`` and ``trial_torque`` (3). Stepping: ``motion`` (3, 3), the finger's
     history of a step (:func:`.statics.finger_load`). Valves (docs/spec/model.md §14): ``air``
     (3, AIR_COLUMNS), the chambers' pneumatic constants (:mod:`.valves`), and ``masses`` (3),
-    their air masses, kg: a chamber with a mass takes its pressure from the gas law (14.2) at
-    the unknowns, one without (zero, as a fresh workspace has) the pressure it is given;
+    their air masses, kg: with masses (behind valves) the chambers take their pressures from
+    the gas law (14.2) at the unknowns, without (zeros, as a fresh workspace has) the ones
+    they are given;
     ``gauge`` (3), the pressures of the last residual, Pa, and ``spring`` (3), their slopes
     ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (3, 3), the integration's
     (:func:`.valves.admit_air`).
