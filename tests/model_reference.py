@@ -59,8 +59,25 @@ SPEC_DEFAULTS = {
             )
         ]
     },
+    'pneumatics': {
+        'supply_pressure': None,
+        'temperature': 293.15,
+        'chambers': [
+            {
+                'name': name,
+                'inlet_conductance': 5.0e-10,
+                'inlet_critical_ratio': 0.3,
+                'outlet_conductance': 5.0e-10,
+                'outlet_critical_ratio': 0.3,
+                'dead_volume': 1.0e-6,
+                'leak_conductance': 0.0,
+            }
+            for name in ('mcp', 'pip', 'dip')
+        ],
+    },
 }
-"""The parameter file of docs/spec/model.md §10 with the defaults of §11-12, typed in from it."""
+"""The parameter file of docs/spec/model.md §10 with the defaults of §11-12 and §14, typed in
+from it."""
 SEGMENT_LENGTH_KEYS = (
     'arc_length',
     'inner_radius',

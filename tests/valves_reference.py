@@ -22,6 +22,7 @@ from functools import cached_property
 
 import numpy as np
 from model_reference import (
+    SPEC_DEFAULTS,
     coupled_residual,
     region_first_moment,
     yeoh_stress,
@@ -38,23 +39,9 @@ REFERENCE_TEMPERATURE = 293.15
 """T0 of ISO 6358, K."""
 LAMINAR_RATIO = 0.999
 """Pressure ratio above which (14.3) is linear in the pressure difference."""
-SPEC_PNEUMATICS = {
-    'supply_pressure': 100e3,  # Pa gauge: null in the file, the simulation's max_supply_pressure
-    'temperature': 293.15,
-    'chambers': [
-        {
-            'name': name,
-            'inlet_conductance': 5.0e-10,
-            'inlet_critical_ratio': 0.3,
-            'outlet_conductance': 5.0e-10,
-            'outlet_critical_ratio': 0.3,
-            'dead_volume': 1.0e-6,
-            'leak_conductance': 0.0,
-        }
-        for name in ('mcp', 'pip', 'dip')
-    ],
-}
-"""The ``pneumatics`` section of docs/spec/model.md §14 with its defaults, typed in from it."""
+SPEC_PNEUMATICS = {**SPEC_DEFAULTS['pneumatics'], 'supply_pressure': 100e3}
+"""The ``pneumatics`` section of docs/spec/model.md §14 (tests/model_reference.py) with the
+supply its ``null`` stands for: SimulationSettings' default max_supply_pressure, Pa gauge."""
 RTOL = 1e-9
 """Relative tolerance of the reference integration."""
 MASS_ATOL = 1e-16
