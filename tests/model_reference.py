@@ -278,18 +278,32 @@ def finger_torque(params, q, qdot=None, effort=None):
     return torque
 
 
-def coupled_residual(params, q, p, qdot=None, effort=None):
+def coupled_residual(
+    params,
+    q,
+    p,
+    qdot=None,
+    effort=None,
+    *,
+    moment=resisting_moment,
+    pressure_moments=None,
+    robot_jacobian=robot_contact_jacobian,
+):
     """F(q, p) of eq 36 / 11.4: τ_s by quadrature, B_R from the region moment, J* from eq 4 and
-    the print, τ_H from :func:`finger_torque` at the joint speed ``qdot``."""
+    the print, τ_H from :func:`finger_torque` at the joint speed ``qdot``.
+
+    ``moment(material, segment, angle)``, ``pressure_moments`` (the three r_p·A_p) and
+    ``robot_jacobian(params, q)`` replace the quadratures and eq 4 where a caller evaluates F
+    thousands of times (tests/valves_reference.py, which checks its replacements against these).
+    """
     segments = params.exo_digit.segments
-    torque = np.array(
-        [-resisting_moment(params.material, s, a) for s, a in zip(segments, q, strict=True)]
-    )
-    pressure = np.array([region_first_moment(s) for s in segments]) * p
+    torque = np.array([-moment(params.material, s, a) for s, a in zip(segments, q, strict=True)])
+    if pressure_moments is None:
+        pressure_moments = np.array([region_first_moment(s) for s in segments])
     forces = np.linalg.solve(
         printed_finger_jacobian_transposed(params, q), finger_torque(params, q, qdot, effort)
     )
-    return torque + pressure - robot_contact_jacobian(params, q).T @ forces
+    return torque + pressure_moments * p - robot_jacobian(params, q).T @ forces
 
 
 def free_bending(params, joint, pressure):
