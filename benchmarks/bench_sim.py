@@ -22,6 +22,10 @@
    runs itself with ``--plain`` under ``EXODIGIT_JIT=0`` in a subprocess, which times the same
    workloads ``--plain-repeats`` times (the batch with 100 gloves, 20 steps) and prints JSON.
    Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
+   ``--actuation valves`` times the same workloads behind valves (docs/spec/model.md §14: the
+   sine's pressure share of 40 kPa as the inlets' opening, the rest as the outlets'); with
+   ``--actuation regulator valves`` both, in the same run, and the ratio of their batch rates.
+   [valves >= 50 % of the regulator's glove-steps/s]
 4. Determinism: two lockstep runs of the same seeded 6,000-step session (sensor noise on), the
    second while ``--burners`` processes keep the cores busy: samples of joint_states positions
    and commands that differ. [0]
@@ -60,7 +64,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool
 
-from exodigit_model import GloveModel, GloveSimulation
+from exodigit_model import ACTUATIONS, GloveModel, GloveSimulation
 
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 RATE_HZ = 100.0
@@ -218,6 +222,18 @@ def sine(phase=0.0):
     return 20e3 * (1.0 - np.cos(2.0 * np.pi * k / SINE_PERIOD + phase))
 
 
+def workload(pressures: np.ndarray, actuation: str) -> np.ndarray:
+    """Figure 3's command rows from the sine's ``pressures`` (Pa), one value per row or glove.
+
+    With regulators the pressure for all three chambers; behind valves six openings: the
+    pressure's share of 40 kPa for the inlets, the rest for the outlets.
+    """
+    if actuation == 'regulator':
+        return np.repeat(pressures[..., None], 3, axis=-1)
+    share = np.repeat(pressures[..., None] / 40e3, 3, axis=-1)
+    return np.concatenate([share, 1.0 - share], axis=-1)
+
+
 def _clocked(function, arguments: list) -> tuple[float, float]:
     """(CPU s, wall s) of ``function(a)`` for every ``a`` of ``arguments``, the GC off."""
     gc.disable()
@@ -230,16 +246,21 @@ def _clocked(function, arguments: list) -> tuple[float, float]:
         gc.enable()
 
 
-def stepper_timings(repeats: int, path: str) -> dict:
+def stepper_timings(repeats: int, path: str, actuation: str = 'regulator') -> dict:
     """Figure 3 on this process's path: per workload the CPU and wall s per (glove-)step.
 
-    ``path``: 'compiled' or 'plain' (which batch of :data:`BATCH` to time).
+    ``path``: 'compiled' or 'plain' (which batch of :data:`BATCH` to time); ``actuation``: one
+    of ``ACTUATIONS`` (:func:`workload`).
     """
     model = GloveModel()
-    rows = [np.full(3, p) for p in sine()]
-    commands = np.repeat(sine()[:, None], 3, axis=1)
-    GloveSimulation(model).step(rows[1])  # loads the compiled kernels (compiles them if stale)
-    GloveSimulation(model).run(commands[:5])
+    commands = workload(sine(), actuation)
+    rows = list(commands)
+
+    def simulation(**options) -> GloveSimulation:
+        return GloveSimulation(model, actuation=actuation, **options)
+
+    simulation().step(rows[1])  # loads the compiled kernels (compiles them if stale)
+    simulation().run(commands[:5])
     timings = {name: {'cpu': [], 'wall': []} for name in ('step', 'run', 'batch')}
 
     def record(name: str, seconds: tuple[float, float], steps: int) -> None:
@@ -248,17 +269,17 @@ def stepper_timings(repeats: int, path: str) -> dict:
 
     failures, same = 0, True
     for _ in range(repeats):
-        stepped = GloveSimulation(model)
+        stepped = simulation()
         record('step', _clocked(stepped.step, rows), SINE_STEPS)
-        ran = GloveSimulation(model)
+        ran = simulation()
         record('run', _clocked(ran.run, [commands]), SINE_STEPS)
         failures += stepped.solver_failures + ran.solver_failures
         same = same and bool(np.array_equal(stepped.state.q, ran.state.q))
 
     count, steps = BATCH[path]
     phases = np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)
-    batch = np.ascontiguousarray(np.repeat(sine(phases)[:SINE_PERIOD, :, None], 3, axis=2))
-    gloves = GloveSimulation(model, count=count)
+    batch = np.ascontiguousarray(workload(sine(phases)[:SINE_PERIOD], actuation))
+    gloves = simulation(count=count)
     for k in range(SETTLE_STEPS):
         gloves.step(batch[k])
     k = SETTLE_STEPS
@@ -286,11 +307,13 @@ def _rates(seconds: list[float], unit: str) -> str:
     )
 
 
-def stepper_speed(repeats: int, plain_repeats: int) -> None:
+def stepper_speed(repeats: int, plain_repeats: int, actuation: str = 'regulator') -> float:
+    """Print figure 3 with ``actuation``; the batch's glove-steps/s (median, CPU)."""
     began = time.perf_counter()
-    plain = run_plain(__file__, plain_repeats) if plain_repeats > 0 else None
+    options = ['--actuation', actuation]
+    plain = run_plain(__file__, plain_repeats, options) if plain_repeats > 0 else None
     plain_seconds = time.perf_counter() - began
-    ours = stepper_timings(repeats, 'compiled' if jit.JIT else 'plain')
+    ours = stepper_timings(repeats, 'compiled' if jit.JIT else 'plain', actuation)
 
     def figure(name: str, unit: str) -> str:
         timing = ours['timings'][name]
@@ -304,7 +327,7 @@ def stepper_speed(repeats: int, plain_repeats: int) -> None:
         return text
 
     path = 'compiled' if jit.JIT else 'NOT compiled (numba missing or EXODIGIT_JIT=0)'
-    context = f'3. exodigit_model kernels {path}, source digest {jit.source_digest()}'
+    context = f'3. {actuation}: exodigit_model kernels {path}, source digest {jit.source_digest()}'
     if plain is not None:
         context += (
             f'; the plain-Python path (EXODIGIT_JIT=0, a subprocess, {plain_repeats} repeats, '
@@ -327,6 +350,7 @@ def stepper_speed(repeats: int, plain_repeats: int) -> None:
         f'{steps} steps after {SETTLE_STEPS}: {figure("batch", "glove-steps")}; solver failures '
         f'in 3a-3c: {ours["failures"]}  [>= 1,000,000 glove-steps/s on one core]'
     )
+    return 1.0 / statistics.median(ours['timings']['batch']['cpu'])
 
 
 def determinism(workdir: Path, burners: int) -> None:
@@ -408,6 +432,13 @@ def main() -> None:
         help='the figures to measure, e.g. --only 3 (default: all five)',
     )
     parser.add_argument(
+        '--actuation',
+        nargs='+',
+        choices=ACTUATIONS,
+        default=['regulator'],
+        help="figure 3's actuation, or several measured in turn (default regulator)",
+    )
+    parser.add_argument(
         '--plain',
         action='store_true',
         help="internal: time figure 3's workloads on this process's path (--repeats times) and "
@@ -418,7 +449,7 @@ def main() -> None:
     if args.repeats < 1 or args.plain_repeats < 0:
         parser.error('--repeats must be >= 1, --plain-repeats >= 0')
     if args.plain:
-        print(json.dumps(stepper_timings(args.repeats, 'plain')))
+        print(json.dumps(stepper_timings(args.repeats, 'plain', args.actuation[0])))
         return
     began = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix='bench_sim_') as scratch:
@@ -428,7 +459,16 @@ def main() -> None:
         if 2 in args.only:
             kit_speed(args.seconds, args.repeats)
         if 3 in args.only:
-            stepper_speed(args.repeats, args.plain_repeats)
+            rates = {
+                actuation: stepper_speed(args.repeats, args.plain_repeats, actuation)
+                for actuation in args.actuation
+            }
+            if len(rates) == len(ACTUATIONS):
+                share = rates['valves'] / rates['regulator']
+                print(
+                    f'3d. the batch behind valves at {100 * share:.0f} % of its glove-steps/s '
+                    'with regulators (CPU, medians of this run)  [>= 50 %]'
+                )
         if 4 in args.only:
             determinism(workdir, args.burners)
         if 5 in args.only:

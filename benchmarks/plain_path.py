@@ -10,9 +10,12 @@ import subprocess
 import sys
 
 
-def run_plain(script: str, repeats: int) -> dict:
-    """The timings ``script`` prints with ``--plain --repeats repeats`` and ``EXODIGIT_JIT=0``."""
-    command = [sys.executable, script, '--plain', '--repeats', str(repeats)]
+def run_plain(script: str, repeats: int, options: list[str] | None = None) -> dict:
+    """The timings ``script`` prints with ``--plain --repeats repeats`` and ``EXODIGIT_JIT=0``.
+
+    ``options``: more command-line arguments for ``script``.
+    """
+    command = [sys.executable, script, '--plain', '--repeats', str(repeats), *(options or [])]
     environment = {**os.environ, 'EXODIGIT_JIT': '0'}
     done = subprocess.run(command, env=environment, capture_output=True, text=True, check=False)
     if done.returncode != 0:

@@ -88,7 +88,7 @@ def flow_function(r, critical):
         return 1.0, 0.0
     span = 1.0 - critical
     if r <= LAMINAR_RATIO:
-        s = (r - critical) / span
+        s = (r - critical) * (1.0 / span)  # a product on the chain, the quotient hoisted
         psi = math.sqrt(1.0 - s * s)
         return psi, -s / (span * psi)
     s = (LAMINAR_RATIO - critical) / span
@@ -116,10 +116,13 @@ def mass_flow(conductance, critical, upstream, downstream, density):
 
 
 @kernel(counted=False, forceinline=True)
-def air_rate(row, mass, volume, inlet, outlet):
-    """ṁ of (14.4), kg/s, and ∂ṁ/∂m (1/s) of one chamber: openings ``inlet``, ``outlet``."""
-    gas, atmosphere = row[AIR_GAS], row[AIR_ATMOSPHERE]
-    pressure = mass * gas / volume
+def air_rate(row, mass, gas_per_volume, inlet, outlet):
+    """ṁ of (14.4), kg/s, and ∂ṁ/∂m (1/s) of one chamber: openings ``inlet``, ``outlet``.
+
+    ``gas_per_volume`` is R·T/V, J/(kg·m³): P = m·R·T/V.
+    """
+    atmosphere = row[AIR_ATMOSPHERE]
+    pressure = mass * gas_per_volume
     leak = row[AIR_LEAK]
     rate = -leak * (pressure - atmosphere)
     slope = -leak
@@ -143,27 +146,34 @@ def air_rate(row, mass, volume, inlet, outlet):
         )
         rate -= outlet * q
         slope -= outlet * by_chamber
-    return rate, slope * gas / volume
+    return rate, slope * gas_per_volume
 
 
 @kernel(counted=False, forceinline=True)
-def integrate_air(row, mass, start, end, inlet, outlet, period):
-    """The air mass at the end of a step of ``period`` s from ``mass``, kg (ROS2, see above).
+def integrate_air(air, masses, start, end, openings, period, scratch):
+    """The chambers' air masses (3,), kg, over a step of ``period`` s, in place (ROS2, above).
 
-    The volume goes from ``start`` to ``end`` (m³) affinely in time; ``inlet`` and ``outlet``
-    are the openings held over the step.
+    Chamber k's volume goes from ``start[k]`` to ``end[k]`` (m³) affinely in time under the
+    ``openings`` (6,) held over the step; ``scratch`` (2, 3) is work space. The three chambers
+    advance together, stage by stage: their chains of divisions and roots are independent, and
+    so overlap in the processor.
     """
     h = period / SUBSTEPS
-    change = (end - start) / SUBSTEPS
+    first, shrink = scratch[0], scratch[1]
     for n in range(SUBSTEPS):
-        volume = start + n * change
-        rate, slope = air_rate(row, mass, volume, inlet, outlet)
-        shrink = 1.0 / (1.0 - ROS2_GAMMA * h * slope)
-        first = rate * shrink
-        rate, _ = air_rate(row, mass + h * first, volume + change, inlet, outlet)
-        second = (rate - 2.0 * first) * shrink
-        mass += h * (1.5 * first + 0.5 * second)
-    return mass
+        for k in range(3):
+            volume = start[k] + n * (end[k] - start[k]) / SUBSTEPS
+            gas = air[k, AIR_GAS] / volume
+            rate, slope = air_rate(air[k], masses[k], gas, openings[k], openings[3 + k])
+            shrink[k] = 1.0 / (1.0 - ROS2_GAMMA * h * slope)
+            first[k] = rate * shrink[k]
+        for k in range(3):
+            volume = start[k] + (n + 1) * (end[k] - start[k]) / SUBSTEPS
+            gas = air[k, AIR_GAS] / volume
+            mass = masses[k] + h * first[k]
+            rate, _ = air_rate(air[k], mass, gas, openings[k], openings[3 + k])
+            second = (rate - 2.0 * first[k]) * shrink[k]
+            masses[k] += h * (1.5 * first[k] + 0.5 * second)
 
 
 @kernel(counted=False, forceinline=True)
@@ -191,16 +201,13 @@ def admit(openings, applied):
 
 @kernel
 def advance_masses(air, masses, start, end, openings, period):
-    """:func:`integrate_air` for the three chambers (rows of ``air``), from Python; new masses.
+    """:func:`integrate_air` from Python: the chambers' (rows of ``air``) new masses.
 
     ``masses``, ``start`` and ``end`` (3,): kg, m³, m³; ``openings`` (6,): u_in, then u_out
     (MCP, PIP, DIP), each within [0, 1]; ``period``: s.
     """
-    result = np.empty(3)
-    for k in range(3):
-        result[k] = integrate_air(
-            air[k], masses[k], start[k], end[k], openings[k], openings[3 + k], period
-        )
+    result = masses.copy()
+    integrate_air(air, result, start, end, openings, period, np.empty((2, 3)))
     return result
 
 
@@ -233,18 +240,18 @@ def admit_air(work, air, gas, new_gas, openings, applied, period):
     below zero and whether one was above one.
     """
     below, above = admit(openings, applied)
+    masses, predicted = work.masses, work.air_scratch[0]
     for k in range(3):
         volume = gas[GAS_VOLUME, k]
-        predicted = 2.0 * volume - gas[GAS_VOLUME_BEFORE, k]
-        if predicted <= 0.0:
-            predicted = volume
-        mass = integrate_air(
-            air[k], gas[GAS_MASS, k], volume, predicted, applied[k], applied[3 + k], period
-        )
-        new_gas[GAS_MASS, k] = mass
-        work.masses[k] = mass
+        predicted[k] = 2.0 * volume - gas[GAS_VOLUME_BEFORE, k]
+        if predicted[k] <= 0.0:
+            predicted[k] = volume
+        masses[k] = gas[GAS_MASS, k]
         for column in range(AIR_COLUMNS):
             work.air[k, column] = air[k, column]
+    integrate_air(air, masses, gas[GAS_VOLUME], predicted, applied, period, work.air_scratch[1:])
+    for k in range(3):
+        new_gas[GAS_MASS, k] = masses[k]
     return below, above
 
 

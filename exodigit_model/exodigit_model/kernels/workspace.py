@@ -39,7 +39,8 @@ class Workspace(NamedTuple):
     their air masses, kg: a chamber with a mass takes its pressure from the gas law (14.2) at
     the unknowns, one without (zero, as a fresh workspace has) the pressure it is given;
     ``gauge`` (3), the pressures of the last residual, Pa, and ``spring`` (3), their slopes
-    ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`).
+    ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (3, 3), the integration's
+    (:func:`.valves.admit_air`).
     """
 
     j_robot: np.ndarray
@@ -75,6 +76,7 @@ class Workspace(NamedTuple):
     masses: np.ndarray
     gauge: np.ndarray
     spring: np.ndarray
+    air_scratch: np.ndarray
     half_turn: np.ndarray
     chord: np.ndarray
     chord_slope: np.ndarray
@@ -88,7 +90,7 @@ class Workspace(NamedTuple):
 _SQUARE = MAX_UNKNOWNS * MAX_UNKNOWNS
 _REAL = (
     *(9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9),
-    *(3 * AIR_COLUMNS, 3, 3, 3),
+    *(3 * AIR_COLUMNS, 3, 3, 3, 9),
 )
 """Sizes of the real fields, in order."""
 _REAL_ENDS = tuple(int(end) for end in np.cumsum(_REAL))
@@ -138,6 +140,7 @@ def workspace():
         r[e[29] : e[30]],
         r[e[30] : e[31]],
         r[e[31] : e[32]],
+        r[e[32] : e[33]].reshape((3, 3)),
         c[0 : z[0]],
         c[z[0] : z[1]],
         c[z[1] : z[2]],
