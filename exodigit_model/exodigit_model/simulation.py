@@ -64,6 +64,12 @@ ACTUATIONS = ('regulator', 'valves')
 openings, docs/spec/model.md §14)."""
 OPENINGS = 6
 """Openings of a valve command: u_in, then u_out, of MCP, PIP and DIP."""
+VENT = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
+"""The openings of a vent: inlets closed, outlets open (the plant's watchdog, a stopping
+``pressure_command``, a target of zero). Read-only."""
+CLOSED = np.zeros(OPENINGS)
+"""Every valve closed: the chambers hold their air. Read-only."""
+VENT.flags.writeable = CLOSED.flags.writeable = False
 
 
 def step_time_ns(step: int, rate_hz: float) -> int:

@@ -5,7 +5,9 @@ What the ``pressure_command`` node of ``exodigit_nodes`` computes each step (doc
 limiter between an agent and the chambers, and a controller can be tried on a simulated patient
 with no ROS at all. The same classes control one glove (arrays (3,)) or a batch of gloves
 ((N, 3), one row each); :class:`BatchController` is the protocol a virtual-patient trial steps,
-and :class:`BuiltInMode` runs a built-in mode behind the limiter as one.
+and :class:`BuiltInMode` runs a built-in mode behind the limiter as one. Behind valves
+(docs/spec/model.md §14) :class:`ValveLoop` turns the pressures a mode and the limiter give into
+the six valve openings, as ``pressure_command`` does with ``output:=valves``.
 """
 
 from .batch import BatchController, BuiltInMode
@@ -25,11 +27,13 @@ from .controllers import (
     Staircase,
 )
 from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
+from .valve_loop import OUTPUTS, ValveLoop, ValveLoopSettings
 
 __all__ = [
     'LIMIT_KINDS',
     'MODES',
     'MODE_DEFAULTS',
+    'OUTPUTS',
     'BatchController',
     'BuiltInMode',
     'Command',
@@ -46,4 +50,6 @@ __all__ = [
     'SafetyLimits',
     'Sine',
     'Staircase',
+    'ValveLoop',
+    'ValveLoopSettings',
 ]
