@@ -4,14 +4,16 @@
 episodes of 400 steps and their two autoreset steps, so the patients' draws and the new
 cohorts' rest solves are counted) under random actions in [0, 100 kPa], once with the default
 safety limiter (which needs the robot-side force estimate of every glove at every step) and once
-with ``safety=None``, the two taking turns ``--repeats`` times. Env-steps count what Gymnasium's
-``utils.performance.benchmark_vector_step`` counts for NEXT_STEP autoreset: every sub-environment
-that stepped, not those being reset. Printed: env-steps per CPU second (``process_time``; the
-machine is a shared VM) and per wall second, the median and the range, then a profile of one
-run with the limiter, where the time goes.
+with ``safety=None``, the two taking turns ``--repeats`` times. With ``--valves`` a third kind
+takes its turn too: ``actuation='valves'`` (docs/spec/model.md §14) under random openings in
+[0, 1] (six per glove; no limiter), so the two actuations are measured in one run, side by
+side. Env-steps count what Gymnasium's ``utils.performance.benchmark_vector_step`` counts for
+NEXT_STEP autoreset: every sub-environment that stepped, not those being reset. Printed:
+env-steps per CPU second (``process_time``; the machine is a shared VM) and per wall second, the
+median and the range, then a profile of one run with the limiter, where the time goes.
 
 Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
-Run: ``.venv/bin/python benchmarks/bench_gym_vector.py [--envs 1000] [--repeats 5]``.
+Run: ``.venv/bin/python benchmarks/bench_gym_vector.py [--envs 1000] [--repeats 5] [--valves]``.
 """
 
 import argparse
@@ -51,18 +53,29 @@ def main() -> None:
     parser.add_argument('--steps', type=int, default=802, help='vector steps per run')
     parser.add_argument('--repeats', type=int, default=5, help='runs of each kind')
     parser.add_argument('--population', default='stroke_moderate', help='patients drawn from')
+    parser.add_argument(
+        '--valves', action='store_true', help="also actuation='valves' under random openings"
+    )
     options = parser.parse_args()
     rng = np.random.default_rng(0)
-    actions = rng.uniform(0.0, SUPPLY, (options.steps, options.envs, 3))
+    pressures = rng.uniform(0.0, SUPPLY, (options.steps, options.envs, 3))
+    population = options.population
     kinds = {
-        'limiter': GloveVectorEnv(options.envs, population=options.population),
-        'safety=None': GloveVectorEnv(options.envs, population=options.population, safety=None),
+        'limiter': (GloveVectorEnv(options.envs, population=population), pressures),
+        'safety=None': (
+            GloveVectorEnv(options.envs, population=population, safety=None),
+            pressures,
+        ),
     }
-    for envs in kinds.values():
+    if options.valves:
+        openings = rng.uniform(0.0, 1.0, (options.steps, options.envs, 6))
+        envs = GloveVectorEnv(options.envs, population=population, actuation='valves')
+        kinds['valves'] = (envs, openings)
+    for envs, actions in kinds.values():
         timed(envs, actions[:2], 0)  # first use of every kernel and array
     rates = {kind: ([], []) for kind in kinds}
     for repeat in range(options.repeats):
-        for kind, envs in kinds.items():
+        for kind, (envs, actions) in kinds.items():
             cpu, wall, stepped = timed(envs, actions, repeat)
             rates[kind][0].append(stepped / cpu)
             rates[kind][1].append(stepped / wall)
@@ -76,7 +89,7 @@ def main() -> None:
             f'   wall {statistics.median(wall):>9,.0f} [{min(wall):,.0f}, {max(wall):,.0f}]'
         )
     profile = cProfile.Profile()
-    profile.runcall(timed, kinds['limiter'], actions, 0)
+    profile.runcall(timed, *kinds['limiter'], 0)
     pstats.Stats(profile).sort_stats('tottime').print_stats(8)
 
 

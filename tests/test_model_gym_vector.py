@@ -63,6 +63,7 @@ def glove_env(envs, row, **kwargs):
         episode_steps=definition.episode_steps,
         target=definition.target,
         safety=definition.safety,
+        actuation=definition.actuation,
         **kwargs,
     )
 
@@ -120,6 +121,19 @@ def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env
     # row 0 resets at steps 3 and 9 (truncated 5 steps after its reset), rows 1 and 2 at 6
     assert assert_sub_envs_are_glove_envs(envs, actions, seed=4) == 4
     assert len(envs._cohorts) == 2  # the first cohort left when its last member did
+
+
+def test_behind_valves_each_sub_env_steps_as_a_valve_glove_env_on_its_patient():
+    envs = GloveVectorEnv(3, episode_steps=4, actuation='valves')
+    actions = np.random.default_rng(2).uniform(0.0, 1.0, (11, 3, 6))
+    assert assert_sub_envs_are_glove_envs(envs, actions) == 6
+    assert envs.single_action_space.shape == (6,) and envs.action_space.shape == (3, 6)
+    _, _, _, _, infos = envs.step(actions[0])
+    assert set(envs.info_keys) == set(INFO_KEYS) | {'mass', 'volume'} <= set(infos)
+    assert infos['mass'].shape == infos['volume'].shape == (3, 3)
+    assert infos['command'].shape == (3, 6)
+    with pytest.raises(ValueError, match='actions'):
+        envs.step(np.zeros((3, 3)))
 
 
 # -- seeding and patients -------------------------------------------------------------------

@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from exodigit_model.params import patient_file
-from exodigit_model.simulation import step_time_ns
+from exodigit_model.settings import step_time_ns
 from exodigit_nodes.nodes import sim_time
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand

@@ -37,7 +37,7 @@ from .control import Feedback, Limited, SafetyLimiter, SafetyLimits
 from .control.shapes import check_shape
 from .model import GloveModel, as_joint_rows, as_joint_vector
 from .params import GloveParams, load_params
-from .settings import NANOSECONDS, SimulationSettings, step_time_ns
+from .settings import ACTUATIONS, NANOSECONDS, OPENINGS, SimulationSettings, step_time_ns
 from .simulation import GloveSimulation, GloveState
 from .trials.protocols import flex_extend
 
@@ -64,6 +64,15 @@ SEED_BOUND = 2**63
 
 DEFAULT_SAFETY = SafetyLimits()
 """The limits between the agent and the chambers: ``pressure_command``'s defaults."""
+
+VALVE_PRESSURE_MARGIN = 5e3
+"""Behind valves, Pa beyond [0, supply] still inside the observed pressures' bounds: a closed
+chamber whose volume (14.1) shrinks or grows as the coupled finger moves leaves that range
+(measured: 0.8 kPa above the 100 kPa supply and 0.5 kPa below zero in 2,000 steps of 200
+gloves under random openings)."""
+
+VALVE_INFO_KEYS = ('mass', 'volume')
+"""The info keys only behind valves: the chambers' air masses (kg) and volumes (m³), (3,)."""
 
 Target = Callable[[float], ArrayLike]
 """target(t) -> desired joint angles (MCP, PIP, DIP) at time t (s), rad."""
@@ -186,7 +195,12 @@ class GloveEnv(gymnasium.Env):
         60 kPa, 100 kPa/s, backing off outside the range of motion or above 10 N of contact
         force). As on the ROS graph it sees the last measured angles and the robot-side
         estimate of the contact forces from the measured angles and pressures (the
-        ``estimator`` node's). None sends the action to the chambers unlimited.
+        ``estimator`` node's). None sends the action to the chambers unlimited. Behind valves
+        the default means None and other limits are refused (see Notes).
+    actuation : str, optional
+        One of :data:`~exodigit_model.simulation.ACTUATIONS`: ``'regulator'`` (default; the
+        action is three chamber pressures) or ``'valves'`` (six valve openings,
+        docs/spec/model.md §14).
 
     Notes
     -----
@@ -206,6 +220,21 @@ class GloveEnv(gymnasium.Env):
     These are ``GloveState.q_measured``, ``.qdot`` and ``.pressure_measured`` cast to float32
     and clipped to the bounds, which only a state far outside the validated range or a noise
     draw of 10 σ reaches (``info['observation_clipped']`` says when).
+
+    **Behind valves** (``actuation='valves'``) the action is Box(0, 1, (6,), float32): the
+    openings of the inlet valves (from the supply) of MCP, PIP, DIP, then of their outlet
+    valves (to the atmosphere), held over the step; the chambers' air masses follow the valves'
+    flows (14.3)-(14.4) and their pressures the gas law (14.2). The observation is the same:
+    a chamber's air mass is m = (p + P_atm)·V(q)/(R·T) (14.1)-(14.2), a function of the
+    observed pressure and angles, and the valves have no state of their own (an opening acts
+    for its step only), so nothing a valve controller needs is hidden; a real glove has no
+    sensor of the air mass either. Only the pressures' bounds widen by
+    :data:`VALVE_PRESSURE_MARGIN` on both sides of [0, p_s] (p_s the pneumatics' supply,
+    docs/spec/model.md §14), since a closed chamber's pressure moves with its volume. There is
+    no safety limiter: it limits a pressure command, and openings are none; on the ROS graph
+    an agent's ``valve_command`` reaches the plant past ``pressure_command``'s limiter too.
+    ``info`` then also has ``mass`` and ``volume`` (:data:`VALVE_INFO_KEYS`), and ``command``
+    is the six openings after clipping to [0, 1].
 
     **Reward** at t_k = round(k·10⁹/rate_hz)·10⁻⁹ s: ``reward(state_k, target(t_k), action)``.
 
@@ -242,6 +271,7 @@ class GloveEnv(gymnasium.Env):
         reward: Reward | None = None,
         observe_target: bool = True,
         safety: SafetyLimits | None = DEFAULT_SAFETY,
+        actuation: str = 'regulator',
     ) -> None:
         self.model = _model(model, params)
         if settings is None:
@@ -261,7 +291,16 @@ class GloveEnv(gymnasium.Env):
             raise ValueError(f'observe_target = {observe_target!r}: must be True or False')
         if safety is not None and not isinstance(safety, SafetyLimits):
             raise ValueError(f'safety = {safety!r}: must be a SafetyLimits (or None)')
-        self.safety = safety
+        if actuation not in ACTUATIONS:
+            raise ValueError(f'actuation = {actuation!r}: must be one of {", ".join(ACTUATIONS)}')
+        self.actuation = actuation
+        self.valves = actuation == 'valves'
+        if self.valves and safety is not DEFAULT_SAFETY and safety is not None:
+            raise ValueError(
+                f'safety = {safety!r}: behind valves the action is openings, which the '
+                'limiter of pressure commands cannot limit; leave it out or pass None'
+            )
+        self.safety = None if self.valves else safety
         if target is None:
             target = FlexExtendTarget.for_model(
                 self.model, DEFAULT_PEAK_FRACTION * settings.max_supply_pressure
@@ -271,14 +310,22 @@ class GloveEnv(gymnasium.Env):
         self.observe_target = observe_target
 
         supply = settings.max_supply_pressure
-        self.action_space = spaces.Box(
-            np.zeros(3, np.float32), np.full(3, supply, np.float32), dtype=np.float32
-        )
+        if self.valves:
+            self.action_space = spaces.Box(0.0, 1.0, (OPENINGS,), dtype=np.float32)
+            supply = self.model.params.pneumatics.supply_pressure
+            margin = VALVE_PRESSURE_MARGIN
+            if supply is None:
+                supply = settings.max_supply_pressure
+        else:
+            self.action_space = spaces.Box(
+                np.zeros(3, np.float32), np.full(3, supply, np.float32), dtype=np.float32
+            )
+            margin = 0.0
         angle = ANGLE_BOUND + NOISE_MARGIN * settings.angle_noise_std
         velocity = 2.0 * ANGLE_BOUND * settings.rate_hz
         noise = NOISE_MARGIN * settings.pressure_noise_std
-        high = [angle] * 3 + [velocity] * 3 + [supply + noise] * 3
-        low = [-angle] * 3 + [-velocity] * 3 + [-noise] * 3
+        high = [angle] * 3 + [velocity] * 3 + [supply + margin + noise] * 3
+        low = [-angle] * 3 + [-velocity] * 3 + [-margin - noise] * 3
         if observe_target:
             high += [ANGLE_BOUND] * 3
             low += [-ANGLE_BOUND] * 3
@@ -323,7 +370,9 @@ class GloveEnv(gymnasium.Env):
         if seed is None:
             seed = int(self.np_random.integers(SEED_BOUND))
         self.noise_seed = seed
-        self.simulation = GloveSimulation(self.model, replace(self.settings, seed=seed))
+        self.simulation = GloveSimulation(
+            self.model, replace(self.settings, seed=seed), actuation=self.actuation
+        )
         self._limiter = None if self.safety is None else SafetyLimiter(self.safety)
         self._limited = {}
         state = self.simulation.state
@@ -335,7 +384,7 @@ class GloveEnv(gymnasium.Env):
     def step(
         self, action: ArrayLike
     ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
-        """Apply ``action`` (chamber pressure commands, Pa, (3,)) for one step of Δt.
+        """Apply ``action`` (chamber pressure commands, Pa, (3,); openings (6,) behind valves).
 
         Returns
         -------
@@ -350,14 +399,17 @@ class GloveEnv(gymnasium.Env):
         Raises
         ------
         ValueError
-            If ``action`` is not three finite numbers, or ``target``/``reward`` return
+            If ``action`` is not three (six) finite numbers, or ``target``/``reward`` return
             something that is not three finite angles / a finite number.
         gymnasium.error.ResetNeeded
             Before the first :meth:`reset`.
         """
         if self.simulation is None:
             raise gymnasium.error.ResetNeeded('GloveEnv: call reset() before step()')
-        action = as_joint_vector('action', action)
+        if self.valves:
+            action = as_actions('action', action, self.action_space.shape)
+        else:
+            action = as_joint_vector('action', action)
         state = self.simulation.step(self._limit(action))
         target = self._next_target
         reward = self.reward(state, target.copy(), action.copy())
@@ -406,6 +458,7 @@ class GloveEnv(gymnasium.Env):
         return observation, bool(clipped)
 
     def _info(self, state: GloveState, target: NDArray[np.float64], clipped: bool) -> dict:
+        valves = {key: getattr(state, key).copy() for key in VALVE_INFO_KEYS if self.valves}
         return {
             't': state.t,
             'target': target.copy(),
@@ -418,7 +471,26 @@ class GloveEnv(gymnasium.Env):
             'saturated': bool(state.saturated),
             'observation_clipped': clipped,
             'noise_seed': self.noise_seed,
+            **valves,
         }
+
+
+def as_actions(name: str, value: ArrayLike, shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """``value`` as a new finite float64 array of ``shape`` (e.g. openings, (6,)), or a ValueError.
+
+    Values outside the action space are let through: the simulation clips openings to [0, 1]
+    and says so (``saturated``), as it clips pressures to the supply.
+    """
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.shape != shape:
+        got = 'no array of numbers' if array is None else f'shape {array.shape}'
+        raise ValueError(f'{name} must have shape {shape}, got {got}')
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f'{name} must be finite, got {array.tolist()}')
+    return array
 
 
 def observe(

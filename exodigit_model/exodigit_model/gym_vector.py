@@ -40,14 +40,17 @@ from .gym import (
     DEFAULT_EPISODE_STEPS,
     DEFAULT_SAFETY,
     SEED_BOUND,
+    VALVE_INFO_KEYS,
     GloveEnv,
     Reward,
     Target,
+    as_actions,
     observe,
 )
 from .model import GloveModel, as_joint_rows
 from .params import Finger, GloveParams
-from .simulation import GloveSimulation, SimulationSettings
+from .settings import SimulationSettings
+from .simulation import GloveSimulation
 from .trials.populations import Population, load_population
 
 VECTOR_ENV_ID = 'exodigit/GlovePatients-v0'
@@ -67,7 +70,8 @@ INFO_KEYS = (
     'in_valid_range',
     'observation_clipped',
 )
-"""The keys of every ``infos`` (each with its Gymnasium mask ``'_' + key``, all True)."""
+"""The keys of every ``infos`` (each with its Gymnasium mask ``'_' + key``, all True); behind
+valves also :data:`~exodigit_model.gym.VALVE_INFO_KEYS`."""
 
 
 class GloveVectorEnv(VectorEnv):
@@ -89,14 +93,16 @@ class GloveVectorEnv(VectorEnv):
         ``stroke_moderate``, ``stroke_severe``), a population file (docs/populations.md) or a
         :class:`~exodigit_model.trials.populations.Population`; default
         :data:`DEFAULT_POPULATION`. Patients keep the link lengths of ``model``'s finger.
-    model, params, settings, episode_steps, target, observe_target, safety
+    model, params, settings, episode_steps, target, observe_target, safety, actuation
         As :class:`~exodigit_model.gym.GloveEnv`'s, shared by every sub-environment: the target
-        is a function of the time since the sub-environment's reset.
+        is a function of the time since the sub-environment's reset; behind valves
+        (``actuation='valves'``) the actions are (num_envs, 6) openings and there is no
+        limiter.
     reward : callable, optional
         ``reward(state, target, actions) -> (n,)`` over a batch: the :class:`GloveState` of n
         gloves after the step (arrays (n, 3)), the target at ``state.t`` (rad, (3,)) and the
-        actions (Pa, (n, 3)). Default: :func:`~exodigit_model.gym.tracking_reward`, which
-        takes one glove or a batch.
+        actions (Pa, (n, 3), or openings (n, 6)). Default:
+        :func:`~exodigit_model.gym.tracking_reward`, which takes one glove or a batch.
 
     Notes
     -----
@@ -120,13 +126,15 @@ class GloveVectorEnv(VectorEnv):
     but the noise is drawn for a cohort at once (docs of ``GloveSimulation``), so not the
     numbers of a one-glove ``GloveEnv``. A sub-environment that leaves its cohort early (a
     solve that did not converge) is stepped on with zero commands, unseen, until the whole
-    cohort ends; every sub-environment truncates ``episode_steps`` after its reset.
+    cohort ends (behind valves: with every valve closed); every sub-environment truncates
+    ``episode_steps`` after its reset.
 
     **Infos** (new arrays every call; keys :data:`INFO_KEYS`, each with its mask): ``t``
     (s since the sub-environment's reset), ``target`` (what the reward used), ``q`` and
     ``pressure`` (true), ``command`` (after the limiter and saturation), ``safety`` ((n, 5),
     whether each limit of :data:`~exodigit_model.control.LIMIT_KINDS` acted on the action),
-    ``converged``, ``in_valid_range``, ``observation_clipped``. :attr:`fingers` holds every
+    ``converged``, ``in_valid_range``, ``observation_clipped``; behind valves ``mass`` and
+    ``volume`` ((n, 3), kg and m³). :attr:`fingers` holds every
     sub-environment's patient.
     """
 
@@ -148,6 +156,7 @@ class GloveVectorEnv(VectorEnv):
         reward: Reward | None = None,
         observe_target: bool = True,
         safety: SafetyLimits | None = DEFAULT_SAFETY,
+        actuation: str = 'regulator',
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer):
             raise ValueError(f'num_envs = {num_envs!r}: must be an integer')
@@ -171,6 +180,7 @@ class GloveVectorEnv(VectorEnv):
             reward=reward,
             observe_target=observe_target,
             safety=safety,
+            actuation=actuation,
         )
         """The GloveEnv every sub-environment is, on its patient (its checks, spaces, target,
         reward and limits; never stepped)."""
@@ -180,6 +190,8 @@ class GloveVectorEnv(VectorEnv):
         self.single_observation_space = self.definition.observation_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.info_keys = INFO_KEYS + (VALVE_INFO_KEYS if self.definition.valves else ())
+        """The keys of every ``infos``."""
         self.fingers: list[Finger | None] = [None] * self.num_envs
         """Each sub-environment's patient (None before the first reset)."""
         self._cohorts: list[_Cohort] = []
@@ -217,7 +229,7 @@ class GloveVectorEnv(VectorEnv):
     ) -> tuple[
         NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict
     ]:
-        """Apply ``actions`` (chamber pressure commands, Pa, (num_envs, 3)) for one step.
+        """Apply ``actions`` (pressure commands, Pa, (num_envs, 3); openings (num_envs, 6)).
 
         Sub-environments whose episode ended at the last step are reset instead (their
         actions are not used).
@@ -235,15 +247,19 @@ class GloveVectorEnv(VectorEnv):
         Raises
         ------
         ValueError
-            If ``actions`` is not (num_envs, 3) finite numbers, or ``target``/``reward``
-            return something that is not three finite angles / n finite numbers.
+            If ``actions`` is not (num_envs, 3) (behind valves (num_envs, 6)) finite numbers,
+            or ``target``/``reward`` return something that is not three finite angles / n
+            finite numbers.
         gymnasium.error.ResetNeeded
             Before the first :meth:`reset`.
         """
         if not self._cohorts:
             raise gymnasium.error.ResetNeeded('GloveVectorEnv: call reset() before step()')
-        actions = as_joint_rows('actions', actions)
-        check_shape('actions', actions, (self.num_envs, 3))
+        if self.definition.valves:
+            actions = as_actions('actions', actions, self.action_space.shape)
+        else:
+            actions = as_joint_rows('actions', actions)
+            check_shape('actions', actions, (self.num_envs, 3))
         restarting = np.flatnonzero(self._ended)
         for cohort in self._cohorts:
             cohort.leave(self._ended)
@@ -289,7 +305,7 @@ class GloveVectorEnv(VectorEnv):
                         gathered[key] = np.empty(shape, value.dtype)
                     gathered[key][rows] = value[live]
         infos = {}
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             infos[key] = gathered[key]
             infos[f'_{key}'] = np.ones(self.num_envs, bool)
         return (
@@ -317,7 +333,9 @@ class _Cohort:
         """Whether ``rows`` are the sub-environments 0, 1, … in order."""
         self.members = np.ones(len(rows), bool)
         settings = replace(definition.settings, seed=noise_seed)
-        self.simulation = GloveSimulation(definition.model, settings, fingers=fingers)
+        self.simulation = GloveSimulation(
+            definition.model, settings, fingers=fingers, actuation=definition.actuation
+        )
         safety, count = definition.safety, len(rows)
         self.limiter = None if safety is None else SafetyLimiter(safety, count=count)
         self.next_target = definition.target_of_step(1)
@@ -363,6 +381,7 @@ class _Cohort:
         observed = self.next_target if definition.observe_target else None
         observation, clipped = observe(state, definition.observation_space, observed)
         count = len(self.rows)
+        valves = {key: getattr(state, key) for key in VALVE_INFO_KEYS if definition.valves}
         return {
             'observation': observation,
             'reward': reward,
@@ -375,6 +394,7 @@ class _Cohort:
             'converged': state.converged,
             'in_valid_range': state.in_valid_range,
             'observation_clipped': clipped,
+            **valves,
         }
 
 

@@ -29,6 +29,7 @@ EXAMPLES = {
     'calibrate': 'exodigit calibrate docs/example_bench.csv --fit both --out my_glove.yaml',
     'plot': 'exodigit plot runs/stairs/bag --out runs/stairs',
     'trial': trial_command.EXAMPLE,
+    'valves': 'exodigit valves --out docs/valves.png',
 }
 
 SUMMARIES = {
@@ -37,6 +38,7 @@ SUMMARIES = {
     'calibrate': 'fit the material, finger stiffness and/or layer stiffness to measurements',
     'plot': 'plot a recorded session (rosbag2 bag)',
     'trial': 'run a controller against a population of virtual patients',
+    'valves': 'one glove behind regulators and behind valves, for the same pressure targets',
 }
 
 DESCRIPTIONS = {
@@ -51,6 +53,10 @@ DESCRIPTIONS = {
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
     'exodigit_nodes.nodes.recorder (or ros2 bag record).',
     'trial': trial_command.DESCRIPTION,
+    'valves': 'Drive one glove behind pressure regulators and one behind valves (the valve loop '
+    "of pressure_command's output:=valves) with the staircase mode's pressure targets; plot "
+    'pressures, angles and openings side by side and print settling, overshoot, valve '
+    'switches and supply air (docs/valves.md).',
 }
 
 
@@ -140,6 +146,13 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument('--out', metavar='DIR', default='.', help='output folder (.)')
 
     trial_command.add_arguments(command('trial', trial_command.EPILOG))
+
+    valves = command('valves')
+    _params_argument(valves)
+    valves.add_argument('--out', metavar='FILE', default='valves.png', help='PNG (valves.png)')
+    valves.add_argument(
+        '--duration', type=float, default=20.0, help='seconds of the staircase (20: one cycle)'
+    )
     return parser
 
 
@@ -251,12 +264,30 @@ def run_plot(args: argparse.Namespace) -> None:
     plot_command(Path(args.bag), _out_dir(args.out))
 
 
+def run_valves(args: argparse.Namespace) -> None:
+    """``exodigit valves``."""
+    from .. import SimulationSettings
+    from . import valves
+
+    settings = SimulationSettings()
+    steps = round(args.duration * settings.rate_hz)
+    if steps < 2:
+        raise ToolError(f'--duration {args.duration!r}: must be at least two steps (0.02 s)')
+    model = _model(args)
+    comparison = valves.compare(model, valves.staircase_targets(steps, settings), settings)
+    valves.figure(comparison, Path(args.out))
+    for line in valves.summary(comparison):
+        print(line)
+    print(f'wrote {args.out}')
+
+
 COMMANDS = {
     'curves': run_curves,
     'draw': run_draw,
     'calibrate': run_calibrate,
     'plot': run_plot,
     'trial': trial_command.run,
+    'valves': run_valves,
 }
 
 

@@ -15,6 +15,7 @@ from typing import Any
 import yaml
 
 from ..control import MODES
+from ..settings import ACTUATIONS
 from ..trials import (
     POPULATIONS,
     PROTOCOLS,
@@ -101,6 +102,16 @@ def add_arguments(
     who.add_argument(
         '--params-file', metavar='FILE', help='glove parameter YAML; the defaults when omitted'
     )
+
+    if in_process:
+        who.add_argument(
+            '--actuation',
+            choices=ACTUATIONS,
+            default='regulator',
+            help='how the chambers are driven: pressure regulators, or valves opened by the '
+            "valve loop on the controller's pressures (--param valve_kp=..., docs/trials.md); "
+            'regulator',
+        )
 
     control = parser.add_argument_group(
         'controller (one of; default --mode sine)' if in_process else 'controller'
@@ -203,6 +214,7 @@ def trial_spec(args: argparse.Namespace, controller: ControllerSpec | None = Non
         controller=controller,
         params_file=args.params_file,
         shard_size=getattr(args, 'shard_size', DEFAULT_SHARD_SIZE),
+        actuation=getattr(args, 'actuation', 'regulator'),
         **extra,
     )
 

@@ -20,7 +20,7 @@ A fourth, ``ros`` (a ROS node's command line), runs through the testing kit of
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -38,11 +38,13 @@ from ..control import (
     SafetyLimits,
     Sine,
     Staircase,
+    ValveLoopSettings,
 )
 from ..model import GloveModel, as_joint_vector
 
 if TYPE_CHECKING:
-    from ..simulation import GloveState, SimulationSettings
+    from ..settings import SimulationSettings
+    from ..simulation import GloveState
     from .protocols import SessionProtocol
     from .spec import ControllerSpec
 
@@ -84,6 +86,9 @@ CHECKS: Mapping[str, Check] = {
     'force_targets': _vector,
     'force_kp': GAIN,
     'force_ki': GAIN,
+    'valve_deadband': PASCAL,
+    'valve_kp': GAIN,
+    'valve_ki': GAIN,
 }
 """How a trial checks each mode parameter of :data:`exodigit_model.control.MODE_DEFAULTS`."""
 
@@ -105,6 +110,13 @@ LIMIT_NAMES = {
 
 _LIMITS = SafetyLimits()
 
+VALVE_PARAMETERS = tuple(field.name for field in fields(ValveLoopSettings))
+"""The valve loop's parameters (``pressure_command``'s with ``output:=valves``): a mode's pressure
+commands become openings through :class:`~exodigit_model.control.ValveLoop` in a trial with
+``actuation='valves'``, which alone takes them."""
+
+_VALVE_LOOP = ValveLoopSettings()
+
 COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
     **{
         name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else check_number)
@@ -117,6 +129,11 @@ COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
 (the ``estimator`` node's; 2 µs per glove and step), so it backs off above
 ``max_contact_force``. Without it the limiter checks the range of motion only, as the node
 without an estimator. The ``force`` mode always estimates (its feedback)."""
+
+VALVE_LOOP_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
+    name: (getattr(_VALVE_LOOP, name), CHECKS[name]) for name in VALVE_PARAMETERS
+}
+"""Parameters of every mode behind valves: the valve loop's (default, check)."""
 
 
 @dataclass(frozen=True)
@@ -133,12 +150,15 @@ class ModeSettings:
         The limiter's limits.
     estimate_forces : bool
         Whether the limiter (and the force mode) gets the force estimate.
+    valve_loop : ValveLoopSettings
+        The valve loop's deadband and gains (used behind valves only).
     """
 
     mode: str
     values: Mapping[str, Any]
     limits: SafetyLimits
     estimate_forces: bool
+    valve_loop: ValveLoopSettings
 
 
 def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
@@ -152,7 +172,7 @@ def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
     """
     if mode not in MODE_PARAMETERS:
         raise ValueError(f'mode {mode!r}: unknown (known: {", ".join(MODE_PARAMETERS)})')
-    known = {**MODE_PARAMETERS[mode], **COMMON_PARAMETERS}
+    known = {**MODE_PARAMETERS[mode], **COMMON_PARAMETERS, **VALVE_LOOP_PARAMETERS}
     unknown = sorted(set(parameters) - set(known))
     if unknown:
         raise ValueError(
@@ -163,7 +183,8 @@ def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
         for name, (default, check) in known.items()
     }
     limits = SafetyLimits(**{field: values[name] for name, field in LIMIT_NAMES.items()})
-    return ModeSettings(mode, values, limits, values['estimate_forces'] or mode == 'force')
+    loop = ValveLoopSettings(**{name: values[name] for name in VALVE_PARAMETERS})
+    return ModeSettings(mode, values, limits, values['estimate_forces'] or mode == 'force', loop)
 
 
 class ProtocolPosition(BuiltInMode):

@@ -24,8 +24,9 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..control import ValveLoopSettings
 from ..params import GloveParams, load_params
-from ..simulation import SimulationSettings
+from ..settings import ACTUATIONS, SimulationSettings
 from .metrics import DEFAULT_FORCE_LIMIT, MetricSettings
 from .populations import Population, load_population
 from .protocols import SessionProtocol, make_protocol
@@ -213,6 +214,14 @@ class TrialSpec:
         The force limit of the metric ``time_over_force_s``, N (> 0).
     shard_size : int
         Patients stepped as one batch (>= 1); the last shard takes what is left.
+    actuation : str
+        How the gloves' chambers are driven, one of
+        :data:`~exodigit_model.simulation.ACTUATIONS`: ``regulator`` (default: the controller's
+        pressure commands are the chambers') or ``valves`` (docs/spec/model.md §14: they are
+        the targets of :class:`~exodigit_model.control.ValveLoop`, which opens each glove's six
+        valves on its measured pressures, as ``pressure_command`` with ``output:=valves``; a
+        mode's ``valve_deadband``, ``valve_kp``, ``valve_ki`` set it). In process only: a ``ros``
+        controller is refused.
 
     Raises
     ------
@@ -231,6 +240,7 @@ class TrialSpec:
     simulation: SimulationSettings | None = None
     force_limit: float = DEFAULT_FORCE_LIMIT
     shard_size: int = DEFAULT_SHARD_SIZE
+    actuation: str = 'regulator'
 
     def __post_init__(self) -> None:
         """Check every field by making what it names."""
@@ -257,6 +267,34 @@ class TrialSpec:
                     f"protocol's rate_hz = {protocol.rate_hz:g} Hz: the protocol sets the rate"
                 )
         self.metric_settings()
+        self._check_actuation()
+
+    def _check_actuation(self) -> None:
+        """Refuse an unknown actuation, valve parameters without valves, or valves over ROS."""
+        if self.actuation not in ACTUATIONS:
+            raise ValueError(
+                f'actuation = {self.actuation!r}: must be one of {", ".join(ACTUATIONS)}'
+            )
+        controller = self.controller
+        if self.actuation == 'valves' and controller.kind == 'ros':
+            raise ValueError(
+                "actuation = 'valves': runs in process only, not with a ros controller"
+            )
+        from .controllers import VALVE_PARAMETERS
+
+        given = [name for name, _ in controller.parameters if name in VALVE_PARAMETERS]
+        if self.actuation == 'regulator' and controller.kind == 'mode' and given:
+            raise ValueError(
+                f"controller parameter {given[0]!r}: a valve loop's, only with actuation 'valves'"
+            )
+
+    def valve_loop(self) -> ValveLoopSettings:
+        """The valve loop's settings: a mode's valve parameters over the defaults."""
+        if self.controller.kind != 'mode':
+            return ValveLoopSettings()
+        from .controllers import mode_settings
+
+        return mode_settings(self.controller.name, dict(self.controller.parameters)).valve_loop
 
     @property
     def shards(self) -> int:
@@ -304,4 +342,5 @@ class TrialSpec:
             'simulation': None if self.simulation is None else asdict(self.simulation),
             'force_limit_n': self.force_limit,
             'shard_size': self.shard_size,
+            'actuation': self.actuation,
         }

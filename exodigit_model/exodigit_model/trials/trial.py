@@ -32,6 +32,7 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from ..control import ValveLoop
 from ..model import GloveModel
 from ..simulation import GloveSimulation
 from .aggregates import summarize
@@ -86,11 +87,15 @@ class PatientRecord(NamedTuple):
     q, target : ndarray
         True joint angles and the protocol's targets, rad.
     pressure, command : ndarray
-        Chamber pressures and the commands that drove each step, Pa.
+        Chamber pressures and the commands that drove each step, Pa (behind valves the
+        controller's pressure targets the valve loop tracked).
     forces : ndarray
         Contact forces, N.
     limited : ndarray of bool, shape (steps,)
         Whether the limiter changed the command.
+    openings : ndarray or None
+        Behind valves the six openings of each step, (steps, 6): inlets MCP, PIP, DIP, then
+        outlets; None with regulators.
     """
 
     patient: int
@@ -101,6 +106,7 @@ class PatientRecord(NamedTuple):
     command: NDArray[np.float64]
     forces: NDArray[np.float64]
     limited: NDArray[np.bool_]
+    openings: NDArray[np.float64] | None = None
 
 
 def run_shard(spec: TrialSpec, index: int) -> PatientMetrics:
@@ -146,11 +152,14 @@ def _session(
     model = GloveModel(spec.glove_params())
     noise_seed, rng = shard_seeds(spec, index)
     settings = spec.simulation_settings(noise_seed)
-    simulation = GloveSimulation(model, settings, fingers=patients.fingers)
+    simulation = GloveSimulation(
+        model, settings, fingers=patients.fingers, actuation=spec.actuation
+    )
     controller = build_controller(
         spec.controller, protocol=protocol, model=model, settings=settings
     )
     controller.reset(count, rng)
+    valves = ValveLoop(spec.valve_loop(), count=count) if simulation.valves else None
     metrics = MetricAccumulator(count, spec.metric_settings())
     times = protocol.times()
     targets = protocol.targets(times)
@@ -158,7 +167,12 @@ def _session(
     state = simulation.state
     for target in targets:
         command = controller.command(state.t, simulation.period, state)
-        state = simulation.step(command)
+        if valves is None:
+            state = simulation.step(command)
+        else:  # the commands are the loop's targets; it answers the measured pressures
+            state = simulation.step(
+                valves.openings(command, state.pressure_measured, simulation.period)
+            )
         limited = limiter_acted(controller, count)
         metrics.update(
             q=state.q,
@@ -171,15 +185,17 @@ def _session(
         )
         if rows is not None:
             flags = np.broadcast_to(limited, (count,))
-            recorded = (state.q, state.pressure, state.command, state.forces, flags)
+            pressures = state.command if valves is None else np.asarray(command)
+            recorded = (state.q, state.pressure, pressures, state.forces, flags, state.command)
             rows.append(tuple(value[record] for value in recorded))
     if rows is None:
         return metrics.result(), None
-    q, pressure, command, forces, limited = (
+    q, pressure, command, forces, limited, applied = (
         np.array(column) for column in zip(*rows, strict=True)
     )
+    openings = None if valves is None else applied
     return metrics.result(), PatientRecord(
-        record, times, q, targets, pressure, command, forces, limited
+        record, times, q, targets, pressure, command, forces, limited, openings
     )
 
 
