@@ -20,7 +20,9 @@ PERIOD_NS = 10_000_000
 
 @pytest.fixture
 def client(probe):
-    node = GloveClient(f'/kit_estimates_{os.getpid()}', probe.context, estimator=True, rate_hz=100)
+    node = GloveClient(
+        f'/kit_estimates_{os.getpid()}', probe.context, estimator=True, rate_hz=100, valves=False
+    )
     yield node
     node.destroy_node()
 

@@ -47,6 +47,7 @@ from ..nodes.messages import SET_PAUSED
 from ..nodes.run_options import add_options, text, time_parameters
 from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
 from .session import Session, WatchedGlove, identification_references, run_session
+from .summary import published_signals
 
 NODE_PROCESSES = 'nodes'
 """Layout: each node of a lone glove its own process."""
@@ -280,6 +281,7 @@ def session(config: RunConfig, run_dir: Path) -> Session:
         duration=config.duration,
         log_dir=run_dir / LOG_DIR_NAME,
         listeners=tuple(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
+        signals=published_signals(hand.actuation),
     )
 
 

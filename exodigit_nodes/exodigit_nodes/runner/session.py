@@ -78,6 +78,9 @@ class Session:
         Nodes (fully qualified) besides the summary that must subscribe every glove's signals
         before the plants resume (the recorder: in simulated time the plant outruns a late
         subscriber, which would miss the first steps).
+    signals : tuple of str
+        The topics of `SIGNALS` the gloves publish (:func:`.summary.published_signals`): the
+        plants resume once each is matched, and not before.
     """
 
     program: str
@@ -91,6 +94,7 @@ class Session:
     duration: float
     log_dir: Path
     listeners: tuple[str, ...] = ()
+    signals: tuple[str, ...] = tuple(SIGNALS)
 
 
 def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:
@@ -177,7 +181,8 @@ def run_session(session: Session, env: dict) -> int:
             spin()
             now = time.monotonic()
             if waiting and all(
-                monitor.connected(SIGNALS) and monitor.listened_by(session.listeners, SIGNALS)
+                monitor.connected(session.signals)
+                and monitor.listened_by(session.listeners, session.signals)
                 for monitor in monitors
             ):
                 waiting = not (horizon.ready() and monitors[0].resume_plant())

@@ -60,6 +60,16 @@ SIGNALS = {
     'estimated_finger_stiffness': Signal('K_H est', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
     'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
+COMMAND_TOPICS = {'regulator': 'pressure_command', 'valves': 'valve_command'}
+"""The command topic of each plant ``actuation``: the other one has no publisher in a run."""
+
+
+def published_signals(actuation: str) -> tuple[str, ...]:
+    """The topics of :data:`SIGNALS` that a glove of ``actuation`` publishes."""
+    unused = {topic for mode, topic in COMMAND_TOPICS.items() if mode != actuation}
+    return tuple(topic for topic in SIGNALS if topic not in unused)
+
+
 #: Openings of a ``valve_command`` (with actuation valves): inlets MCP, PIP, DIP, then outlets.
 VALVE_OPENINGS = 6
 #: The plant topics a `Sample` joins, in the order the plant publishes them in a step
