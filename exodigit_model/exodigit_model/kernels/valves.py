@@ -168,7 +168,7 @@ def substeps(period):
     return max(1, round(SUBSTEP_TIME / period))
 
 
-@kernel(counted=False, forceinline=True)
+@kernel(counted=False)
 def integrate_air(air, masses, start, end, openings, period, scratch, slopes):
     """The chambers' air masses (3,), kg, over a step of ``period`` s, in place (ROS2, above).
 
@@ -177,7 +177,8 @@ def integrate_air(air, masses, start, end, openings, period, scratch, slopes):
     (3,), kg/m³: ∂m/∂V̂, how each new mass moves with the end volume V̂ (the sub-steps
     differentiated with each sub-step's J held, as the W-method allows). The three chambers
     advance together, stage by stage: their chains of divisions and roots are independent, and
-    so overlap in the processor.
+    so overlap in the processor. Called, not inlined (:func:`.jit.kernel`): compiled once
+    instead of once more in every stepping kernel, for a call of a few tens of ns per step.
     """
     count = substeps(period)
     h = period / count
