@@ -1,7 +1,8 @@
 """The chambers behind valves (docs/spec/model.md §14), each against an independent answer.
 
 (a) a fixed volume filled through a choked inlet: the closed form of a constant mass flow;
-(b) a fixed volume vented: the time scipy's ``quad`` gives for dt = −V/(R·T)·dP/Q(P, P_atm);
+(b) a fixed volume vented: the time scipy's ``quad`` gives for dt = −V/(R·T)·dP/Q(P, P_atm),
+    and the error's order;
 (c) both valves closed, no leak: the air mass stays, and P·V with it, while the finger moves;
 (d) p·∂V/∂q = τ_p and ∂V/∂ℓ = A_c, by finite differences and by quadrature of the cavity;
 (e) ψ continuous where its pieces meet, Q antisymmetric and equal to ISO 6358-3 written out here;
@@ -122,9 +123,12 @@ def venting_error(period: float, duration: float = 0.04) -> np.ndarray:
 
 
 def test_venting_a_fixed_volume_takes_the_time_quadrature_gives_to_second_order():
+    # ROS2 is second order in its sub-step h, and h = Δt/round(T_sub/Δt) ≈ Δt²/T_sub falls
+    # four-fold when the step halves (kernels/valves.py): the error sixteen-fold, more than
+    # twelve (an order in h of 1.8 at least).
     coarse, fine = venting_error(0.01), venting_error(0.005)
     assert np.all(coarse < INTEGRATION)
-    assert np.all(coarse / fine > 3.0)  # second order: 4 when halving the step
+    assert np.all(coarse / fine > 12.0)
 
 
 # -- (c) closed valves ---------------------------------------------------------------------

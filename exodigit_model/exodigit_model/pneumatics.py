@@ -28,6 +28,7 @@ from .checks import (
     check_three,
     set_field,
 )
+from .kernels.flow_regions import LAMINAR_RATIO
 
 if TYPE_CHECKING:
     from .model import GloveModel
@@ -41,8 +42,6 @@ REFERENCE_DENSITY = 1.185
 """ρ0 of ISO 6358 (ANR), kg/m³."""
 REFERENCE_TEMPERATURE = 293.15
 """T0 of ISO 6358, K."""
-LAMINAR_RATIO = 0.999
-"""Pressure ratio above which the flow of (14.3) is laminar (linear in the pressure drop)."""
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,3 @@ the chambers and the simulation step, one glove or a batch) is written once here
 functions that numba compiles (:mod:`.jit`). With numba missing or ``EXODIGIT_JIT=0`` the same
 functions run as plain Python: the reference path the suite checks the compiled one against.
 """
-
-from ..compiling import announce_compiles
-
-announce_compiles()  # one log line when the kernels compile (README, "Compiled model")

@@ -128,6 +128,9 @@ def kernel(function: Function | None = None, *, counted: bool = True, forceinlin
         return lambda decorated: kernel(decorated, counted=counted, forceinline=forceinline)
     if not JIT:
         return function
+    from ..compiling import announce_compiles  # here: compiling imports this module
+
+    announce_compiles()  # one log line when the kernels compile (README, "Compiled model")
     options = dict(_OPTIONS)
     if not counted:
         options['_nrt'] = False

@@ -148,7 +148,9 @@ def residual_of(glove, work, x, pressure, free, motion, rate, residual, forces, 
     total = 0.0
     gauge = pressure
     if work.masses[0] > 0.0:  # behind valves: the gas law (14.2) at x
-        gas_pressures(work.air, work.masses, x, work.gauge, work.spring)
+        gas_pressures(
+            work.air, work.masses, work.mass_slopes, work.predicted, x, work.gauge, work.spring
+        )
         gauge = work.gauge
     for k in range(3):
         drive = moments[k] * gauge[k]

@@ -194,7 +194,7 @@ def step_into(glove, work, state, new, command, effort, limits, air):
             new_forces[k] = forces[k]
             new_torque[k] = torque[k]
     if valves:
-        settle_air(air, gas, new_gas, new_x, new_pressure, failed)
+        settle_air(work, air, gas, new_gas, new_x, new_pressure, failed)
     for k in range(3):
         new_earlier[0, k] = x[k] if failed else q_before[k]
         new_earlier[1, k] = x[k] if failed else earlier[0, k]

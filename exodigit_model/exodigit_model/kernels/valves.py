@@ -16,32 +16,44 @@ with ψ = 1 (r ≤ b, choked), √(1 − ((r − b)/(1 − b))²) (b < r ≤ 0.9
 .. math:: \dot m_i = u_{in,i}\,Q(P_s, P_i) - u_{out,i}\,Q(P_i, P_{atm})
           - G_i\,(P_i - P_{atm}). \qquad (14.4)
 
-Integration over one step (:func:`integrate_air`). Over a step of Δt the volume of each chamber
-is taken affine in time, from its value V_k at the step's start to a prediction V̂ of its value
-at the end; given that path the chambers are independent scalar ODEs ṁ = F(t, m), which
-:func:`integrate_air` integrates by ``SUBSTEPS`` equal sub-steps h of ROS2, the two-stage
-Rosenbrock W-method of Verwer, Spee, Blom and Hundsdorfer (SIAM J. Sci. Comput. 20, 1999):
+A step of Δt from the masses m_k and volumes V_k, V_{k−1} under openings held over it:
 
-.. math:: (1 - \gamma h J)\,k_1 = F(t_n, m_n), \quad
-          (1 - \gamma h J)\,k_2 = F(t_n + h, m_n + h k_1) - 2k_1, \quad
-          m_{n+1} = m_n + \tfrac32 h k_1 + \tfrac12 h k_2,
+1. Mass balance (:func:`admit_air`, :func:`integrate_air`). Each chamber's volume is taken
+   affine in time from V_k to a prediction V̂ = 2V_k − V_{k−1} of its end value (the line
+   through the last two steps' volumes). Along that path the chambers are independent scalar
+   ODEs ṁ = F(t, m), integrated by n = max(1, round(T_sub/Δt)) equal sub-steps
+   h = Δt/n ≈ Δt²/T_sub (T_sub = ``SUBSTEP_TIME`` = 0.04 s: four at 100 Hz, eight at 200 Hz)
+   of ROS2, the two-stage Rosenbrock W-method of Verwer, Spee, Blom and Hundsdorfer (SIAM J.
+   Sci. Comput. 20, 1999):
 
-γ = 1 + 1/√2, J = ∂F/∂m at (t_n, m_n). It is of order two for any J (a W-method: the kinks of ψ
-at r = b and r = 0.999 and the time-dependent volume cost no order) and L-stable with the exact
-J: the laminar region near equal pressures, where the time constant V/(R·T·∂Q/∂P) is about
-2 ms with the defaults (shorter than a 10 ms step), is damped at any sub-step, never rung or
-blown up. F decreases in m (more air: less inflow, more outflow and leak), so 1 − γhJ ≥ 1.
+   .. math:: (1 - \gamma h J)\,k_1 = F(t_n, m_n), \quad
+             (1 - \gamma h J)\,k_2 = F(t_n + h, m_n + h k_1) - 2k_1, \quad
+             m_{n+1} = m_n + \tfrac32 h k_1 + \tfrac12 h k_2,
 
-The mass at the end of the step then enters the statics through the gas law (14.2), solved with
-them by the Newton iteration (:mod:`.statics`, the "gas spring" of the chamber); the end volume
-prediction is V̂ = 2V_k − V_{k−1}, the line through the last two steps' volumes (exact for a
-volume moving at a constant speed). Order: the mass balance sees the volume path with an error of
-O(Δt²) (the chord of a smooth path, and the prediction), so each step adds O(Δt³) to the masses,
-and the ROS2 sub-steps O((Δt/SUBSTEPS)³): the masses, and so the pressures and angles, are
-second-order accurate in Δt. A step where the openings change has a kink in the volume's path, an
-O(Δt²) error once. The explicit prediction is stable: linearised about a chamber in equilibrium
-with its supply, its error obeys e_{k+1} = g·(2e_k − e_{k−1}) with g = a/(1 + a) < 1 (a = P·c/V,
-c = ∂V/∂P of the statics), whose roots have modulus √g < 1.
+   γ = 1 + 1/√2, J = ∂F/∂m at (t_n, m_n). It is of order two for any J (a W-method) and
+   L-stable with the exact J: the laminar region near equal pressures, whose time constant
+   V/(R·T·∂Q/∂P) is about 2 ms with the defaults (shorter than a 10 ms step), is damped at any
+   sub-step, never rung or blown up. F decreases in m (more air: less inflow, more outflow and
+   leak), so 1 − γhJ ≥ 1. Alongside, the same sub-steps differentiated by V̂ (J held) give
+   S = ∂m̂/∂V̂, how the end mass m̂ moves with the end volume.
+2. Statics (:mod:`.statics`): solved with the chambers' pressures of the gas law (14.2) at the
+   end volume V(x) of the unknowns and the end mass linearised about the prediction,
+   m(x) = m̂ + S·(V(x) − V̂): p(x) = m(x)·R·T/V(x) − P_atm, whose slope in V, (S·R·T − P)/V,
+   enters the Newton Jacobian (the chamber's "gas spring"). One Newton solve per step, as with
+   regulators. In the laminar region S ≈ P_s/(R·T) and the supply holds the pressure whatever
+   the volume does; while choked S ≈ 0 and the air is a closed spring.
+3. The masses m(x), volumes V(x) and pressures of the solved x are the new state
+   (:func:`settle_air`).
+
+Order. The mass balance sees the volume along the chord from V_k to V(x_{k+1}) up to the
+linearisation's O((V(x) − V̂)²) = O(Δt⁴), and the chord is O(Δt²) from the true path, so a
+step adds O(Δt³) to the masses: the scheme is second order in Δt. The sub-steps add O(h²) =
+O(Δt⁴) globally, with h ∝ Δt²: without that rule (n fixed) the sub-step error dominates at
+100-400 Hz, where the root of ψ near r = 1 (ψ'' large just below r = 0.999) keeps ROS2 short of
+its asymptotic order (measured 1.6-1.8). Measured against the DAE reference of
+tests/valves_reference.py (tests/test_model_valves_convergence.py, default glove, 100/200/400
+Hz): largest pressure errors 345/44/7.8 Pa (fill, hold, vent), orders 2.97 and 2.50, falling
+toward two; with the volume predicted but not linearised (S = 0) 806 Pa at 100 Hz.
 """
 
 from __future__ import annotations
@@ -50,11 +62,12 @@ import math
 
 import numpy as np
 
-from ..pneumatics import LAMINAR_RATIO
+from .flow_regions import LAMINAR_RATIO
 from .jit import kernel
 
-SUBSTEPS = 4
-"""ROS2 sub-steps of the mass balance per step (:func:`integrate_air`)."""
+SUBSTEP_TIME = 0.04
+"""T_sub, s: a step of Δt integrates the mass balance in n = max(1, round(T_sub/Δt)) ROS2
+sub-steps (:func:`substeps`), so the sub-steps are h ≈ Δt²/T_sub long: four at 100 Hz."""
 ROS2_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 """γ of ROS2 (L-stable)."""
 
@@ -149,30 +162,48 @@ def air_rate(row, mass, gas_per_volume, inlet, outlet):
 
 
 @kernel(counted=False, forceinline=True)
-def integrate_air(air, masses, start, end, openings, period, scratch):
+def substeps(period):
+    """The ROS2 sub-steps of a step of ``period`` s (:data:`SUBSTEP_TIME`)."""
+    return max(1, round(SUBSTEP_TIME / period))
+
+
+@kernel(counted=False)
+def integrate_air(air, masses, start, end, openings, period, scratch, slopes):
     """The chambers' air masses (3,), kg, over a step of ``period`` s, in place (ROS2, above).
 
     Chamber k's volume goes from ``start[k]`` to ``end[k]`` (m³) affinely in time under the
-    ``openings`` (6,) held over the step; ``scratch`` (2, 3) is work space. The three chambers
+    ``openings`` (6,) held over the step; ``scratch`` (5, 3) is work space. Into ``slopes``
+    (3,), kg/m³: ∂m/∂V̂, how each new mass moves with the end volume V̂ (the sub-steps
+    differentiated with each sub-step's J held, as the W-method allows). The three chambers
     advance together, stage by stage: their chains of divisions and roots are independent, and
-    so overlap in the processor.
+    so overlap in the processor. Called, not inlined (:func:`.jit.kernel`): compiled once
+    instead of once more in every stepping kernel, for a call of a few tens of ns per step.
     """
-    h = period / SUBSTEPS
-    first, shrink = scratch[0], scratch[1]
-    for n in range(SUBSTEPS):
+    count = substeps(period)
+    h = period / count
+    first, shrink, moved, held, inverse = scratch
+    for k in range(3):
+        slopes[k] = 0.0
+        inverse[k] = 1.0 / start[k]  # 1/V where the sub-step starts
+    for n in range(count):
         for k in range(3):
-            volume = start[k] + n * (end[k] - start[k]) / SUBSTEPS
-            gas = air[k, AIR_GAS] / volume
-            rate, slope = air_rate(air[k], masses[k], gas, openings[k], openings[3 + k])
-            shrink[k] = 1.0 / (1.0 - ROS2_GAMMA * h * slope)
+            across = inverse[k]
+            gas, mass = air[k, AIR_GAS] * across, masses[k]
+            rate, held[k] = air_rate(air[k], mass, gas, openings[k], openings[3 + k])
+            shrink[k] = 1.0 / (1.0 - ROS2_GAMMA * h * held[k])
             first[k] = rate * shrink[k]
+            # d/dV̂ of F(m, V): J·(dm/dV̂ − (m/V)·dV/dV̂), dV/dV̂ = n/count at this stage
+            moved[k] = shrink[k] * held[k] * (slopes[k] - mass * across * n / count)
         for k in range(3):
-            volume = start[k] + (n + 1) * (end[k] - start[k]) / SUBSTEPS
-            gas = air[k, AIR_GAS] / volume
-            mass = masses[k] + h * first[k]
+            across = 1.0 / (start[k] + (n + 1) * (end[k] - start[k]) / count)
+            inverse[k] = across
+            gas, mass = air[k, AIR_GAS] * across, masses[k] + h * first[k]
             rate, _ = air_rate(air[k], mass, gas, openings[k], openings[3 + k])
             second = (rate - 2.0 * first[k]) * shrink[k]
             masses[k] += h * (1.5 * first[k] + 0.5 * second)
+            carried = slopes[k] + h * moved[k] - mass * across * (n + 1) / count
+            along = shrink[k] * (held[k] * carried - 2.0 * moved[k])
+            slopes[k] += h * (1.5 * moved[k] + 0.5 * along)
 
 
 @kernel(counted=False, forceinline=True)
@@ -206,7 +237,7 @@ def advance_masses(air, masses, start, end, openings, period):
     (MCP, PIP, DIP), each within [0, 1]; ``period``: s.
     """
     result = masses.copy()
-    integrate_air(air, result, start, end, openings, period, np.empty((2, 3)))
+    integrate_air(air, result, start, end, openings, period, np.empty((5, 3)), np.empty(3))
     return result
 
 
@@ -229,17 +260,26 @@ def absolute_pressure(row, mass, volume):
 
 
 @kernel(counted=False, forceinline=True)
-def gas_pressures(air, masses, x, gauge, spring):
+def end_mass(masses, slopes, predicted, k, volume):
+    """Chamber k's air mass at the end volume ``volume`` (m³), kg: linear about V̂."""
+    return masses[k] + slopes[k] * (volume - predicted[k])
+
+
+@kernel(counted=False, forceinline=True)
+def gas_pressures(air, masses, slopes, predicted, x, gauge, spring):
     """The gauge pressures of the gas law (14.2) at the unknowns ``x`` into ``gauge``, Pa.
 
-    Their slopes ∂p/∂V into ``spring``, Pa/m³; a chamber without volume gets no finite pressure.
+    The masses are those of the step at the volumes of ``x`` (:func:`end_mass`: ``masses`` at
+    the predicted volumes, ``slopes`` ∂m/∂V̂). Their slopes ∂p/∂V into ``spring``, Pa/m³:
+    (∂m/∂V̂·R·T − P)/V. A chamber without volume gets no finite pressure.
     """
     for k in range(3):
         volume = chamber_volume(air[k], x, k)
         absolute, spring[k] = math.inf, 0.0
         if volume > 0.0:
-            absolute = absolute_pressure(air[k], masses[k], volume)
-            spring[k] = -absolute / volume
+            mass = end_mass(masses, slopes, predicted, k, volume)
+            absolute = absolute_pressure(air[k], mass, volume)
+            spring[k] = (slopes[k] * air[k, AIR_GAS] - absolute) / volume
         gauge[k] = absolute - air[k, AIR_ATMOSPHERE]
 
 
@@ -254,7 +294,7 @@ def admit_air(work, air, gas, new_gas, openings, applied, period):
     below zero and whether one was above one.
     """
     below, above = admit(openings, applied)
-    masses, predicted = work.masses, work.air_scratch[0]
+    masses, predicted = work.masses, work.predicted
     for k in range(3):
         volume = gas[GAS_VOLUME, k]
         predicted[k] = 2.0 * volume - gas[GAS_VOLUME_BEFORE, k]
@@ -263,23 +303,26 @@ def admit_air(work, air, gas, new_gas, openings, applied, period):
         masses[k] = gas[GAS_MASS, k]
         for column in range(AIR_COLUMNS):
             work.air[k, column] = air[k, column]
-    integrate_air(air, masses, gas[GAS_VOLUME], predicted, applied, period, work.air_scratch[1:])
-    for k in range(3):
-        new_gas[GAS_MASS, k] = masses[k]
+    scratch, slopes = work.air_scratch, work.mass_slopes
+    integrate_air(air, masses, gas[GAS_VOLUME], predicted, applied, period, scratch, slopes)
     return below, above
 
 
 @kernel(counted=False, forceinline=True)
-def settle_air(air, gas, new_gas, x, pressure, still):
-    """The second half of a valve step: volumes and gauge pressures at the solved ``x``.
+def settle_air(work, air, gas, new_gas, x, pressure, still):
+    """The second half of a valve step: masses, volumes and gauge pressures at the solved ``x``.
 
-    Into ``new_gas`` the volume at ``x`` and the one before it (``gas``'s, or the same volume
-    where the glove is ``still``: its solve failed), into ``pressure`` the gauge pressures of
-    the gas law at the new masses (Pa).
+    Into ``new_gas`` the masses at the volumes of ``x`` (:func:`end_mass`, from what
+    :func:`admit_air` left in ``work``), those volumes and the ones before them (``gas``'s, or
+    the same where the glove is ``still``: its solve failed), into ``pressure`` the gauge
+    pressures of the gas law (Pa), as the statics had them.
     """
+    masses, slopes, predicted = work.masses, work.mass_slopes, work.predicted
     for k in range(3):
         volume = chamber_volume(air[k], x, k)
-        absolute = absolute_pressure(air[k], new_gas[GAS_MASS, k], volume)
+        mass = end_mass(masses, slopes, predicted, k, volume)
+        new_gas[GAS_MASS, k] = mass
+        absolute = absolute_pressure(air[k], mass, volume)
         pressure[k] = absolute - air[k, AIR_ATMOSPHERE]
         new_gas[GAS_VOLUME_BEFORE, k] = volume if still else gas[GAS_VOLUME, k]
         new_gas[GAS_VOLUME, k] = volume

@@ -40,8 +40,9 @@ class Workspace(NamedTuple):
     the gas law (14.2) at the unknowns, without (zeros, as a fresh workspace has) the ones
     they are given;
     ``gauge`` (3), the pressures of the last residual, Pa, and ``spring`` (3), their slopes
-    ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (3, 3), the integration's
-    (:func:`.valves.admit_air`).
+    ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (5, 3), the integration's,
+    ``predicted`` (3), the volumes V̂ it integrated toward, m³, and ``mass_slopes`` (3),
+    ∂m/∂V̂, kg/m³ (:func:`.valves.admit_air`).
     """
 
     j_robot: np.ndarray
@@ -78,6 +79,8 @@ class Workspace(NamedTuple):
     gauge: np.ndarray
     spring: np.ndarray
     air_scratch: np.ndarray
+    predicted: np.ndarray
+    mass_slopes: np.ndarray
     half_turn: np.ndarray
     chord: np.ndarray
     chord_slope: np.ndarray
@@ -91,7 +94,7 @@ class Workspace(NamedTuple):
 _SQUARE = MAX_UNKNOWNS * MAX_UNKNOWNS
 _REAL = (
     *(9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9),
-    *(3 * AIR_COLUMNS, 3, 3, 3, 9),
+    *(3 * AIR_COLUMNS, 3, 3, 3, 15, 3, 3),
 )
 """Sizes of the real fields, in order."""
 _REAL_ENDS = tuple(int(end) for end in np.cumsum(_REAL))
@@ -141,7 +144,9 @@ def workspace():
         r[e[29] : e[30]],
         r[e[30] : e[31]],
         r[e[31] : e[32]],
-        r[e[32] : e[33]].reshape((3, 3)),
+        r[e[32] : e[33]].reshape((5, 3)),
+        r[e[33] : e[34]],
+        r[e[34] : e[35]],
         c[0 : z[0]],
         c[z[0] : z[1]],
         c[z[1] : z[2]],
