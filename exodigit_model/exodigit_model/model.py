@@ -712,12 +712,14 @@ class GloveModel:
             :meth:`estimate` says which without warning.
         """
         angles, pressure = as_joint_vector('q', q), as_joint_vector('p', p)
-        converged, forces, valid, moving_range = estimate_one(
-            self.packed, angles, pressure, *VALID_STRETCH
-        )
-        if not converged:
-            self._estimated(angles[None], pressure[None])  # raises, naming the segment
-        if not (valid and moving_range):  # the status only then: this is the hot path
+        if self.extensible:
+            rows, _, valid_rows, moving_rows = self._estimated(angles[None], pressure[None])
+            forces, valid, moving_range = rows[0], bool(valid_rows[0]), bool(moving_rows[0])
+        else:  # the hot path: one kernel call
+            forces, valid, moving_range = estimate_one(
+                self.packed, angles, pressure, *VALID_STRETCH
+            )
+        if not (valid and moving_range):  # the status only then
             warn_outside('estimate_forces', validity_status(valid, moving_range))
         return forces
 

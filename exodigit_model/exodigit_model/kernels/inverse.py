@@ -246,20 +246,18 @@ def estimate(glove, work, q, pressure):
 
 @kernel
 def estimate_one(packed, q, pressure, valid_low, valid_high):
-    """:func:`estimate` of one glove and its checks, in one call from Python.
+    """:func:`robot_side_forces` of one inextensible glove and its checks, in one call.
 
-    Returns converged, f (N), and :func:`.solves.stretch_in_range` (of q and the strains) and
-    :func:`.solves.in_range_of_motion` of the state.
+    Returns f (N), :func:`.solves.stretch_in_range` and :func:`.solves.in_range_of_motion` of
+    the state. Inextensible segments only: an extensible glove's strains are balanced first
+    (:func:`estimate_rows`), and linking that Newton solve in here too would cost seconds of
+    compile for a call that is not on anyone's hot path.
     """
     glove, work = unpack(packed), workspace()
-    converged, strains, forces, _ = estimate(glove, work, q, pressure)
-    x = np.empty(6 if glove.extensible else 3)
-    for k in range(3):
-        x[k] = q[k]
-        if glove.extensible:
-            x[3 + k] = strains[k]
-    valid = stretch_in_range(glove, x, valid_low, valid_high)
-    return converged, forces, valid, in_range_of_motion(glove, q)
+    forces = np.empty(3)
+    robot_side_forces(glove, work, q, pressure, forces)
+    valid = stretch_in_range(glove, q, valid_low, valid_high)
+    return forces, valid, in_range_of_motion(glove, q)
 
 
 @kernel
