@@ -234,6 +234,11 @@ def lockstep_hold_recorded(run: Run) -> list[str]:
     return [*lockstep_hold(run), '--record']
 
 
+def lockstep_hold_behind_valves(run: Run) -> list[str]:
+    """:func:`lockstep_hold` with the plant behind valves and ``pressure_command`` a valve loop."""
+    return [*lockstep_hold(run), '--actuation', 'valves']
+
+
 def interrupted_once_identified(run: Run) -> Run:
     """The default session (sine, stroke_moderate) with a bag, started as a shell starts a
     background job (SIGINT ignored); Ctrl-C (kill -INT) once the record has a fit made after
@@ -268,6 +273,7 @@ SCENARIOS = {
     # two identical lockstep sessions, for "the same every time"
     'lockstep_run': ends_by_itself(lockstep_hold),
     'lockstep_rerun': ends_by_itself(lockstep_hold_recorded),
+    'valves_run': ends_by_itself(lockstep_hold_behind_valves),
     'failing_run': ends_by_itself(plant_fails),
     # the wall clock's duration, over while the nodes still start
     'wall_clock_run': ends_by_itself(lambda run: ['--duration', f'{WALL_DURATION:g}']),
@@ -323,6 +329,11 @@ def lockstep_rerun(sessions) -> Run:
 @pytest.fixture(scope='module')
 def interrupted_run(sessions) -> Run:
     return sessions['interrupted_run'].result()
+
+
+@pytest.fixture(scope='module')
+def valves_run(sessions) -> Run:
+    return sessions['valves_run'].result()
 
 
 @pytest.fixture(scope='module')
@@ -392,6 +403,21 @@ def test_a_recorded_lockstep_session_has_every_step_in_its_bag(lockstep_rerun):
     np.testing.assert_allclose(
         np.degrees(bag['joint_states'].values), joint_columns(table, 'q', 'deg'), atol=1e-9
     )
+
+
+def test_a_session_behind_valves_fills_the_chambers_to_the_held_pressure(valves_run):
+    # make run ACTUATION=valves: the plant takes openings, pressure_command's loop sends them.
+    # The runner resumes the plant once the signals of its actuation are matched (it waited
+    # forever for a pressure_command publisher that a valve session does not have).
+    assert valves_run.returncode == 0, valves_run.output()
+    table = read_record(valves_run.out / 'signals.csv')
+    assert len(table['time_s']) == round(100 * LOCKSTEP_DURATION)
+    openings = joint_columns(table, 'u_net', 'pct')
+    assert openings.max() > 0.0  # the inlets opened
+    pressure = joint_columns(table, 'p', 'kpa')[-1]
+    # the loop holds each chamber within its deadband (300 Pa) of the target, 1 s in
+    np.testing.assert_allclose(pressure, HOLD_PRESSURE_KPA, atol=0.3)
+    assert np.isnan(joint_columns(table, 'p_cmd', 'kpa')).all()  # no pressure is commanded
 
 
 def test_the_nodes_run_the_given_mode_and_model_file(lockstep_run):
