@@ -27,10 +27,11 @@ from .controllers import (
     Staircase,
 )
 from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
-from .valve_loop import OUTPUTS, ValveLoop, ValveLoopSettings
+from .valve_loop import LOOP_PARAMETERS, OUTPUTS, ValveLoop, ValveLoopSettings
 
 __all__ = [
     'LIMIT_KINDS',
+    'LOOP_PARAMETERS',
     'MODES',
     'MODE_DEFAULTS',
     'OUTPUTS',

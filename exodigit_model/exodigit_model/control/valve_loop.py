@@ -109,6 +109,10 @@ class ValveLoopSettings:
             raise ValueError(f'valve_kp = {self.valve_kp!r}: must be > 0 (no loop without it)')
 
 
+LOOP_PARAMETERS = tuple(field.name for field in fields(ValveLoopSettings))
+"""The loop's parameters, named as ``pressure_command``'s (``output:=valves``) and a trial's."""
+
+
 def openings_of(demand: NDArray[np.float64]) -> NDArray[np.float64]:
     """Six openings of three signed demands s in [−1, 1]: inlets max(s, 0), outlets max(−s, 0)."""
     return np.concatenate([np.maximum(demand, 0.0), np.maximum(-demand, 0.0)], axis=-1)

@@ -20,7 +20,7 @@ A fourth, ``ros`` (a ROS node's command line), runs through the testing kit of
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from ..checks import check_non_negative, check_number, check_positive
 from ..control import (
+    LOOP_PARAMETERS,
     MODE_DEFAULTS,
     BatchController,
     BuiltInMode,
@@ -110,7 +111,7 @@ LIMIT_NAMES = {
 
 _LIMITS = SafetyLimits()
 
-VALVE_PARAMETERS = tuple(field.name for field in fields(ValveLoopSettings))
+VALVE_PARAMETERS = LOOP_PARAMETERS
 """The valve loop's parameters (``pressure_command``'s with ``output:=valves``): a mode's pressure
 commands become openings through :class:`~exodigit_model.control.ValveLoop` in a trial with
 ``actuation='valves'``, which alone takes them."""

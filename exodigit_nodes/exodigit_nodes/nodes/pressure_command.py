@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_model.control import (
+    LOOP_PARAMETERS,
     CommandLoop,
     Controller,
     Feedback,
@@ -104,7 +105,7 @@ LIMIT_NAMES = frozenset(
         'feedback_timeout',
     }
 )
-VALVE_NAMES = frozenset(('valve_deadband', 'valve_kp', 'valve_ki'))
+VALVE_NAMES = frozenset(LOOP_PARAMETERS)
 """The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
 
 
