@@ -13,6 +13,7 @@ the command says so and does nothing.
 from __future__ import annotations
 
 import functools
+import logging
 import sys
 import time
 from collections.abc import Callable
@@ -29,6 +30,7 @@ from exodigit_model import (
 from exodigit_model.material import yeoh_stress
 from exodigit_model.pneumatics import ATMOSPHERIC_PRESSURE, flow_function, mass_flow
 
+from .. import compiling
 from . import jit
 from .patient import finger_torque
 from .section import resultants
@@ -156,6 +158,8 @@ def main() -> int:
         return 0
     directory = jit.cache_directory()
     print(f'exodigit_model kernels: cache {directory or "none (compiled in memory)"}')
+    # The warm-up says what it compiles, case by case: not the notice that points to itself.
+    logging.getLogger(compiling.__name__).setLevel(logging.ERROR)
     start = time.perf_counter()
     for name, run in cases():
         began = time.perf_counter()
