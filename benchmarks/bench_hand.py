@@ -275,6 +275,7 @@ def measure(args: argparse.Namespace, domain_id: int) -> dict:
         monitor.node.destroy_node()
         rclpy.try_shutdown()
     result = figures(monitor, start_diag, cpu, crashed, elapsed, period)
+    result['nodes per glove'] = 2 if args.no_estimator else 3
     result['layout'] = (
         args.layout
         + (', lockstep' if args.lockstep else '')
@@ -323,7 +324,8 @@ def figures(monitor, start_diag, cpu, crashed, elapsed, period) -> dict:
 def report(result: dict) -> str:
     """The figures as text."""
     lines = [
-        f'{len(result["fingers"])} gloves x 3 nodes at {result["rate (Hz)"]:g} Hz for '
+        f'{len(result["fingers"])} gloves x {result["nodes per glove"]} nodes at '
+        f'{result["rate (Hz)"]:g} Hz for '
         f'{result["duration (s)"]:.1f} s ({result["layout"]}); crashed: '
         f'{result["crashed"] or "none"}',
         '',
