@@ -325,6 +325,15 @@ class GloveUnderFuzz(GloveSession):
         figures = FloodFigures(target.topic)
         self.set_mode(target.mode)
         publisher = self.publisher(target.topic)
+        # Every subscriber the graph lists, not just one: the probe's own reader of an output
+        # matches at once, and a flood sent before the consumer's reader matched never reaches
+        # it (fresh clone fc13, seed 11: pressure_command counted 0 of a flood of estimates).
+        topic = publisher.topic_name
+        matched = wait_until(
+            lambda: publisher.get_subscription_count() >= self.probe.node.count_subscribers(topic),
+            REPORT_TIMEOUT,
+        )
+        assert matched, f'{topic}: not every subscriber the graph lists has matched'
         stderr = {name: self.processes[name].stderr for name in target.consumers}
         logs = {name: drop_log_lines(read()) for name, read in stderr.items()}
         before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODES}
