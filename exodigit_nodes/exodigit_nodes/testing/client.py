@@ -492,10 +492,16 @@ class GloveSim:
                 self._check_alive(what)
                 next_check = now + POLL
             if now > deadline:
-                raise GloveSimError(
+                error = GloveSimError(
                     f'waited {self.timeout:g} s for {what} in {self.namespace}; node logs in '
                     f'{self.log_dir}'
                 )
+                # The logs' ends too: a test harness may delete the directory before anyone
+                # reads it (pytest keeps its last three runs).
+                for process in self._processes:
+                    tail = process.stderr().strip().splitlines()[-5:]
+                    error.add_note(f'{process.module}: ' + (' | '.join(tail) or '(no output)'))
+                raise error
             self._executor.spin_once(timeout_sec=POLL)
 
     def _check_alive(self, what: str) -> None:
