@@ -258,17 +258,20 @@ class RosProbe:
 
     # topics
 
-    def subscribe(self, topic: str, message_type, with_info: bool = False) -> Inbox:
+    def subscribe(
+        self, topic: str, message_type, with_info: bool = False, qos: QoSProfile = TEST_QOS
+    ) -> Inbox:
         """Record every message on ``topic`` (absolute name) in an :class:`Inbox`.
 
         ``with_info`` keeps rclpy's message info (source timestamps) beside each message.
+        ``qos``: volatile by default (it matches any publisher); a transient-local profile
+        (``exodigit_nodes.nodes.qos.RECORD_QOS``) also gets what the glove's nodes published
+        before it matched.
         """
         inbox = Inbox()
         callback = (lambda message, info: inbox.put(message, info)) if with_info else inbox.put
         with self._lock:
-            inbox.subscription = self.node.create_subscription(
-                message_type, topic, callback, TEST_QOS
-            )
+            inbox.subscription = self.node.create_subscription(message_type, topic, callback, qos)
         return inbox
 
     def publisher(self, topic: str, message_type, wait_for: int = 1):

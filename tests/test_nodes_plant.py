@@ -138,6 +138,8 @@ def test_a_malformed_command_is_dropped_counted_and_the_last_valid_one_held(plan
     plant.command(bad)
     published = plant.step()
     assert list(published['chamber_pressure'][-1].data) == [20e3] * 3
+    # the plant's record of the refused command: the one it keeps applying
+    assert [list(m.data) for m in published['applied_command']] == [[20e3] * 3]
     assert non_finite(published) == []
     status, values = plant.report()
     assert sum(int(v) for k, v in values.items() if k.startswith('rejected')) == 1

@@ -390,6 +390,39 @@ def test_set_paused_asked_again_and_again_logs_with_debug_logging_on(probe):
         node.close()
 
 
+def ignore(message) -> None:
+    """A subscription callback that does nothing."""
+
+
+def test_lockstep_starts_only_once_one_node_both_reads_the_states_and_answers(probe):
+    # An estimator reads the states and another node publishes commands: not a controller yet
+    # (a lockstep force-mode pressure_command subscribes the states only once its estimator is
+    # matched). The first step waits until the command publisher's node reads the states too.
+    node = InProcessNode(
+        Plant, {'clock': 'sim', 'lockstep': 'true', 'real_time_factor': '0.0'}, probe
+    )
+    plant = node.node
+    try:
+        with probe.local_node('estimator') as estimator, probe.local_node('controller') as ours:
+            estimator.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
+            ours.create_publisher(Float64MultiArray, plant.command_subscription.topic_name, 10)
+            assert wait_until(
+                lambda: (
+                    plant.command_subscription.get_publisher_count() == 1
+                    and plant.joint_publisher.get_subscription_count() == 1
+                ),
+                10.0,
+            )
+            node.fire_timers()
+            assert 'joint_states' not in node.take()
+            ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
+            assert wait_until(plant.controller_present, 10.0)
+            node.fire_timers()
+            assert len(node.take()['joint_states']) == 1
+    finally:
+        node.close()
+
+
 # -- simulated time in process: pause and step, run_until, the lockstep timeout ---------------
 
 

@@ -115,6 +115,7 @@ def test_a_valve_plant_in_lockstep_steps_as_the_in_process_simulation_bit_for_bi
         published = lockstep_plant.take()
         assert len(published['joint_states']) == 1  # one answer, one step
         assert_published(published, expected)
+        assert [list(m.data) for m in published['applied_command']] == [list(openings(k))]
     assert expected.pressure.max() > 5e3  # the openings did move the chambers
     status, values = report(lockstep_plant)
     assert status.level == DiagnosticStatus.OK, status.message
@@ -147,6 +148,7 @@ def test_a_bad_valve_command_is_refused_counted_and_the_last_openings_held(locks
     lockstep_plant.deliver('valve_command', valves_message(bad))
     published = lockstep_plant.take()
     assert_published(published, reference.step(FILL))
+    assert [list(m.data) for m in published['applied_command']] == [list(FILL)]
     assert non_finite(published) == []
     status, values = report(lockstep_plant)
     assert sum(int(v) for k, v in values.items() if k.startswith('rejected valve_command')) == 1

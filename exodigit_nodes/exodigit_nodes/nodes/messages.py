@@ -12,6 +12,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 PRESSURE_COMMAND = 'pressure_command'
 VALVE_COMMAND = 'valve_command'
+APPLIED_COMMAND = 'applied_command'
 CHAMBER_PRESSURE = 'chamber_pressure'
 JOINT_STATES = 'joint_states'
 CONTACT_FORCES = 'contact_forces'

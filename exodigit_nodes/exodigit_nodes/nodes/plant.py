@@ -15,7 +15,9 @@ Actuation (read-only ``actuation``, docs/spec/model.md §14): ``regulator`` (def
 outlets) of the valves that fill each chamber from the supply and vent it, whose pressure then
 follows its air mass. A vent (watchdog, reset, no command yet) is zero pressure for a regulator,
 inlets closed and outlets open for valves. Any other command is refused (logged, counted,
-nothing applied).
+nothing applied). Each command that arrives, taken or refused, is answered on
+``applied_command`` with the command the next step applies: a record of what the plant did
+that a late reader still gets whole (transient-local), whatever the controller's QoS.
 
 Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
 ``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
@@ -57,6 +59,7 @@ from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
 from .markers import GloveMarkers
 from .messages import (
+    APPLIED_COMMAND,
     CHAMBER_PRESSURE,
     CLOCK,
     CONTACT_FORCES,
@@ -69,6 +72,7 @@ from .messages import (
     VALVE_COMMAND,
     fill,
     joint_vector_message,
+    valve_command_message,
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
@@ -109,6 +113,7 @@ class Plant(GloveNode):
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
         self.length_message = joint_vector_message()
+        self.applied_message = valve_command_message() if self.valves else joint_vector_message()
         # Outputs first, then the input: a controller that sees our command subscription has
         # seen the outputs announced too.
         self.pressure_publisher = self.create_publisher(
@@ -119,11 +124,15 @@ class Plant(GloveNode):
         self.length_publisher = self.create_publisher(
             Float64MultiArray, SEGMENT_LENGTHS, WRITER_QOS
         )
+        self.applied_publisher = self.create_publisher(
+            Float64MultiArray, APPLIED_COMMAND, WRITER_QOS
+        )
         self.outputs = (
             (self.pressure_publisher, CHAMBER_PRESSURE),
             (self.joint_publisher, JOINT_STATES),
             (self.force_publisher, CONTACT_FORCES),
             (self.length_publisher, SEGMENT_LENGTHS),
+            (self.applied_publisher, APPLIED_COMMAND),
         )
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, WRITER_QOS)
         self.command_subscription = self.create_subscription(
@@ -254,7 +263,9 @@ class Plant(GloveNode):
     def on_command(self, message: Float64MultiArray) -> None:
         """Keep a valid command (Pa, or openings) and feed the watchdog; drop and count the rest.
 
-        In lockstep any command, valid or not, is the answer to the latest step.
+        Either way publish ``applied_command``, the command the next step applies (a refused
+        one keeps the last). In lockstep any command, valid or not, is the answer to the latest
+        step.
         """
         topic = self.command_topic
         try:
@@ -267,6 +278,7 @@ class Plant(GloveNode):
         else:
             if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{topic} again: venting stopped')
+        self.applied_publisher.publish(fill(self.applied_message, self.command))
         if self.lockstep:
             self.time.on_answer(self)
 
@@ -376,14 +388,16 @@ class Plant(GloveNode):
     # -- lockstep (asked by SimulatedTime) ------------------------------------------------
 
     def controller_present(self) -> bool:
-        """Lockstep start: a node publishes commands and every output reader is matched.
+        """Lockstep start: a controller (:meth:`lockstep_controllers`) is matched both ways.
 
         Until then the first step waits, so that the controller cannot miss the state it must
-        answer.
+        answer. Some other reader of the states and some publisher of commands are not enough:
+        a lockstep ``pressure_command`` in force mode subscribes the states only once its
+        estimator is matched, and a hand resumed at once stepped while only the estimator
+        listened (the little finger's controller never heard the first state: the lockstep
+        timeout vented).
         """
-        if self.command_subscription.get_publisher_count() == 0:
-            return False
-        return self.joint_publisher.get_subscription_count() > 0 and self.readers_matched()
+        return bool(self.lockstep_controllers())
 
     def readers_matched(self) -> bool:
         """Whether each output has matched every subscriber the graph knows of its topic."""

@@ -45,6 +45,7 @@ TOPICS = {
     messages.CHAMBER_PRESSURE: Float64MultiArray,
     messages.JOINT_STATES: JointState,
     messages.PRESSURE_COMMAND: Float64MultiArray,
+    messages.APPLIED_COMMAND: Float64MultiArray,
     messages.CONTACT_FORCES: Float64MultiArray,
     messages.SEGMENT_LENGTHS: Float64MultiArray,
     messages.PATIENT_EFFORT: Float64MultiArray,

@@ -324,7 +324,11 @@ class GloveSim:
         self._set_paused(False)
         self._node.send(values)
         self.state = self._next_state()
-        self._node.clear_commands()  # our own command, heard back
+        # the plant's record of our command, which a later run must not count as an answer
+        self._wait(
+            lambda: self._node.command_count() >= 1, 'the plant to report the command it applied'
+        )
+        self._node.clear_commands()
         self._external_synced = False
         return self.state
 
@@ -344,7 +348,8 @@ class GloveSim:
         Returns
         -------
         SimRecord
-            The ``round(seconds · rate_hz)`` steps of the run and the controller's answers.
+            The ``round(seconds · rate_hz)`` steps of the run and the commands the plant took
+            in answer (``applied_command``: a refused answer leaves the command before).
 
         Raises
         ------
@@ -417,15 +422,15 @@ class GloveSim:
             self._paused = paused
 
     def _wait_matched(self, controllers: list[str]) -> None:
-        """Wait until the plant and our command reader have matched ``controllers``.
+        """Wait until the plant has matched ``controllers``, before the state each is to answer.
 
-        The plant before the state each is to answer; our reader to count their answers.
+        We count their answers as the plant took them (``applied_command``), so our own reader
+        need not match them.
         """
         names = ', '.join(controllers)
         self._wait(
             lambda: set(controllers) <= self._plant_controllers(), f'the plant to match {names}'
         )
-        self._wait(self._node.hears_every_controller, f'to hear {names}')
 
     def _plant_controllers(self) -> set[str]:
         """The controllers the plant has matched (its ``set_paused`` answer lists them)."""

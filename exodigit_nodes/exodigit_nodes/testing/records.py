@@ -71,8 +71,10 @@ class StateHistory:
 class SimRecord(StateHistory):
     """The states of a :meth:`GloveSim.run` and the commands that answered them.
 
-    Row i is one step: its state and ``command[i]``, the controller's answer to it (which the
-    plant applies in the next step), Pa, shape (n, 3); with valves the openings, shape (n, 6).
+    Row i is one step: its state and ``command[i]``, the command the plant took in answer to
+    it (``applied_command``: the controller's answer, or the command before if the plant refused
+    the answer) and applies in the next step, Pa, shape (n, 3); with valves the openings, shape
+    (n, 6).
     """
 
     command: NDArray[np.float64]

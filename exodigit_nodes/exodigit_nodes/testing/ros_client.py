@@ -20,6 +20,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from ..logic.pacing import known_node
 from ..nodes.messages import (
+    APPLIED_COMMAND,
     CHAMBER_PRESSURE,
     CONTACT_FORCES,
     ESTIMATED_CONTACT_FORCES,
@@ -36,7 +37,7 @@ from ..nodes.messages import (
     set_double_request,
     valve_command_message,
 )
-from ..nodes.qos import RECORD_ANY_QOS, RECORD_QOS, WRITER_QOS
+from ..nodes.qos import RECORD_QOS, WRITER_QOS
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -93,8 +94,14 @@ class GloveClient(Node):
                 )
             )
         self.command_topic = VALVE_COMMAND if valves else PRESSURE_COMMAND
-        self.command_subscription = self.create_subscription(
-            Float64MultiArray, self.command_topic, self._vector_queue(None), RECORD_ANY_QOS
+        # The commands as the plant took them (applied_command), not as a controller sent them:
+        # a volatile controller's first commands reach a reader only once its writer has matched
+        # that reader, which can come after our reader has matched it (a CI run heard none of
+        # 20 answers the plant had taken). The plant's record is transient-local.
+        self.inputs.append(
+            self.create_subscription(
+                Float64MultiArray, APPLIED_COMMAND, self._vector_queue(None), RECORD_QOS
+            )
         )
         self.command_message = valve_command_message() if valves else joint_vector_message()
         self.publisher = self.create_publisher(Float64MultiArray, self.command_topic, WRITER_QOS)
@@ -189,16 +196,6 @@ class GloveClient(Node):
             for info in self.get_publishers_info_by_topic(self.publisher.topic_name)
         ]
 
-    def hears_every_controller(self) -> bool:
-        """Whether our command reader has matched every publisher the graph lists.
-
-        The graph lists a publisher before our reader has matched it, and what a volatile
-        publisher sends in between never reaches us: a run counting its controller's answers
-        would wait in vain for the first.
-        """
-        topic = self.command_subscription.topic_name
-        return self.command_subscription.get_publisher_count() >= self.count_publishers(topic)
-
     # -- states and commands ---------------------------------------------------------------
 
     def take_state(self, *, with_estimate: bool = True) -> SimState | None:
@@ -240,23 +237,20 @@ class GloveClient(Node):
         self.publisher.publish(fill(self.command_message, command))
 
     def clear_commands(self) -> None:
-        """Forget the commands heard so far."""
+        """Forget the commands the plant has applied so far."""
         self.commands.clear()
 
     def command_publishers(self) -> str:
-        """The graph's publishers of ``pressure_command``, and how many our reader matched."""
+        """The graph's publishers of this glove's commands, for an error message."""
         names = [name for name, _ in self._command_publishers()]
-        matched = self.command_subscription.get_publisher_count()
-        return (
-            f'the graph lists {", ".join(names) or "no"} publishers, our reader matched {matched}'
-        )
+        return f'the graph lists {", ".join(names) or "no"} publishers of {self.command_topic}'
 
     def command_count(self) -> int:
-        """Commands heard since the last :meth:`clear_commands`."""
+        """Commands the plant took (``applied_command``) since the last :meth:`clear_commands`."""
         return len(self.commands)
 
     def take_commands(self, count: int) -> list[np.ndarray]:
-        """The oldest ``count`` commands heard, removed."""
+        """The oldest ``count`` applied commands, removed."""
         return [self.commands.popleft() for _ in range(count)]
 
     # -- requests --------------------------------------------------------------------------
