@@ -5,18 +5,20 @@ types they pass, so numba compiles (and caches, :mod:`.jit`) every signature the
 later process only loads. One line per case says how long it took: a cold cache compiles, a
 warm one only loads. Then the caches of older kernel sources are removed (:func:`.jit.prune`).
 
-Add a case to :data:`CASES` for every public entry point that reaches a kernel with new
+Add a case to :data:`JOBS` for every public entry point that reaches a kernel with new
 argument types. Without JIT (numba missing or ``EXODIGIT_JIT=0``) there is nothing to compile:
 the command says so and does nothing.
 """
 
 from __future__ import annotations
 
-import functools
 import logging
+import multiprocessing
+import os
 import sys
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -133,38 +135,60 @@ def exercise_valves(model: GloveModel) -> None:
     mass_flow(5e-10, 0.3, 2 * ATMOSPHERIC_PRESSURE, ATMOSPHERIC_PRESSURE, 293.15)
 
 
-CASES: list[tuple[str, Callable[[GloveModel], object]]] = [
-    ('model', exercise_model),
-    ('geometry', exercise_geometry),
-    ('simulation', exercise_simulation),
-    ('valves', exercise_valves),
-]
-"""What to run on every model of :func:`_models`: (name, function of the model)."""
+Case = tuple[str, Callable[[GloveModel], object]]
+"""A case of the warm-up: (name, function run on every model of :func:`_models`)."""
+
+JOBS: tuple[tuple[Case, ...], ...] = (
+    (('model', exercise_model), ('geometry', exercise_geometry)),
+    (('simulation', exercise_simulation), ('valves', exercise_valves)),
+)
+"""The cases, by process: each job runs its cases in order, the jobs run side by side (one
+process each, as many at once as this process may use CPUs). A case that reuses what another
+compiled shares its job (geometry solves first, valves steps the simulation's kernels): two
+processes that need one kernel at once both compile it. Cold, on an idle 2-core VM: 40 s and
+35 s side by side, 41 s in all, against 66 s one job after the other."""
 
 
-def cases() -> list[tuple[str, Callable[[], object]]]:
-    """The named cases, each a call of no arguments: :data:`CASES` over every model."""
-    return [
-        (f'{name}: {what}', functools.partial(run, model))
-        for name, model in _models().items()
-        for what, run in CASES
-    ]
+def run_job(job: tuple[Case, ...]) -> None:
+    """Run the cases of ``job`` on every model, in order; print how long each took."""
+    # The warm-up says what it compiles, case by case: not the notice that points to itself.
+    logging.getLogger(compiling.__name__).setLevel(logging.ERROR)
+    for model_name, model in _models().items():
+        for name, exercise in job:
+            began = time.perf_counter()
+            exercise(model)
+            label = f'{model_name}: {name}'
+            print(f'  {label:<36} {time.perf_counter() - began:7.2f} s', flush=True)
+
+
+def usable_cpus() -> int:
+    """How many CPUs this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count()
 
 
 def main() -> int:
-    """Run every case, print its time, prune stale caches; the exit status (always 0)."""
+    """Run every job, print each case's time, prune stale caches; the exit status (always 0).
+
+    A case that fails raises here, whichever process ran it.
+    """
     if not jit.JIT:
         print('exodigit_model kernels: no JIT (numba missing or EXODIGIT_JIT=0), nothing to warm')
         return 0
     directory = jit.cache_directory()
-    print(f'exodigit_model kernels: cache {directory or "none (compiled in memory)"}')
-    # The warm-up says what it compiles, case by case: not the notice that points to itself.
-    logging.getLogger(compiling.__name__).setLevel(logging.ERROR)
+    workers = min(len(JOBS), usable_cpus() or 1)
+    print(
+        f'exodigit_model kernels: cache {directory or "none (compiled in memory)"}; '
+        f'{len(JOBS)} jobs, {workers} at a time'
+    )
     start = time.perf_counter()
-    for name, run in cases():
-        began = time.perf_counter()
-        run()
-        print(f'  {name:<36} {time.perf_counter() - began:7.2f} s', flush=True)
+    if workers == 1 or directory is None:  # in memory, only this process would gain
+        for job in JOBS:
+            run_job(job)
+    else:
+        spawn = multiprocessing.get_context('spawn')  # a fresh interpreter: no state shared
+        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn) as pool:
+            for done in [pool.submit(run_job, job) for job in JOBS]:
+                done.result()
     for path in jit.prune():
         print(f'  removed the stale cache {path}')
     print(f'  total {time.perf_counter() - start:.2f} s')
