@@ -14,8 +14,8 @@ False, its ``joint_targets`` subscription is matched. Then, step k:
 1. the kit has heard your answer to state k − 1 (so you are done with target k − 1);
 2. it publishes target k and waits until every matched ``joint_targets`` subscriber has
    acknowledged it (reliable QoS: it is in your node's reader);
-3. only then does it let the plant take the step (``run_until`` one step ahead) and publish
-   state k, which your node answers.
+3. only then does it have the plant take the step (its ``step`` service; the plant stays
+   paused) and publish state k, which your node answers.
 
 So target k is in your node before state k is even computed. A node that handles its messages
 in the order they arrived (rclpy's ``EventsExecutor``, as ``pressure_command``) therefore always
@@ -25,7 +25,7 @@ messages waiting together in the order the node created its subscriptions, so cr
 ``joint_targets`` subscription before the ``joint_states`` one. The kit cannot see what your
 node did with a target; it records what it sent. Every step waits for the kit, so a run is
 slower than :meth:`~.client.GloveSim.run` (about 2 ms a step on the development VM: the
-acknowledged target, a parameter call to the plant, the state and your answer).
+acknowledged target, a ``step`` call to the plant, the state and your answer).
 
 A run is a session of its own: it starts with the plant's ``reset_simulation`` (the patient of
 its parameters, at rest, simulated time back to zero), so a run on a glove that ran before gives
@@ -36,7 +36,6 @@ it.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shlex
 from collections.abc import Mapping, Sequence
@@ -52,7 +51,7 @@ from std_msgs.msg import Float64MultiArray
 
 from ..logic.lifetime import exit_status
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
-from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message, set_double_request
+from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message
 from ..nodes.qos import HANDED_OVER_QOS
 from ..runner.horizon import RepeatedCall
 from ..runner.supervisor import Child
@@ -62,7 +61,6 @@ from .records import SimState, StateHistory, state_arrays
 
 KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
 """Fast DDS profile of the kit's process and your controller's during a target run."""
-RUN_UNTIL = 'run_until'
 
 
 def kit_profile(environ: Mapping[str, str]) -> dict[str, str]:
@@ -271,27 +269,17 @@ class TargetGloveSim(GloveSim):
 
         deliver(0)
         initial = self.reset_simulation()  # the rest state, answered with target 0
-        period_ns = round(1e9 / self.rate_hz)
         states: list[SimState] = []
-        # Held by run_until, not stepped by `step`: lockstep steps on the answer the plant has
-        # heard; a `step` called once the kit has heard it may come first (1 run in 5 here took
-        # its last step with the answer before).
-        try:
-            for k in range(len(targets)):
-                self._wait(lambda k=k: node.command_count() > k, f'your answer to step {k}')
-                if k + 1 < len(targets):
-                    deliver(k + 1)
-                latest = states[-1] if states else initial
-                until = (node.time_ns(latest.t) + period_ns) * 1e-9
-                self._call(node.parameter_client, set_double_request(RUN_UNTIL, until), RUN_UNTIL)
-                self._set_paused(False)
-                states.append(self._next_state(with_estimate=False))
-            # the last answer too: none of this session's may be counted in the next
-            self._wait(lambda: node.command_count() > len(targets), 'your last answer')
-        finally:
-            with contextlib.suppress(GloveSimError):  # the error that ended the run comes first
-                self._set_paused(True)
-                self._call(node.parameter_client, set_double_request(RUN_UNTIL, 0.0), RUN_UNTIL)
+        # The plant stays paused; its `step` takes each step with the answer the kit has heard
+        # from the plant itself (applied_command: the plant has taken it).
+        for k in range(len(targets)):
+            self._wait(lambda k=k: node.command_count() > k, f'your answer to step {k}')
+            if k + 1 < len(targets):
+                deliver(k + 1)
+            self._call(node.step_client, node.trigger(), 'step')
+            states.append(self._next_state(with_estimate=False))
+        # the last answer too: none of this session's may be counted in the next
+        self._wait(lambda: node.command_count() > len(targets), 'your last answer')
         commands = node.take_commands(len(targets))
         node.clear_commands()
         self.state = states[-1]
