@@ -56,3 +56,18 @@ def test_every_public_name_resolves_and_is_listed():
 def test_an_unknown_name_is_an_attribute_error():
     with pytest.raises(AttributeError, match="has no attribute 'GloveModle'"):
         exodigit_model.GloveModle  # noqa: B018
+
+
+@pytest.mark.parametrize(('mode', 'imports'), [('sine', False), ('position', True)])
+def test_pressure_command_loads_the_model_only_for_a_controller_that_needs_it(
+    mode, imports, ros_domain
+):
+    # The feed-forward of position and force mode needs the model's kernels; the other modes
+    # start without numba (about half a node's start-up CPU). The node joins the session's
+    # domain (ros_domain exports it), on loopback only (conftest).
+    statement = (
+        'import rclpy; from exodigit_nodes.nodes.pressure_command import PressureCommand; '
+        'rclpy.init(); '
+        f"PressureCommand(parameter_overrides=[rclpy.parameter.Parameter('mode', value={mode!r})])"
+    )
+    assert bool(modules_after(statement, {'numba'})) is imports

@@ -46,7 +46,7 @@ from .messages import CHAMBER_PRESSURE, DIAGNOSTICS, status
 from .qos import WRITER_QOS
 
 if TYPE_CHECKING:
-    from exodigit_model import GloveModel
+    from exodigit_model import GloveModel, GloveParams
 
 LOG_THROTTLE = 2.0
 """Shortest time between two repeats of a warning logged from a loop or callback, s."""
@@ -109,9 +109,18 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
 
 def load_model(paths: tuple[str, ...]) -> GloveModel:
     """The model of the ``params_file`` files (none: defaults); one-line ConfigurationError."""
+    params = load_model_params(paths)
     try:
         # The model, and numba with it, only in the nodes that use it (a recorder does not).
-        return exodigit_model.GloveModel(load_params(paths))
+        return exodigit_model.GloveModel(params)
+    except ValueError as error:
+        raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
+
+
+def load_model_params(paths: tuple[str, ...]) -> GloveParams:
+    """The parameters of the ``params_file`` files, checked; one-line ConfigurationError."""
+    try:
+        return load_params(paths)
     except (ParameterError, OSError, ValueError) as error:
         raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
 

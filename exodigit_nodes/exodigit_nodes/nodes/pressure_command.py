@@ -34,8 +34,9 @@ Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=stair
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
@@ -61,6 +62,8 @@ from rclpy.duration import Duration
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+import exodigit_model
+
 from ..logic.estimation import Pair, SamplePairer
 from ..logic.inputs import (
     InvalidInputError,
@@ -83,8 +86,11 @@ from .messages import (
     joint_vector_message,
     valve_command_message,
 )
-from .node_base import LOG_THROTTLE, GloveNode, load_model, run
+from .node_base import LOG_THROTTLE, GloveNode, load_model_params, run
 from .qos import READER_QOS, WRITER_QOS
+
+if TYPE_CHECKING:
+    from exodigit_model import GloveModel
 
 MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
@@ -137,7 +143,7 @@ class PressureCommand(GloveNode):
 
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)
-        self.model = load_model(self.values['params_file'])
+        self.params = load_model_params(self.values['params_file'])
         self.period = 1.0 / self.values['rate_hz']
         self.topic_targets: np.ndarray | None = None
         self.limit_counts: dict[str, int] = {}
@@ -232,6 +238,15 @@ class PressureCommand(GloveNode):
                 self.topic_targets = None
             self.loop.controller = self.make_controller()
             self.started = self.session_start()
+
+    @functools.cached_property
+    def model(self) -> GloveModel:
+        """The feed-forward's model, built when a controller first needs it.
+
+        Only ``position`` and ``force`` do: a node in another mode never imports numba nor
+        loads a kernel, half its start-up CPU (README, "Compiled model").
+        """
+        return exodigit_model.GloveModel(self.params)
 
     def make_controller(self) -> Controller:
         """The controller of the current mode."""
