@@ -11,7 +11,8 @@ What the kit guarantees (docs/trials.md, "A ROS node as the controller"). Before
 node answers a ``get_parameters`` request (so its executor spins) and, unless ``follows`` is
 False, its ``joint_targets`` subscription is matched. Then, step k:
 
-1. the kit has heard your answer to state k − 1 (so you are done with target k − 1);
+1. the plant has taken your answer to state k − 1 (its ``applied_command``: you are done with
+   target k − 1);
 2. it publishes target k and waits until every matched ``joint_targets`` subscriber has
    acknowledged it (reliable QoS: it is in your node's reader);
 3. only then does it have the plant take the step (its ``step`` service; the plant stays
