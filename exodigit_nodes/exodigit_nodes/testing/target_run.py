@@ -13,9 +13,9 @@ False, its ``joint_targets`` subscription is matched. Then, step k:
 
 1. the plant has taken your answer to state k − 1 (its ``applied_command``: you are done with
    target k − 1);
-2. it publishes target k and waits until every matched ``joint_targets`` subscriber has
+2. the kit publishes target k and waits until every matched ``joint_targets`` subscriber has
    acknowledged it (reliable QoS: it is in your node's reader);
-3. only then does it have the plant take the step (its ``step`` service; the plant stays
+3. only then does the kit have the plant take the step (its ``step`` service; the plant stays
    paused) and publish state k, which your node answers.
 
 So target k is in your node before state k is even computed. A node that handles its messages
