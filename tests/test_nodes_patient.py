@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
+from exodigit_nodes.nodes.qos import RECORD_QOS
 from exodigit_nodes.testing import GloveSim
 from ros_harness import RosProbe, wait_until
 from sensor_msgs.msg import JointState
@@ -137,9 +138,14 @@ def test_a_bad_effort_is_dropped_and_counted(glove, patient_file):
 def identification_run(sim, probe) -> dict:
     """3 simulated s of a sine (two identification periods); what the estimator published."""
     ns = sim.namespace
-    torques = probe.subscribe(f'{ns}/estimated_finger_torque', JointState)
-    rests = probe.subscribe(f'{ns}/estimated_rest_angle', Float64MultiArray)
-    stiffness = probe.subscribe(f'{ns}/estimated_finger_stiffness', Float64MultiArray)
+    # Transient-local: the estimator's publishers keep their samples for a reader they match
+    # late (volatile, a run here got the torques of 38 of the 300 steps: the estimator's writer
+    # matched the probe's reader only then).
+    torques = probe.subscribe(f'{ns}/estimated_finger_torque', JointState, qos=RECORD_QOS)
+    rests = probe.subscribe(f'{ns}/estimated_rest_angle', Float64MultiArray, qos=RECORD_QOS)
+    stiffness = probe.subscribe(
+        f'{ns}/estimated_finger_stiffness', Float64MultiArray, qos=RECORD_QOS
+    )
     diagnostics = probe.subscribe('/diagnostics', DiagnosticArray)
     assert wait_until(lambda: probe.node.count_publishers(f'{ns}/estimated_rest_angle'), WAIT)
     states = []
