@@ -143,7 +143,7 @@ def test_record_gives_each_finger_a_bag_of_every_step(session):
             # no joint_states of a finger at all, and its logs were gone).
             logs = '\n'.join(
                 f'--- {log.name}\n' + log.read_text()[-3000:]
-                for log in sorted((out / 'run' / 'logs').glob('*'))
+                for log in sorted((out / 'logs').glob('*'))
                 if log.is_file()
             )
             assert topic in bag and len(bag[topic].values) == steps, (finger, counts, logs)
