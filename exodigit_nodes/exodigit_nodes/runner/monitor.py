@@ -101,25 +101,6 @@ class GloveMonitor(Node):
             if subscription.topic_name.rsplit('/', 1)[-1] in topics
         )
 
-    def listened_by(self, nodes, topics) -> bool:
-        """Whether each node of ``nodes`` (``/hand/recorder``) subscribes each of ``topics``.
-
-        Read from the ROS graph. The plant may not have matched such a subscriber yet when it
-        steps (discovery is per pair of processes): the subscriber then gets those steps from
-        the plant's history when they match (transient-local, :data:`.qos.WRITER_QOS`), and the
-        plant waits for it as it stops (:func:`..nodes.node_base.deliver`).
-        """
-        names = [node.rpartition('/') for node in nodes]
-        return all(
-            any(
-                (info.node_namespace, info.node_name) == (namespace or '/', name)
-                for info in self.get_subscriptions_info_by_topic(subscription.topic_name)
-            )
-            for subscription in self._inputs
-            if subscription.topic_name.rsplit('/', 1)[-1] in topics
-            for namespace, _, name in names
-        )
-
     def drain(self, spin: Callable[[], None]) -> None:
         """Take what our readers still hold once the nodes stopped (:func:`.take_backlog`).
 

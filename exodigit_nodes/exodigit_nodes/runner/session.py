@@ -10,6 +10,7 @@ glove or a hand.
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from collections.abc import Sequence
@@ -75,9 +76,10 @@ class Session:
     log_dir : Path
         Where the processes' logs go.
     listeners : tuple of str
-        Nodes (fully qualified) besides the summary that must subscribe every glove's signals
-        before the plants resume (the recorder: in simulated time the plant outruns a late
-        subscriber, which would miss the first steps).
+        Nodes (fully qualified) besides the summary whose readers every plant must have matched
+        before the plants resume, as each says on its ``~/ready`` (the recorder: a plant in
+        simulated time that ends its session before it knows of a reader takes every sample
+        with it).
     signals : tuple of str
         The topics of `SIGNALS` the gloves publish (:func:`.summary.published_signals`): the
         plants resume once each is matched, and not before.
@@ -129,8 +131,10 @@ def run_session(session: Session, env: dict) -> int:
     import rclpy
     from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
+    from std_msgs.msg import Bool
 
     from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
+    from ..nodes.qos import HANDED_OVER_QOS
     from .horizon import Horizon
     from .monitor import GloveMonitor
 
@@ -160,6 +164,12 @@ def run_session(session: Session, env: dict) -> int:
             )
             monitors.append(monitor)
             executor.add_node(monitor)
+        # the listeners say when every plant has matched their readers (the recorder's ~/ready)
+        ready = {name: False for name in session.listeners}
+        for name in session.listeners:
+            monitors[0].create_subscription(
+                Bool, f'{name}/ready', functools.partial(_mark_ready, ready, name), HANDED_OVER_QOS
+            )
         # simulated time: the plant runs only a few steps ahead of what this record has received
         plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
         horizon = Horizon(monitors[0], plant) if session.simulated else None
@@ -180,10 +190,10 @@ def run_session(session: Session, env: dict) -> int:
         while not stop.requested:
             spin()
             now = time.monotonic()
-            if waiting and all(
-                monitor.connected(session.signals)
-                and monitor.listened_by(session.listeners, session.signals)
-                for monitor in monitors
+            if (
+                waiting
+                and all(ready.values())
+                and all(monitor.connected(session.signals) for monitor in monitors)
             ):
                 waiting = not (horizon.ready() and monitors[0].resume_plant())
             elif horizon is not None and not waiting:
@@ -225,6 +235,11 @@ def _simulated(signals: Sequence[GloveSignals]) -> float:
     """Simulated time every glove has reached, s (0 before each has a state)."""
     stamps = [s.received_stamp for s in signals]
     return 0.0 if None in stamps else min(stamps)
+
+
+def _mark_ready(ready: dict[str, bool], name: str, message) -> None:
+    """A listener's ``~/ready`` (std_msgs/Bool) came: keep what it says."""
+    ready[name] = message.data
 
 
 def _joined(signals: Sequence[GloveSignals]) -> float | None:
