@@ -40,7 +40,7 @@ from typing import Any
 
 import rclpy
 from exodigit_nodes.nodes.dds import use_profile
-from exodigit_nodes.runner.horizon import RepeatedCall
+from exodigit_nodes.nodes.repeated_call import RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
     DomainLease,

@@ -10,15 +10,15 @@ whose answer was lost is sent again.
 import itertools
 
 import pytest
+from exodigit_nodes.nodes import repeated_call
 from exodigit_nodes.nodes.qos import RECORD_QOS, WRITER_QOS
-from exodigit_nodes.runner import horizon
+from exodigit_nodes.nodes.repeated_call import RepeatedCall
 from exodigit_nodes.runner.horizon import (
     FOREIGN_LEAD_STEPS,
     FOREIGN_RAISE_STEPS,
     LEAD_STEPS,
     RAISE_STEPS,
     Horizon,
-    RepeatedCall,
 )
 from rcl_interfaces.msg import ParameterValue
 from rclpy.task import Future
@@ -87,12 +87,12 @@ def test_a_lost_answer_is_asked_again_after_the_resend_period(monkeypatch):
     client = StandInClient(lambda request: 'answer')
     client.lose_next = 1
     now = [100.0]
-    monkeypatch.setattr(horizon.time, 'monotonic', lambda: now[0])
+    monkeypatch.setattr(repeated_call.time, 'monotonic', lambda: now[0])
     call = RepeatedCall(client, 'request')
     assert call.answer() is None and len(client.requests) == 1
-    now[0] += horizon.RESEND / 2
+    now[0] += repeated_call.RESEND / 2
     assert call.answer() is None and len(client.requests) == 1  # not yet overdue
-    now[0] += horizon.RESEND
+    now[0] += repeated_call.RESEND
     assert call.answer() is None  # sent again now, answered this time
     assert len(client.requests) == 2 and len(client.removed) == 1
     assert call.answer() == 'answer'
@@ -149,7 +149,7 @@ def test_the_limit_follows_the_steps_received_and_stops_at_the_end(ends, lead, r
 
 def test_release_sends_no_limit_after_every_raise_on_the_same_client(monkeypatch):
     now = [100.0]
-    monkeypatch.setattr(horizon.time, 'monotonic', lambda: now[0])
+    monkeypatch.setattr(repeated_call.time, 'monotonic', lambda: now[0])
     node = StandInNode()
     hold = Horizon(node, '/glove/plant', period=PERIOD)
     hold.start(0.0)
@@ -160,7 +160,7 @@ def test_release_sends_no_limit_after_every_raise_on_the_same_client(monkeypatch
     raised = limits(setter)
     assert len(raised) == 2
     call = hold.release()  # drops the raise whose answer was lost: never sent again
-    now[0] += 10 * horizon.RESEND
+    now[0] += 10 * repeated_call.RESEND
     assert call.answer() is not None and hold.limit == 0.0
     assert limits(setter) == [*raised, 0.0]  # after every raise, on the client that raised it
     assert list(node.clients) == ['set_parameters']  # no client of its own for the release

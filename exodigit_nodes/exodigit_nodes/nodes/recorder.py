@@ -42,7 +42,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from ..runner.horizon import RepeatedCall
+from ..nodes.repeated_call import RepeatedCall
 from . import messages
 from .catalog import PLANT_NODE
 from .message_info import WithInfo

@@ -21,12 +21,11 @@ controller, whose publisher may keep only rclpy's usual 10: it holds the plant w
 
 from __future__ import annotations
 
-import time
-
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 
 from ..nodes.messages import set_double_request
+from ..nodes.repeated_call import RepeatedCall
 
 LEAD_STEPS = 400
 """Most steps the plant may take past the newest one received: fewer than the samples each
@@ -39,31 +38,6 @@ user's controller): its publisher may keep only rclpy's usual 10 samples."""
 FOREIGN_RAISE_STEPS = 4
 """Steps received between two raises with :data:`FOREIGN_LEAD_STEPS`."""
 RUN_UNTIL = 'run_until'
-RESEND = 1.0
-"""Wall seconds without an answer before a request is sent again. rmw_fastrtps drops a service's
-answer when the server has not yet matched the client's reader (it waits 100 ms), which happens
-on a loaded machine; both requests here may be repeated."""
-
-
-class RepeatedCall:
-    """A request that may be repeated, in flight: sent again every `RESEND` s until answered."""
-
-    def __init__(self, client, request) -> None:
-        self._client, self._request = client, request
-        self._send()
-
-    def _send(self) -> None:
-        self._future = self._client.call_async(self._request)
-        self._sent = time.monotonic()
-
-    def answer(self):
-        """The response, or None while there is none (sending again when overdue)."""
-        if self._future.done():
-            return self._future.result()
-        if time.monotonic() - self._sent > RESEND:
-            self._client.remove_pending_request(self._future)
-            self._send()
-        return None
 
 
 class Horizon:

@@ -191,7 +191,7 @@ class GloveSim:
         from rclpy.experimental import EventsExecutor
         from rclpy.signals import SignalHandlerOptions
 
-        from ..runner.horizon import RepeatedCall
+        from ..nodes.repeated_call import RepeatedCall
         from .ros_client import GloveClient
 
         use_profile()

@@ -54,7 +54,7 @@ from ..logic.lifetime import exit_status
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
 from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message
 from ..nodes.qos import HANDED_OVER_QOS
-from ..runner.horizon import RepeatedCall
+from ..nodes.repeated_call import RepeatedCall
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
 from .processes import ros_args
