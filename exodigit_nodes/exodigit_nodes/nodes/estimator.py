@@ -10,7 +10,8 @@ was computed from and the values as ``effort``; every ``identification_period``,
 ``identification_window`` pairs, it fits the effective linear patient τ̂_H = k (q − q_r) and
 publishes its stiffness as ``estimated_finger_stiffness`` and its rest angle as
 ``estimated_rest_angle``, with the fit's RMSE in ``/diagnostics`` (large when a linear spring does
-not explain the finger).
+not explain the finger). ``~/ready`` (:mod:`.readiness`) says when the plant beside it has
+matched its readers.
 
 Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.05``.
 """
@@ -46,6 +47,7 @@ from .messages import (
 )
 from .node_base import GloveNode, load_model, run
 from .qos import READER_QOS, WRITER_QOS
+from .readiness import PlantReadiness
 
 
 class Estimator(GloveNode):
@@ -87,6 +89,9 @@ class Estimator(GloveNode):
         self.create_subscription(
             JointState, JOINT_STATES, WithInfo(self.on_joint_states), READER_QOS
         )
+        # says on ~/ready when the plant beside it has matched those readers (the testing kit
+        # waits for it: a state the plant sent before is lost to the estimator)
+        self.readiness = PlantReadiness(self, ('',))
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )

@@ -17,8 +17,8 @@ time) when it arrived. Send times keep a plant step's messages together in the b
 they arrived late or in bursts: from a recorder behind on a loaded machine, or as the history a
 publisher keeps for a reader that matched late (docs/spec/ros.md, "QoS").
 Once every glove's plant has matched all its readers, it publishes ``True`` on ``~/ready``
-(std_msgs/Bool, transient-local): the runners start the plants only then, so that no plant can
-finish a session before it knows of the recorder (:meth:`Recorder.check_ready`).
+(:mod:`.readiness`): the runners start the plants only then, so that no plant can finish a
+session before it knows of the recorder.
 The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
 Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
 written); a topic nobody publishes is listed with 0 messages.
@@ -32,22 +32,18 @@ import sys
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
-from rcl_interfaces.srv import GetParameters
-from rclpy.clock import Clock as NodeClock
-from rclpy.clock import ClockType
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64MultiArray
+from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from ..nodes.repeated_call import RepeatedCall
 from . import messages
-from .catalog import PLANT_NODE
 from .message_info import WithInfo
 from .node_base import ConfigurationError, serve
-from .qos import HANDED_OVER_QOS, record_profile
+from .qos import record_profile
+from .readiness import PlantReadiness
 
 TOPICS = {
     messages.CHAMBER_PRESSURE: Float64MultiArray,
@@ -72,12 +68,6 @@ Subscribed in this order, which the executor keeps when several topics have mess
 ``chamber_pressure`` before ``joint_states``, as the plant publishes a step, so a recorder that
 falls behind still logs a step's pressure before its angles (``exodigit plot`` pairs them by log
 time, :mod:`exodigit_model.joining`)."""
-
-PLANT = PLANT_NODE.executable
-READY = '~/ready'
-"""Where the recorder says every plant has matched its readers (std_msgs/Bool, latched)."""
-READY_POLL = 0.05
-"""How often the recorder looks for the plants' answers until it is ready, s."""
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
@@ -188,36 +178,7 @@ class Recorder(Node):
             f'recording {len(routes)} topics to {output} (rosbag2, MCAP): '
             + ', '.join(self._names.values())
         )
-        # Made after every reader (check_ready says why).
-        self._plants = {
-            glove: self.create_client(GetParameters, f'{glove}/{PLANT}/get_parameters'.lstrip('/'))
-            for glove in gloves
-        }
-        self._asked: dict[str, RepeatedCall] = {}
-        self.ready_publisher = self.create_publisher(Bool, READY, HANDED_OVER_QOS)
-        # the steady clock: under use_sim_time a timer waits for /clock, which stands still
-        # while the plants wait for us
-        steady = NodeClock(clock_type=ClockType.STEADY_TIME)
-        self.ready_timer = self.create_timer(READY_POLL, self.check_ready, clock=steady)
-
-    def check_ready(self) -> None:
-        """Publish ``~/ready`` once each glove's plant has answered a question of ours.
-
-        The question goes on a client made after every reader, and Fast DDS announces a
-        participant's readers in the order they were made, on one reliable stream: a plant
-        that answers it has matched them all, and sends a late reader its history. A plant
-        that knows nothing of the recorder when its session ends would take every sample with
-        it (a hand's bag once held no message of a finger).
-        """
-        for glove, client in self._plants.items():
-            if glove not in self._asked and client.service_is_ready():
-                self._asked[glove] = RepeatedCall(client, GetParameters.Request(names=['rate_hz']))
-        answered = [glove for glove, call in self._asked.items() if call.answer() is not None]
-        if len(answered) < len(self._plants):
-            return
-        self.destroy_timer(self.ready_timer)
-        self.ready_publisher.publish(Bool(data=True))
-        self.get_logger().info("every plant has matched the recorder's readers: ready")
+        self.readiness = PlantReadiness(self, gloves)  # after every reader
 
     def _callback_for(self, topic: str):
         """The subscription callback of ``topic``: its first message is also logged.

@@ -15,10 +15,11 @@ from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Bool, Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from ..logic.pacing import known_node
+from ..nodes.catalog import ESTIMATOR_NODE
 from ..nodes.messages import (
     APPLIED_COMMAND,
     CHAMBER_PRESSURE,
@@ -37,7 +38,7 @@ from ..nodes.messages import (
     set_double_request,
     valve_command_message,
 )
-from ..nodes.qos import RECORD_QOS, WRITER_QOS
+from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, WRITER_QOS
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -87,11 +88,19 @@ class GloveClient(Node):
                 if topic != JOINT_STATES
             ),
         ]
+        self.estimator_ready = not estimator
+        """Whether the plant has matched the estimator's readers (its ``~/ready``), if any."""
         if estimator:
             self.inputs.append(
                 self.create_subscription(
                     JointState, ESTIMATED_CONTACT_FORCES, self._estimate_queue, RECORD_QOS
                 )
+            )
+            self.create_subscription(
+                Bool,
+                f'{ESTIMATOR_NODE.executable}/ready',
+                self._on_estimator_ready,
+                HANDED_OVER_QOS,
             )
         self.command_topic = VALVE_COMMAND if valves else PRESSURE_COMMAND
         # The commands as the plant took them (applied_command), not as a controller sent them:
@@ -131,6 +140,9 @@ class GloveClient(Node):
             self.parameter_client,
         )
 
+    def _on_estimator_ready(self, message: Bool) -> None:
+        self.estimator_ready = message.data
+
     def _joint_queue(self, message: JointState) -> None:
         self.queues[JOINT_STATES].append(message)
 
@@ -150,30 +162,18 @@ class GloveClient(Node):
     def connected(self) -> bool:
         """Whether every glove output reaches us, our commands reach the plant, services are up.
 
-        With an estimator also whether the graph lists its readers of the plant's states: the
-        plant takes a requested step only once it has matched every reader the graph lists
-        (:meth:`.SimulatedTime.request_step`), and an estimator whose reader is not yet known
-        would miss the first state (volatile) and never estimate it.
+        With an estimator also whether the plant has matched the estimator's readers (its
+        ``~/ready``, :mod:`..nodes.readiness`): the plant takes a requested step once it has
+        matched every reader it knows of, and an estimator it does not know yet would miss the
+        first state (volatile) and never estimate it (a kit's first reset waited for that
+        estimate in vain).
         """
         return (
             all(subscription.get_publisher_count() > 0 for subscription in self.inputs)
             and self.publisher.get_subscription_count() > 0
             and all(client.service_is_ready() for client in self.plant_services)
-            and (self.estimates is None or self._estimator_listens())
+            and self.estimator_ready
         )
-
-    def _estimator_listens(self) -> bool:
-        """Whether a node other than ours subscribes both topics the estimator pairs."""
-        me = (self.get_name(), self.get_namespace())
-        readers = [
-            {
-                (info.node_name, info.node_namespace)
-                for info in self.get_subscriptions_info_by_topic(self.resolve_topic_name(topic))
-            }
-            - {me}
-            for topic in (JOINT_STATES, CHAMBER_PRESSURE)
-        ]
-        return bool(readers[0] & readers[1])
 
     def other_controllers(self) -> list[str]:
         """Names of the other nodes that publish this glove's commands.

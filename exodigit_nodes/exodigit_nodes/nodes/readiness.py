@@ -1,0 +1,66 @@
+"""``~/ready``: a node says when the plants it listens to have matched all its readers.
+
+A plant takes a requested step as soon as its outputs have matched every subscriber *it* knows
+of. Discovery is per pair of processes: a reader that another process already lists may be
+unknown to the plant for a while, and a volatile reader misses what the plant sends meanwhile
+(the testing kit waited forever for the estimate of a reset the estimator never heard), while a
+plant in simulated time can end a short session before it knows of a recorder at all.
+
+So the node asks each plant a harmless question (its ``rate_hz``) on a client made after all its
+readers: Fast DDS announces a participant's endpoints in the order they were made, on one
+reliable stream, so a plant that answers has matched them all. Once every plant has answered,
+the node publishes ``True`` on ``~/ready`` (std_msgs/Bool, transient-local, depth 1) and logs it.
+Whoever must not start the plants before (the runners, for the recorder; the testing kit, for
+the estimator) waits for it. A node that listens to no plant of ours never says it.
+"""
+
+from __future__ import annotations
+
+from rcl_interfaces.srv import GetParameters
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from std_msgs.msg import Bool
+
+from .catalog import PLANT_NODE
+from .qos import HANDED_OVER_QOS
+from .repeated_call import RepeatedCall
+
+READY = '~/ready'
+"""The topic, private to the node (``/hand/recorder/ready``)."""
+POLL = 0.05
+"""How often the node looks for the plants' answers until it is ready, s."""
+
+
+class PlantReadiness:
+    """Publishes ``~/ready`` on ``node`` once the plant of each namespace has answered it.
+
+    Make it after every reader of ``node``. ``namespaces``: relative to the node's own, one per
+    plant ('' for the plant beside it, ``index`` for ``<ns>/index/plant``).
+    """
+
+    def __init__(self, node: Node, namespaces: tuple[str, ...]) -> None:
+        self._node = node
+        self._clients = {
+            namespace: node.create_client(
+                GetParameters, f'{namespace}/{PLANT_NODE.executable}/get_parameters'.lstrip('/')
+            )
+            for namespace in namespaces
+        }
+        self._asked: dict[str, RepeatedCall] = {}
+        self._publisher = node.create_publisher(Bool, READY, HANDED_OVER_QOS)
+        # the steady clock: under use_sim_time a timer waits for /clock, which may stand still
+        # until we are ready
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._timer = node.create_timer(POLL, self._check, clock=steady)
+
+    def _check(self) -> None:
+        for namespace, client in self._clients.items():
+            if namespace not in self._asked and client.service_is_ready():
+                self._asked[namespace] = RepeatedCall(
+                    client, GetParameters.Request(names=['rate_hz'])
+                )
+        if sum(call.answer() is not None for call in self._asked.values()) < len(self._clients):
+            return
+        self._node.destroy_timer(self._timer)
+        self._publisher.publish(Bool(data=True))
+        self._node.get_logger().info('every plant has matched our readers: ready')
