@@ -41,7 +41,7 @@ def test_the_recorder_is_ready_only_once_the_plant_of_every_glove_answered_it(
     launcher.start('plant', PLANT, namespace=f'{ns}/b')
     assert wait_until(lambda: ready.count() == 1, TIMEOUT), recorder.stderr()
     assert ready.latest().data is True
-    assert READY_LINE in recorder.stderr()
+    assert wait_until(lambda: READY_LINE in recorder.stderr(), TIMEOUT)  # the log says it too
 
 
 def test_the_estimator_is_ready_only_once_the_plant_beside_it_answered_it(launcher, probe):
@@ -54,4 +54,4 @@ def test_the_estimator_is_ready_only_once_the_plant_beside_it_answered_it(launch
     launcher.start('plant', PLANT, namespace=ns)
     assert wait_until(lambda: ready.count() == 1, TIMEOUT), estimator.stderr()
     assert ready.latest().data is True
-    assert READY_LINE in estimator.stderr()
+    assert wait_until(lambda: READY_LINE in estimator.stderr(), TIMEOUT)  # the log says it too

@@ -62,5 +62,5 @@ class PlantReadiness:
         if sum(call.answer() is not None for call in self._asked.values()) < len(self._clients):
             return
         self._node.destroy_timer(self._timer)
-        self._publisher.publish(Bool(data=True))
         self._node.get_logger().info('every plant has matched our readers: ready')
+        self._publisher.publish(Bool(data=True))
