@@ -65,8 +65,12 @@ def set_field(obj: object, key: str, value: object) -> None:
     object.__setattr__(obj, key, value)
 
 
-class Yaml12Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``1.1e5`` as a float, like YAML 1.2 (docs/spec/model.md §10)."""
+class Yaml12Loader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):
+    """SafeLoader that also reads ``1.1e5`` as a float, like YAML 1.2 (docs/spec/model.md §10).
+
+    On libyaml's parser where PyYAML has it (ten times faster: every node start and every new
+    patient of a plant reads its parameter files).
+    """
 
 
 Yaml12Loader.add_implicit_resolver(
