@@ -6,7 +6,7 @@ from array import array
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-from rcl_interfaces.srv import SetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
@@ -41,6 +41,15 @@ def set_double_request(name: str, value: float) -> SetParameters.Request:
     """A ``set_parameters`` request that sets the double parameter ``name`` to ``value``."""
     double = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
     return SetParameters.Request(parameters=[Parameter(name=name, value=double)])
+
+
+def rate_request() -> GetParameters.Request:
+    """A ``get_parameters`` request for a plant's ``rate_hz``: a question that changes nothing.
+
+    Asked to learn the rate, or to learn that the plant answers at all (that it has matched
+    the asking node's endpoints: :mod:`.readiness`).
+    """
+    return GetParameters.Request(names=['rate_hz'])
 
 
 def vector_message(label: str, size: int) -> Float64MultiArray:

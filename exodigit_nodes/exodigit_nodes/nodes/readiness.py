@@ -22,6 +22,7 @@ from rclpy.node import Node
 from std_msgs.msg import Bool
 
 from .catalog import PLANT_NODE
+from .messages import rate_request
 from .qos import HANDED_OVER_QOS
 from .repeated_call import RepeatedCall
 
@@ -29,6 +30,11 @@ READY = '~/ready'
 """The topic, private to the node (``/hand/recorder/ready``)."""
 POLL = 0.05
 """How often the node looks for the plants' answers until it is ready, s."""
+
+
+def ready_topic(node: str) -> str:
+    """The ``~/ready`` topic of the node named ``node`` (absolute, or relative to the reader's)."""
+    return f'{node}/{READY.removeprefix("~/")}'
 
 
 class PlantReadiness:
@@ -56,9 +62,7 @@ class PlantReadiness:
     def _check(self) -> None:
         for namespace, client in self._clients.items():
             if namespace not in self._asked and client.service_is_ready():
-                self._asked[namespace] = RepeatedCall(
-                    client, GetParameters.Request(names=['rate_hz'])
-                )
+                self._asked[namespace] = RepeatedCall(client, rate_request())
         if sum(call.answer() is not None for call in self._asked.values()) < len(self._clients):
             return
         self._node.destroy_timer(self._timer)

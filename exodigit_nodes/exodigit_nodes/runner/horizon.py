@@ -24,7 +24,7 @@ from __future__ import annotations
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.node import Node
 
-from ..nodes.messages import set_double_request
+from ..nodes.messages import rate_request, set_double_request
 from ..nodes.repeated_call import RepeatedCall
 
 LEAD_STEPS = 400
@@ -99,7 +99,7 @@ class Horizon:
             return True
         if self._pending is None:
             if self.period is None and self._get.service_is_ready():
-                self._pending = RepeatedCall(self._get, GetParameters.Request(names=['rate_hz']))
+                self._pending = RepeatedCall(self._get, rate_request())
             elif self.period is not None and self._set.service_is_ready():
                 self._raise(received)
             return False

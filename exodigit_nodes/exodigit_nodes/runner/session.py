@@ -135,6 +135,7 @@ def run_session(session: Session, env: dict) -> int:
 
     from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
     from ..nodes.qos import HANDED_OVER_QOS
+    from ..nodes.readiness import ready_topic
     from .horizon import Horizon
     from .monitor import GloveMonitor
 
@@ -168,7 +169,10 @@ def run_session(session: Session, env: dict) -> int:
         ready = {name: False for name in session.listeners}
         for name in session.listeners:
             monitors[0].create_subscription(
-                Bool, f'{name}/ready', functools.partial(_mark_ready, ready, name), HANDED_OVER_QOS
+                Bool,
+                ready_topic(name),
+                functools.partial(_mark_ready, ready, name),
+                HANDED_OVER_QOS,
             )
         # simulated time: the plant runs only a few steps ahead of what this record has received
         plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'

@@ -191,6 +191,7 @@ class GloveSim:
         from rclpy.experimental import EventsExecutor
         from rclpy.signals import SignalHandlerOptions
 
+        from ..nodes.messages import rate_request
         from ..nodes.repeated_call import RepeatedCall
         from .ros_client import GloveClient
 
@@ -214,7 +215,7 @@ class GloveSim:
         # rmw_fastrtps drops a service's answer when the server has not matched the client's
         # reader within 100 ms (a loaded machine takes longer): ask something harmless again
         # until answered, so that no answer of the plant is lost later.
-        call = RepeatedCall(self._node.warm_up_client, self._node.warm_up_request())
+        call = RepeatedCall(self._node.warm_up_client, rate_request())
         self._wait(lambda: call.answer() is not None, 'the plant to answer a request')
 
     def close(self) -> None:

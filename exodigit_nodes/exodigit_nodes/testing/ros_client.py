@@ -39,6 +39,7 @@ from ..nodes.messages import (
     valve_command_message,
 )
 from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, WRITER_QOS
+from ..nodes.readiness import ready_topic
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -98,7 +99,7 @@ class GloveClient(Node):
             )
             self.create_subscription(
                 Bool,
-                f'{ESTIMATOR_NODE.executable}/ready',
+                ready_topic(ESTIMATOR_NODE.executable),
                 self._on_estimator_ready,
                 HANDED_OVER_QOS,
             )
@@ -278,11 +279,6 @@ class GloveClient(Node):
                 Parameter(name, value=value).to_parameter_msg() for name, value in values.items()
             ]
         )
-
-    @staticmethod
-    def warm_up_request() -> GetParameters.Request:
-        """A request that changes nothing: the plant's ``rate_hz``."""
-        return GetParameters.Request(names=['rate_hz'])
 
     @staticmethod
     def time_ns(seconds: float) -> int:
