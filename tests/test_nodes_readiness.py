@@ -8,7 +8,8 @@ it: a CI run's hand bag held no message of one finger); the testing kit steps on
 estimator is (a state the plant sent before it knew of the estimator was never estimated, and
 the kit's first reset waited for that estimate in vain).
 
-Each node starts first, alone: no ready (its log would say it); then the plants: ready.
+Each node starts first, alone: no ready (its log would say it, and after a few seconds it says
+which plant it waits for); then the plants: ready.
 """
 
 from exodigit_nodes.nodes.qos import HANDED_OVER_QOS
@@ -50,6 +51,10 @@ def test_the_estimator_is_ready_only_once_the_plant_beside_it_answered_it(launch
     estimator = launcher.start('estimator', {}, namespace=ns)
     assert wait_until(lambda: 'estimator: model from' in estimator.stderr(), TIMEOUT)
     assert READY_LINE not in estimator.stderr()  # no plant yet
+    assert ready.count() == 0
+    # after a while the log says whom it waits for
+    waiting = f'not ready: no answer yet from {ns}/plant/get_parameters'
+    assert wait_until(lambda: waiting in estimator.stderr(), TIMEOUT), estimator.stderr()
     assert ready.count() == 0
     launcher.start('plant', PLANT, namespace=ns)
     assert wait_until(lambda: ready.count() == 1, TIMEOUT), estimator.stderr()

@@ -11,10 +11,13 @@ readers: Fast DDS announces a participant's endpoints in the order they were mad
 reliable stream, so a plant that answers has matched them all. Once every plant has answered,
 the node publishes ``True`` on ``~/ready`` (std_msgs/Bool, transient-local, depth 1) and logs it.
 Whoever must not start the plants before (the runners, for the recorder; the testing kit, for
-the estimator) waits for it. A node that listens to no plant of ours never says it.
+the estimator) waits for it. A node that listens to no plant of ours never says it; after
+:data:`NOTICE` seconds it logs, once, which plants have not answered.
 """
 
 from __future__ import annotations
+
+import time
 
 from rcl_interfaces.srv import GetParameters
 from rclpy.clock import Clock, ClockType
@@ -30,6 +33,8 @@ READY = '~/ready'
 """The topic, private to the node (``/hand/recorder/ready``)."""
 POLL = 0.05
 """How often the node looks for the plants' answers until it is ready, s."""
+NOTICE = 3.0
+"""Wall seconds without every plant's answer before the node says, once, whom it waits for."""
 
 
 def ready_topic(node: str) -> str:
@@ -58,12 +63,23 @@ class PlantReadiness:
         # until we are ready
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._timer = node.create_timer(POLL, self._check, clock=steady)
+        self._notice_at = time.monotonic() + NOTICE
 
     def _check(self) -> None:
         for namespace, client in self._clients.items():
             if namespace not in self._asked and client.service_is_ready():
                 self._asked[namespace] = RepeatedCall(client, rate_request())
-        if sum(call.answer() is not None for call in self._asked.values()) < len(self._clients):
+        silent = [
+            client.service_name
+            for namespace, client in self._clients.items()
+            if namespace not in self._asked or self._asked[namespace].answer() is None
+        ]
+        if silent:
+            if self._notice_at is not None and time.monotonic() >= self._notice_at:
+                self._notice_at = None
+                self._node.get_logger().info(
+                    f'not ready: no answer yet from {", ".join(silent)} (asking until it comes)'
+                )
             return
         self._node.destroy_timer(self._timer)
         self._node.get_logger().info('every plant has matched our readers: ready')
