@@ -99,6 +99,15 @@ def joint_columns(table, stem, unit):
     return np.stack([table[f'{stem}_{joint}_{unit}'] for joint in JOINTS], axis=1)
 
 
+def assert_each_step_has_a_command(table, stem, unit):
+    """Every row of a lockstep record holds a command (``stem``: its column): the runner resumes
+    the plant only once the controller has matched the summary's readers (a CI run's valves
+    session recorded a command in none of its 100 rows). A row takes the latest command heard
+    when its step is complete, so the first two may come before the answer to the first state."""
+    commanded = ~np.isnan(joint_columns(table, stem, unit)).any(axis=1)
+    assert commanded[2:].all(), f'rows without a command: {np.flatnonzero(~commanded)}'
+
+
 def recorded_rows(path):
     """The whole rows of a run record being written (none before its header)."""
     try:
@@ -412,8 +421,9 @@ def test_a_session_behind_valves_fills_the_chambers_to_the_held_pressure(valves_
     assert valves_run.returncode == 0, valves_run.output()
     table = read_record(valves_run.out / 'signals.csv')
     assert len(table['time_s']) == round(100 * LOCKSTEP_DURATION)
+    assert_each_step_has_a_command(table, 'u_net', 'pct')
     openings = joint_columns(table, 'u_net', 'pct')
-    assert openings.max() > 0.0  # the inlets opened
+    assert np.nanmax(openings) > 0.0  # the inlets opened
     pressure = joint_columns(table, 'p', 'kpa')[-1]
     # the loop holds each chamber within its deadband (300 Pa) of the target, 1 s in
     np.testing.assert_allclose(pressure, HOLD_PRESSURE_KPA, atol=0.3)
@@ -423,6 +433,7 @@ def test_a_session_behind_valves_fills_the_chambers_to_the_held_pressure(valves_
 def test_the_nodes_run_the_given_mode_and_model_file(lockstep_run):
     assert lockstep_run.returncode == 0, lockstep_run.output()
     table = read_record(lockstep_run.out / 'signals.csv')
+    assert_each_step_has_a_command(table, 'p_cmd', 'kpa')
     command = joint_columns(table, 'p_cmd', 'kpa')
     assert np.nanmax(command) == pytest.approx(HOLD_PRESSURE_KPA)  # --mode hold reached it
     # the nominal patient: each step is the equilibrium of the file's finger at its pressure

@@ -161,14 +161,20 @@ def test_each_record_is_its_gloves_the_lone_gloves_at_the_top_of_the_run(session
 
 
 @pytest.mark.parametrize(
-    ('command', 'arguments', 'namespace', 'gloves'),
+    ('command', 'arguments', 'namespace', 'gloves', 'estimators'),
     [
-        (GLOVE, [], '/glove', []),
-        (HAND, ['--fingers', 'index,ring'], '/hand', ['--gloves', 'index,ring']),
+        (GLOVE, [], '/glove', [], ('/glove/estimator',)),
+        (
+            HAND,
+            ['--fingers', 'index,ring'],
+            '/hand',
+            ['--gloves', 'index,ring'],
+            ('/hand/index/estimator', '/hand/ring/estimator'),
+        ),
     ],
 )
 def test_record_adds_one_recorder_of_every_glove_first_to_start_last_to_stop(
-    session_of, tmp_path, command, arguments, namespace, gloves
+    session_of, tmp_path, command, arguments, namespace, gloves, estimators
 ):
     session = session_of(command, *arguments, '--record', '--clock', 'sim')
     (name, recorder), *nodes = session.processes
@@ -181,8 +187,11 @@ def test_record_adds_one_recorder_of_every_glove_first_to_start_last_to_stop(
     assert options == ['--output', str(tmp_path / 'run' / 'bag'), *gloves]
     assert overrides(recorder) == {'use_sim_time': True}  # stamps in simulated time
     assert session.runs['recorder'] == ()
-    assert session.listeners == (f'{namespace}/recorder',)  # the plants wait for it
-    assert session_of(command, *arguments).listeners == ()
+    # the plants wait for it and for every estimator (each says so on its ~/ready)
+    assert session.listeners == (f'{namespace}/recorder', *estimators)
+    assert session_of(command, *arguments).listeners == estimators
+    if gloves:  # a hand without estimators waits for none (a lone glove always has one)
+        assert session_of(command, *arguments, '--estimator', 'false').listeners == ()
 
 
 def test_a_layout_that_cannot_hold_the_hand_is_refused():

@@ -42,6 +42,7 @@ from pathlib import Path
 
 from ..logic.options import UsageError
 from ..logic.ros_env import discovery_settings
+from ..nodes.catalog import ESTIMATOR_NODE
 from ..nodes.hand_config import HandConfig, command_options, hand_config
 from ..nodes.messages import SET_PAUSED
 from ..nodes.run_options import add_options, text, time_parameters
@@ -269,6 +270,7 @@ def session(config: RunConfig, run_dir: Path) -> Session:
         {RECORDER: recorder_command(config, run_dir / BAG_DIR_NAME)} if config.record else {}
     )
     nodes = node_processes(config)
+    estimated = hand.gloves() if hand.estimator else ()
     return Session(
         program=config.program,
         processes=(*recorders.items(), *nodes.items()),
@@ -280,7 +282,10 @@ def session(config: RunConfig, run_dir: Path) -> Session:
         simulated=hand.clock == 'sim',
         duration=config.duration,
         log_dir=run_dir / LOG_DIR_NAME,
-        listeners=tuple(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
+        listeners=(
+            *(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
+            *(f'{glove.namespace.rstrip("/")}/{ESTIMATOR_NODE.executable}' for glove in estimated),
+        ),
         signals=published_signals(hand.actuation),
     )
 

@@ -77,9 +77,9 @@ class Session:
         Where the processes' logs go.
     listeners : tuple of str
         Nodes (fully qualified) besides the summary whose readers every plant must have matched
-        before the plants resume, as each says on its ``~/ready`` (the recorder: a plant in
+        before the plants resume, as each says on its ``~/ready``: the recorder (a plant in
         simulated time that ends its session before it knows of a reader takes every sample
-        with it).
+        with it) and the estimators (one the plant does not know yet misses the first states).
     signals : tuple of str
         The topics of `SIGNALS` the gloves publish (:func:`.summary.published_signals`): the
         plants resume once each is matched, and not before.
@@ -135,7 +135,7 @@ def run_session(session: Session, env: dict) -> int:
 
     from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
     from ..nodes.qos import HANDED_OVER_QOS
-    from ..nodes.readiness import ready_topic
+    from ..nodes.readiness import Answers, ready_topic
     from .horizon import Horizon
     from .monitor import GloveMonitor
 
@@ -165,6 +165,11 @@ def run_session(session: Session, env: dict) -> int:
             )
             monitors.append(monitor)
             executor.add_node(monitor)
+        # every node of every glove answers a question asked after our readers were made: its
+        # publishers have matched them all (nodes/readiness.py), so none of its samples comes
+        # only once the steps it belongs to are written
+        nodes = [f'{g.namespace.rstrip("/")}/{n}' for g in session.gloves for n in session.nodes]
+        answers = Answers(monitors[0], nodes) if session.simulated else None
         # the listeners say when every plant has matched their readers (the recorder's ~/ready)
         ready = {name: False for name in session.listeners}
         for name in session.listeners:
@@ -198,6 +203,7 @@ def run_session(session: Session, env: dict) -> int:
                 waiting
                 and all(ready.values())
                 and all(monitor.connected(session.signals) for monitor in monitors)
+                and not answers.silent()
             ):
                 waiting = not (horizon.ready() and monitors[0].resume_plant())
             elif horizon is not None and not waiting:
