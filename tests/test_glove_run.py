@@ -99,13 +99,19 @@ def joint_columns(table, stem, unit):
     return np.stack([table[f'{stem}_{joint}_{unit}'] for joint in JOINTS], axis=1)
 
 
-def assert_each_step_has_a_command(table, stem, unit):
-    """Every row of a lockstep record holds a command (``stem``: its column): the runner resumes
-    the plant only once the controller has matched the summary's readers (a CI run's valves
-    session recorded a command in none of its 100 rows). A row takes the latest command heard
-    when its step is complete, so the first two may come before the answer to the first state."""
+def assert_each_step_has_a_command_and_an_estimate(table, stem, unit):
+    """Every row of a lockstep record holds a command (``stem``: its column) and an estimate.
+
+    The runner resumes the plant only once the controller has matched the summary's readers (a
+    CI run's valves session recorded a command in none of its 100 rows), and the estimator keeps
+    every state it is behind on in simulated time (with 10, 20-26 % of a run's rows had no
+    estimate). A row takes the latest command heard when its step is complete, so the first two
+    may come before the answer to the first state.
+    """
     commanded = ~np.isnan(joint_columns(table, stem, unit)).any(axis=1)
     assert commanded[2:].all(), f'rows without a command: {np.flatnonzero(~commanded)}'
+    estimated = np.isfinite(joint_columns(table, 'f_est', 'n')).all(axis=1)
+    assert estimated.all(), f'rows without an estimate: {np.flatnonzero(~estimated)}'
 
 
 def recorded_rows(path):
@@ -421,7 +427,7 @@ def test_a_session_behind_valves_fills_the_chambers_to_the_held_pressure(valves_
     assert valves_run.returncode == 0, valves_run.output()
     table = read_record(valves_run.out / 'signals.csv')
     assert len(table['time_s']) == round(100 * LOCKSTEP_DURATION)
-    assert_each_step_has_a_command(table, 'u_net', 'pct')
+    assert_each_step_has_a_command_and_an_estimate(table, 'u_net', 'pct')
     openings = joint_columns(table, 'u_net', 'pct')
     assert np.nanmax(openings) > 0.0  # the inlets opened
     pressure = joint_columns(table, 'p', 'kpa')[-1]
@@ -433,7 +439,7 @@ def test_a_session_behind_valves_fills_the_chambers_to_the_held_pressure(valves_
 def test_the_nodes_run_the_given_mode_and_model_file(lockstep_run):
     assert lockstep_run.returncode == 0, lockstep_run.output()
     table = read_record(lockstep_run.out / 'signals.csv')
-    assert_each_step_has_a_command(table, 'p_cmd', 'kpa')
+    assert_each_step_has_a_command_and_an_estimate(table, 'p_cmd', 'kpa')
     command = joint_columns(table, 'p_cmd', 'kpa')
     assert np.nanmax(command) == pytest.approx(HOLD_PRESSURE_KPA)  # --mode hold reached it
     # the nominal patient: each step is the equilibrium of the file's finger at its pressure

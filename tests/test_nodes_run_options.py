@@ -108,3 +108,9 @@ def test_a_glove_and_a_finger_get_the_same_simulated_time_parameters():
         'use_sim_time': False,
         'lockstep': False,
     }
+    # the estimator may be behind a lockstep plant: in simulated time that is not staleness
+    assert time_parameters('estimator', 'wall', time) == {'use_sim_time': False}
+    assert time_parameters('estimator', 'sim', time) == {
+        'use_sim_time': True,
+        'max_sample_age': 10.0,
+    }

@@ -243,6 +243,11 @@ PLANT_NODE = NodeEntry(
     ),
 )
 
+SIMULATED_SAMPLE_AGE = 10.0
+"""The estimator's ``max_sample_age`` in simulated time (the largest it takes), s: simulated time
+is exact, so a backlog (up to a publisher's 1,000 samples, 10 s at 100 Hz) is no reason to refuse
+a state as stale."""
+
 ESTIMATOR_NODE = NodeEntry(
     executable='estimator',
     class_name='Estimator',
@@ -255,7 +260,7 @@ ESTIMATOR_NODE = NodeEntry(
                 0.5,
                 'Oldest joint_states stamp accepted (stale, future or zero stamps are refused), s',
                 low=1e-4,
-                high=10.0,
+                high=SIMULATED_SAMPLE_AGE,
             ),
             ParamSpec(
                 'pairing_tolerance',

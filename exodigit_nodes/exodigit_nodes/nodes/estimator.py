@@ -48,7 +48,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import GloveNode, load_model, run
-from .qos import READER_QOS, WRITER_QOS
+from .qos import BACKLOG_QOS, READER_QOS, WRITER_QOS
 from .readiness import PlantReadiness
 
 
@@ -86,12 +86,15 @@ class Estimator(GloveNode):
         # The EventsExecutor takes messages in the order they arrived, the order the plant sends
         # a step in (pressure, then angles), so the pairer knows a step's pressure before its
         # angles (and a lost sample's partner before the next step's).
+        # In simulated time every state is estimated, also while we are behind a plant that
+        # does not wait for us (lockstep waits for the controller only); on the wall clock
+        # only fresh ones matter.
+        simulated = self.get_parameter('use_sim_time').value
+        inputs = BACKLOG_QOS if simulated else READER_QOS
         self.create_subscription(
-            Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), READER_QOS
+            Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), inputs
         )
-        self.create_subscription(
-            JointState, JOINT_STATES, WithInfo(self.on_joint_states), READER_QOS
-        )
+        self.create_subscription(JointState, JOINT_STATES, WithInfo(self.on_joint_states), inputs)
         # says on ~/ready when the plant beside it has matched those readers (the testing kit
         # waits for it: a state the plant sent before is lost to the estimator)
         self.readiness = PlantReadiness(self, ('',))

@@ -65,6 +65,17 @@ READER_QOS = QoSProfile(
 )
 """Profile of every subscription of the glove nodes: reliable, keep-last 10, volatile."""
 
+BACKLOG_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=WRITER_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""Subscriptions of a node that must take every sample even while it is behind: the estimator
+in simulated time, where a lockstep plant at real-time factor 0 steps on without waiting for it
+(with :data:`READER_QOS`'s 10 it estimated 74-80 % of a test's states). Keeps as many as a
+publisher (:data:`WRITER_DEPTH`); volatile, as :data:`READER_QOS`."""
+
 RECORD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=RECORD_DEPTH,

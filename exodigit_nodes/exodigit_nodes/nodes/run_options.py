@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from ..logic.options import UsageError
 from ..logic.pacing import TimeSettings
-from .catalog import PLANT_NODE, PRESSURE_COMMAND_NODE
+from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE, SIMULATED_SAMPLE_AGE
 
 BOOLEANS = ('true', 'false')
 TIME_OPTIONS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused', 'pause_at')
@@ -165,7 +165,8 @@ def time_parameters(executable: str, clock: str, time: TimeSettings) -> dict[str
 
     The plant gets ``clock`` and, with ``clock`` sim, the settings of ``time`` that are its
     parameters (:data:`TIME_OPTIONS`); every other node follows the plant's /clock
-    (``use_sim_time``), and ``pressure_command`` answers each step in lockstep.
+    (``use_sim_time``), ``pressure_command`` answers each step in lockstep, and the estimator
+    takes states as old as :data:`.catalog.SIMULATED_SAMPLE_AGE` (it may be behind).
     """
     sim = clock == 'sim'
     if executable == PLANT_NODE.executable:
@@ -176,4 +177,6 @@ def time_parameters(executable: str, clock: str, time: TimeSettings) -> dict[str
     values = {'use_sim_time': sim}
     if executable == PRESSURE_COMMAND_NODE.executable:
         values['lockstep'] = sim and time.lockstep
+    if executable == ESTIMATOR_NODE.executable and sim:
+        values['max_sample_age'] = SIMULATED_SAMPLE_AGE
     return values

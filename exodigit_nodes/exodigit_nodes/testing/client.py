@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 
 from ..logic.inputs import InvalidInputError, valve_openings
 from ..logic.pacing import CONTROLLERS_LABEL
+from ..nodes.catalog import SIMULATED_SAMPLE_AGE
 from ..nodes.dds import use_profile
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 from .records import SimRecord, SimState, state_arrays
@@ -168,8 +169,10 @@ class GloveSim:
         try:
             self._start('plant', parameters)
             if estimator:
-                # Lockstep time is exact: a backlog is no reason to refuse a sample as stale.
-                estimator_parameters = {'use_sim_time': True, 'max_sample_age': 10.0}
+                estimator_parameters = {
+                    'use_sim_time': True,
+                    'max_sample_age': SIMULATED_SAMPLE_AGE,
+                }
                 if params_file is not None:  # else the nominal model, as the plant's
                     estimator_parameters['params_file'] = parameters['params_file']
                 self._start('estimator', estimator_parameters)
