@@ -16,9 +16,8 @@ the estimator) waits for it. A node that listens to no plant of ours never says 
 
 The runners ask the same of every node of every glove (:class:`Answers`, on a client made after
 the live summary's readers) before they resume the plants: reader-side matching says nothing of
-the writer's side, and a controller and an estimator whose publishers matched the summary late
-left a run record without commands in any row and without estimates in 55 of its 100 (a valves
-session in a CI run).
+the writer's side, and a controller whose publisher matched the summary late left a run record
+without a command in any of its 100 rows (a valves session in a CI run).
 """
 
 from __future__ import annotations
