@@ -5,7 +5,7 @@ import itertools
 from exodigit_nodes.logic.backlog import take_backlog
 
 
-def test_the_backlog_is_taken_until_a_pass_takes_nothing():
+def test_the_backlog_is_taken_until_passes_in_a_row_take_nothing():
     held = list(range(7))  # what the reader still holds; each pass of the executor takes one
     taken = []
 
@@ -15,6 +15,22 @@ def test_the_backlog_is_taken_until_a_pass_takes_nothing():
 
     assert take_backlog(spin, lambda: len(taken)) == 7
     assert taken == list(range(7))
+
+
+def test_a_pass_that_handles_something_else_does_not_end_the_backlog():
+    # None: a pass that handles an event, not a message (a node leaving the graph), while
+    # messages still wait behind it
+    passes = [0, 1, None, 2, None, None, 3, 4]
+    taken = []
+
+    def spin():
+        if passes:
+            message = passes.pop(0)
+            if message is not None:
+                taken.append(message)
+
+    assert take_backlog(spin, lambda: len(taken)) == 5
+    assert taken == [0, 1, 2, 3, 4]
 
 
 def test_a_reader_that_never_runs_dry_is_left_after_the_limit():
