@@ -37,13 +37,13 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            f'plant = {PACKAGE}.nodes.plant:main',
-            f'pressure_command = {PACKAGE}.nodes.pressure_command:main',
-            f'estimator = {PACKAGE}.nodes.estimator:main',
-            f'glove = {PACKAGE}.glove:main',
-            f'hand = {PACKAGE}.hand:main',
-            f'hand_nodes = {PACKAGE}.nodes.hand_nodes:main',
-            f'recorder = {PACKAGE}.nodes.recorder:main',
+            f'plant = {PACKAGE}.console:plant',
+            f'pressure_command = {PACKAGE}.console:pressure_command',
+            f'estimator = {PACKAGE}.console:estimator',
+            f'glove = {PACKAGE}.console:glove',
+            f'hand = {PACKAGE}.console:hand',
+            f'hand_nodes = {PACKAGE}.console:hand_nodes',
+            f'recorder = {PACKAGE}.console:recorder',
         ],
         # The testing kit's glove_sim fixture, for every pytest run where the package is installed.
         'pytest11': [f'exodigit_glove_sim = {PACKAGE}.testing.plugin'],

@@ -7,9 +7,16 @@ leaves a process (``node_base.serve``: status 2, that one line on stderr, no tra
 else rclpy might print) is the same for every node: two processes check it, one per kind.
 """
 
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 import pytest
 from exodigit_nodes.nodes.catalog import NODES
 from exodigit_nodes.nodes.node_base import ConfigurationError, load_model
+from exodigit_nodes.testing.processes import ros_environment
 
 BAD_FILES = {
     'missing': None,
@@ -112,3 +119,27 @@ def test_a_bad_parameter_stops_the_process_with_one_clear_line(launcher):
     assert code == 2
     assert len(lines) == 1, lines
     assert lines[0].startswith('plant: error: ') and 'lockstep needs clock sim' in lines[0]
+
+
+@pytest.mark.parametrize('delay', [0.15, 0.5])
+def test_ctrl_c_while_the_console_script_starts_ends_it_without_a_traceback(
+    ros_domain, tmp_path, delay
+):
+    # What ros2 launch does to the other nodes when one refuses its configuration: SIGINT while
+    # the plant still imports rclpy and the model (over a second here), where Python's default
+    # handler used to print a KeyboardInterrupt traceback. The console script, as installed.
+    script = Path(sys.executable).with_name('plant')
+    env = ros_environment(ros_domain)
+    process = subprocess.Popen(
+        [str(script), '--ros-args', '-r', '__ns:=/startup_interrupted'],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+    )
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=30.0)
+    assert 'Traceback' not in stderr + stdout, stderr
+    assert process.returncode == 0, stderr

@@ -81,8 +81,11 @@ class NodeEntry:
 
     @property
     def entry_point(self) -> str:
-        """The console script's target in setup.py: ``exodigit_nodes.nodes.plant:main``."""
-        return f'{self.module}:main'
+        """The console script's target in setup.py: ``exodigit_nodes.console:plant``.
+
+        It runs :attr:`module`'s ``main`` (:mod:`exodigit_nodes.console`).
+        """
+        return f'{PACKAGE}.console:{self.executable}'
 
     @property
     def config_file(self) -> str:
