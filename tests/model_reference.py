@@ -12,7 +12,7 @@ import numpy as np
 from scipy.integrate import dblquad, quad
 from scipy.optimize import brentq
 
-QUAD_OPTIONS = {'epsabs': 0.0, 'epsrel': 1e-13, 'limit': 200}
+QUAD_OPTIONS = {'epsabs': 0.0, 'epsrel': 1e-12, 'limit': 200}
 """Adaptive quadrature settings of every reference integral (no absolute floor: M is small)."""
 JACOBIAN_STEP = 1e-6
 """Central-difference step of the reference contact Jacobian, rad."""

@@ -335,6 +335,8 @@ FIT_DESIGN = np.array(
 # -- the same problem at any scale -------------------------------------------------------------
 
 
+# Drawn gloves and pressures may leave the validated range: scaling holds there too.
+@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
 @settings(max_examples=2 * EXAMPLES, **PROPERTY)
 @given(
     layers=layers,

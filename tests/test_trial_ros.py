@@ -60,6 +60,9 @@ def kit_trial(tmp_path_factory):
     return spec, engine, result
 
 
+# The in-process run's position controller warns that a stiff patient's feed-forward is
+# beyond the supply: the trial compares the two engines, beyond the supply included.
+@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
 def test_the_node_gives_the_in_process_metrics(kit_trial):
     _, engine, result = kit_trial
     reference = run_trial(trial(ControllerSpec('mode', 'position')))
