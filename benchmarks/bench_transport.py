@@ -35,7 +35,7 @@ import time
 
 import rclpy
 from exodigit_nodes.nodes.dds import PROFILE, PROFILE_VARIABLE
-from exodigit_nodes.nodes.qos import READER_QOS, RECORD_QOS, WRITER_QOS
+from exodigit_nodes.nodes.qos import READER_QOS, RECORD_QOS, STREAM_QOS
 from exodigit_nodes.testing import claim_domain
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile
@@ -44,12 +44,12 @@ from std_srvs.srv import Trigger
 
 #: Publishers' QoS: the glove's (keep-last 1,000), keep-last 10 as they had before, keep-all.
 WRITERS = {
-    'glove': WRITER_QOS,
+    'glove': STREAM_QOS,
     'keep-last-10': READER_QOS,
     'keep-all': QoSProfile(
         history=HistoryPolicy.KEEP_ALL,
-        reliability=WRITER_QOS.reliability,
-        durability=WRITER_QOS.durability,
+        reliability=STREAM_QOS.reliability,
+        durability=STREAM_QOS.durability,
     ),
 }
 #: A stall longer than this counts in "late samples", s.

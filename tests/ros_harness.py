@@ -40,6 +40,7 @@ from typing import Any
 
 import rclpy
 from exodigit_nodes.nodes.dds import use_profile
+from exodigit_nodes.nodes.handshake import Handshake
 from exodigit_nodes.nodes.repeated_call import RepeatedCall
 from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's public names)
     STOP_TIMEOUT,
@@ -326,18 +327,16 @@ class RosProbe:
                 self.node.destroy_client(client)
 
     def _warm_up(self, service: str, timeout: float) -> None:
-        """Have the node serving ``service`` answer a parameter question on a new client."""
+        """Have the node serving ``service`` answer the session protocol's handshake."""
         server = wait_until(lambda: self._server_of(service), timeout)
         assert server, f'no node serves {service}'
         with self._lock:
-            client = self.node.create_client(GetParameters, f'{server}/get_parameters')
+            handshake = Handshake(self.node, [server])
         try:
-            assert client.wait_for_service(timeout_sec=timeout), f'{server} has no parameters'
-            question = RepeatedCall(client, GetParameters.Request())
-            self._answer(question.answer, f'{server}/get_parameters', timeout)
+            assert wait_until(lambda: not handshake.silent(), timeout), f'{server} is silent'
         finally:
             with self._lock:
-                self.node.destroy_client(client)
+                handshake.destroy()
 
     def _server_of(self, service: str) -> str | None:
         """Fully qualified name of the node that offers ``service``, or None."""

@@ -8,7 +8,7 @@ k · :data:`PERIOD`, so a sample or a bag row shows which step it holds.
 import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time
-from exodigit_nodes.nodes.qos import WRITER_QOS
+from exodigit_nodes.nodes.qos import STREAM_QOS
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Header
 
@@ -41,7 +41,7 @@ def stand_in_plant(context, namespace):
     """A node ``plant`` in ``namespace`` with the glove's publishers of :data:`TOPICS`."""
     plant = rclpy.create_node('plant', namespace=namespace, context=context)
     publishers = {
-        topic: plant.create_publisher(kind, topic, WRITER_QOS) for topic, kind in TOPICS.items()
+        topic: plant.create_publisher(kind, topic, STREAM_QOS) for topic, kind in TOPICS.items()
     }
     return plant, publishers
 

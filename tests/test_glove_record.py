@@ -296,3 +296,26 @@ def test_a_valve_command_shows_as_each_joint_s_net_opening_in_percent():
     signals = GloveSignals(NODES)
     signals.update('valve_command', net)
     assert 'u_net_pct=[40 -25 0]' in signals.line(now=0.0)
+
+
+def test_a_record_of_commanded_steps_waits_for_the_plant_s_record_of_commands():
+    # The run record's command is what the plant applied (applied_command), whose history a
+    # monitor that matched the plant's states first gets only after some steps: those steps
+    # wait for it, and each gets the command sent before its pressure, the vent the plant
+    # started with here. Later commands join the steps they drove, by the time they were sent.
+    signals = GloveSignals(NODES, commanded=True)
+    early = [m for i, p in enumerate([1000.0, 2000.0, 3000.0]) for m in step_messages(i, p)]
+    assert feed(signals, early) == []  # steps 0 and 1 joined, but no command known yet
+    samples = signals.update('pressure_command', [0.0, 0.0, 0.0], published=999.0)
+    assert [s.time for s in samples] == pytest.approx([0.0, PERIOD])
+    command_sent = 1000.0 + 2.5 * PERIOD  # between step 2 and step 3
+    assert signals.update('pressure_command', [5e3, 6e3, 7e3], published=command_sent) == []
+    samples += feed(signals, step_messages(3, 4000.0) + step_messages(4, 5000.0))
+    commands = [sample.values['pressure_command'] for sample in samples]
+    np.testing.assert_array_equal(commands, [[0.0] * 3] * 3 + [[5e3, 6e3, 7e3]])
+
+
+def test_steps_that_need_no_command_are_not_held_for_one():
+    signals = GloveSignals(NODES)
+    samples = run_steps(signals, [1000.0, 2000.0])
+    assert all(sample.values['pressure_command'] is None for sample in samples)

@@ -184,7 +184,9 @@ def test_record_adds_one_recorder_of_every_glove_first_to_start_last_to_stop(
     assert namespace_of(recorder) == namespace
     # a lone glove's bag at the top of the run, a hand's a bag per finger in it
     options = recorder[3 : recorder.index('--ros-args')]
-    assert options == ['--output', str(tmp_path / 'run' / 'bag'), *gloves]
+    nodes = ['--nodes', ','.join(session.nodes)]  # each must match its readers (~/ready)
+    assert options == ['--output', str(tmp_path / 'run' / 'bag'), *gloves, *nodes]
+    assert set(session.nodes) == {'plant', 'estimator', 'pressure_command'}
     assert overrides(recorder) == {'use_sim_time': True}  # stamps in simulated time
     assert session.runs['recorder'] == ()
     # the plants wait for it and for every estimator (each says so on its ~/ready)

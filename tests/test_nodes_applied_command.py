@@ -4,13 +4,14 @@ A volatile controller's commands reach only the readers its writer has matched w
 them, and a writer can match a reader after that reader has matched the writer: a reader
 counting the controller's commands can miss the first ones however long it waited for its own
 match (a CI run's testing kit heard none of 20 answers the plant had taken). The plant answers
-each command on ``applied_command``, transient-local: a reader that matches late gets all of it.
+each command on ``applied_command`` (after the vent it starts with), transient-local: a reader
+that matches late gets all of it.
 Here the loss is made certain (the readers are created after the commands were sent) and the
 record is checked to have every command, in order, as the plant took it.
 """
 
 import numpy as np
-from exodigit_nodes.nodes.qos import RECORD_QOS
+from exodigit_nodes.nodes.qos import record_profile
 from rclpy.duration import Duration
 from ros_harness import DISCOVERY_TIMEOUT, wait_until
 from sensor_msgs.msg import JointState
@@ -34,13 +35,16 @@ def test_a_reader_that_matches_late_gets_every_command_the_plant_took(launcher, 
     assert publisher.wait_for_all_acked(Duration(seconds=DISCOVERY_TIMEOUT))
 
     sent = probe.subscribe(f'{NS}/pressure_command', Float64MultiArray)  # volatile, late
-    applied = probe.subscribe(f'{NS}/applied_command', Float64MultiArray, qos=RECORD_QOS)
-    assert wait_until(lambda: applied.count() >= 2 * len(COMMANDS), DISCOVERY_TIMEOUT), (
-        f'{applied.count()} of {2 * len(COMMANDS)} applied commands'
+    applied = probe.subscribe(
+        f'{NS}/applied_command', Float64MultiArray, qos=record_profile('applied_command')
+    )
+    assert wait_until(lambda: applied.count() >= 1 + 2 * len(COMMANDS), DISCOVERY_TIMEOUT), (
+        f'{applied.count()} of {1 + 2 * len(COMMANDS)} applied commands'
     )
     assert sent.matched()
     assert sent.count() == 0  # what a late reader of the commands themselves gets
 
-    # each refused command leaves the one before it in force
-    expected = np.repeat(COMMANDS, 2, axis=0)
+    # the vent of a plant that has had no command yet, then each command: a refused one
+    # leaves the one before it in force
+    expected = [[0.0, 0.0, 0.0], *np.repeat(COMMANDS, 2, axis=0)]
     np.testing.assert_array_equal([m.data for m in applied.messages()], expected)

@@ -11,7 +11,7 @@ import itertools
 
 import pytest
 from exodigit_nodes.nodes import repeated_call
-from exodigit_nodes.nodes.qos import RECORD_QOS, WRITER_QOS
+from exodigit_nodes.nodes.qos import RECORD_QOS, STREAM_QOS
 from exodigit_nodes.nodes.repeated_call import RepeatedCall
 from exodigit_nodes.runner.horizon import (
     FOREIGN_LEAD_STEPS,
@@ -111,7 +111,7 @@ def test_the_first_limit_waits_for_the_rate_and_lies_lead_steps_ahead():
 def test_the_lead_is_shorter_than_what_each_publisher_and_each_recording_reader_keeps():
     # one step in flight beyond the lead must still be in every publisher's history, and a
     # recording reader must have room for all of them
-    assert WRITER_QOS.depth >= LEAD_STEPS + 1
+    assert STREAM_QOS.depth >= LEAD_STEPS + 1
     assert RECORD_QOS.depth >= LEAD_STEPS + 1
     assert 0 < RAISE_STEPS < LEAD_STEPS
     # a user's controller in the testing kit may publish with rclpy's usual depth of 10

@@ -1,4 +1,4 @@
-"""``~/ready`` (exodigit_nodes/nodes/readiness.py; docs/tools.md, "Recording a session"): the
+"""``~/ready`` (exodigit_nodes/nodes/handshake.py; docs/tools.md, "Recording a session"): the
 recorder and the estimator say True only once the plant of every glove they listen to has
 answered them, which it does only after matching all their readers.
 
@@ -20,7 +20,7 @@ NS = '/readiness'
 #: Longest wait for a node to start and be discovered, s (a failing test waits it out).
 TIMEOUT = 30.0
 PLANT = {'rate_hz': 20.0, 'marker_rate_hz': 0.0}
-READY_LINE = 'every plant has matched our readers: ready'
+READY_LINE = 'every node we listen to has matched our readers: ready'
 
 
 def test_the_recorder_is_ready_only_once_the_plant_of_every_glove_answered_it(

@@ -10,7 +10,7 @@ was computed from and the values as ``effort``; every ``identification_period``,
 ``identification_window`` pairs, it fits the effective linear patient τ̂_H = k (q − q_r) and
 publishes its stiffness as ``estimated_finger_stiffness`` and its rest angle as
 ``estimated_rest_angle``, with the fit's RMSE in ``/diagnostics`` (large when a linear spring does
-not explain the finger). ``~/ready`` (:mod:`.readiness`) says when the plant beside it has
+not explain the finger). ``~/ready`` (:mod:`.handshake`) says when the plant beside it has
 matched its readers.
 
 Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.05``.
@@ -34,7 +34,8 @@ from ..logic.inputs import (
     stamp_seconds,
 )
 from ..logic.parameters import describe_files
-from .catalog import ESTIMATOR_NODE
+from .catalog import ESTIMATOR_NODE, PLANT_NODE
+from .handshake import Ready
 from .message_info import WithInfo
 from .messages import (
     CHAMBER_PRESSURE,
@@ -48,8 +49,7 @@ from .messages import (
     joint_vector_message,
 )
 from .node_base import GloveNode, load_model, run
-from .qos import BACKLOG_QOS, READER_QOS, WRITER_QOS
-from .readiness import PlantReadiness
+from .qos import BACKLOG_QOS, READER_QOS, STREAM_QOS
 
 
 class Estimator(GloveNode):
@@ -72,16 +72,16 @@ class Estimator(GloveNode):
         self.stiffness_message = joint_vector_message()
         self.rest_message = joint_vector_message()
         self.force_publisher = self.create_publisher(
-            JointState, ESTIMATED_CONTACT_FORCES, WRITER_QOS
+            JointState, ESTIMATED_CONTACT_FORCES, STREAM_QOS
         )
         self.torque_publisher = self.create_publisher(
-            JointState, ESTIMATED_FINGER_TORQUE, WRITER_QOS
+            JointState, ESTIMATED_FINGER_TORQUE, STREAM_QOS
         )
         self.stiffness_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, WRITER_QOS
+            Float64MultiArray, ESTIMATED_FINGER_STIFFNESS, STREAM_QOS
         )
         self.rest_publisher = self.create_publisher(
-            Float64MultiArray, ESTIMATED_REST_ANGLE, WRITER_QOS
+            Float64MultiArray, ESTIMATED_REST_ANGLE, STREAM_QOS
         )
         # The EventsExecutor takes messages in the order they arrived, the order the plant sends
         # a step in (pressure, then angles), so the pairer knows a step's pressure before its
@@ -97,7 +97,7 @@ class Estimator(GloveNode):
         self.create_subscription(JointState, JOINT_STATES, WithInfo(self.on_joint_states), inputs)
         # says on ~/ready when the plant beside it has matched those readers (the testing kit
         # waits for it: a state the plant sent before is lost to the estimator)
-        self.readiness = PlantReadiness(self, ('',))
+        self.readiness = Ready(self, [PLANT_NODE.executable])
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )

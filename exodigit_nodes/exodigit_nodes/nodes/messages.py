@@ -44,11 +44,7 @@ def set_double_request(name: str, value: float) -> SetParameters.Request:
 
 
 def rate_request() -> GetParameters.Request:
-    """A ``get_parameters`` request for a plant's ``rate_hz``: a question that changes nothing.
-
-    Asked to learn the rate, or to learn that the plant answers at all (that it has matched
-    the asking node's endpoints: :mod:`.readiness`).
-    """
+    """A ``get_parameters`` request for a plant's ``rate_hz`` (the runners' :mod:`.horizon`)."""
     return GetParameters.Request(names=['rate_hz'])
 
 

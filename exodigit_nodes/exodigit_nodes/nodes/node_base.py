@@ -43,7 +43,7 @@ from ..logic.lifetime import StopRequest, stop_with_parent
 from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
 from .messages import CHAMBER_PRESSURE, DIAGNOSTICS, status
-from .qos import WRITER_QOS
+from .qos import STREAM_QOS
 
 if TYPE_CHECKING:
     from exodigit_model import GloveModel, GloveParams
@@ -164,7 +164,7 @@ class GloveNode(Node):
         self.rejections = RejectionTally()
         self.last_rejection: float | None = None
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS, WRITER_QOS
+            DiagnosticArray, DIAGNOSTICS, STREAM_QOS
         )
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -397,7 +397,7 @@ def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
 
     Every reader the graph lists: one the graph lists but the publisher has not matched yet
     (discovery is per pair of processes) is waited for too, and then gets the publisher's
-    history (transient-local, :data:`.qos.WRITER_QOS`). At most ``limit`` s in all; nothing
+    history (transient-local, :data:`.qos.STREAM_QOS`). At most ``limit`` s in all; nothing
     after an external shutdown (nothing can be sent then).
     """
     deadline = time.monotonic() + limit

@@ -15,9 +15,10 @@ Actuation (read-only ``actuation``, docs/spec/model.md §14): ``regulator`` (def
 outlets) of the valves that fill each chamber from the supply and vent it, whose pressure then
 follows its air mass. A vent (watchdog, reset, no command yet) is zero pressure for a regulator,
 inlets closed and outlets open for valves. Any other command is refused (logged, counted,
-nothing applied). Each command that arrives, taken or refused, is answered on
-``applied_command`` with the command the next step applies: a record of what the plant did
-that a late reader still gets whole (transient-local), whatever the controller's QoS.
+nothing applied). ``applied_command`` says what the next step applies: the vent when the
+plant starts, then the command in force after each command that arrives, taken or refused. It
+is the record of what drove the glove from its first step, which a late reader still gets whole
+(transient-local), whatever the controller's QoS.
 
 Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
 ``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
@@ -75,7 +76,7 @@ from .messages import (
     valve_command_message,
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model, run
-from .qos import READER_QOS, WRITER_QOS
+from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
 from .sim_time import WAITING, SimulatedTime
 
 LATE_FACTOR = 1.5
@@ -117,15 +118,15 @@ class Plant(GloveNode):
         # Outputs first, then the input: a controller that sees our command subscription has
         # seen the outputs announced too.
         self.pressure_publisher = self.create_publisher(
-            Float64MultiArray, CHAMBER_PRESSURE, WRITER_QOS
+            Float64MultiArray, CHAMBER_PRESSURE, STREAM_QOS
         )
-        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, WRITER_QOS)
-        self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, WRITER_QOS)
+        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, STREAM_QOS)
+        self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, STREAM_QOS)
         self.length_publisher = self.create_publisher(
-            Float64MultiArray, SEGMENT_LENGTHS, WRITER_QOS
+            Float64MultiArray, SEGMENT_LENGTHS, STREAM_QOS
         )
         self.applied_publisher = self.create_publisher(
-            Float64MultiArray, APPLIED_COMMAND, WRITER_QOS
+            Float64MultiArray, APPLIED_COMMAND, APPLIED_QOS
         )
         self.outputs = (
             (self.pressure_publisher, CHAMBER_PRESSURE),
@@ -134,7 +135,9 @@ class Plant(GloveNode):
             (self.length_publisher, SEGMENT_LENGTHS),
             (self.applied_publisher, APPLIED_COMMAND),
         )
-        self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, WRITER_QOS)
+        # What the first steps apply, before any command: the record starts with the vent.
+        self.applied_publisher.publish(fill(self.applied_message, self.command))
+        self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, STREAM_QOS)
         self.command_subscription = self.create_subscription(
             Float64MultiArray, self.command_topic, self.on_command, READER_QOS
         )

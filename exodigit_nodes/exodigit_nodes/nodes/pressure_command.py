@@ -87,7 +87,7 @@ from .messages import (
     valve_command_message,
 )
 from .node_base import LOG_THROTTLE, GloveNode, load_model_params, run
-from .qos import READER_QOS, WRITER_QOS
+from .qos import READER_QOS, STREAM_QOS
 
 if TYPE_CHECKING:
     from exodigit_model import GloveModel
@@ -194,7 +194,7 @@ class PressureCommand(GloveNode):
             self.listen_to_states()
         self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, READER_QOS)
         self.topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
-        self.publisher = self.create_publisher(Float64MultiArray, self.topic, WRITER_QOS)
+        self.publisher = self.create_publisher(Float64MultiArray, self.topic, STREAM_QOS)
         if not self.lockstep:
             self.create_timer(self.period, self.tick)
         self.create_timer(self.values['diagnostic_period'], self.report)

@@ -1,48 +1,51 @@
 """The QoS profiles of the exodigit topics (docs/spec/ros.md, "QoS").
 
-Every topic is reliable. Publishers keep the last 1,000 samples (:data:`WRITER_QOS`), and keep
-them for readers that match late (durability transient-local): a recorder whose reader matched
-a plant a few hundred steps after the plant started still gets those steps
-(:data:`RECORD_QOS`). Subscriptions of the nodes keep the last 10 and ask for nothing sent
-before they matched (:data:`READER_QOS`): a controller wants the latest state, not a backlog.
-A subscriber with the default rclpy profile (``depth=10``, volatile) matches every publisher.
-``markers``, ``/diagnostics`` and ``/clock`` use the same profiles (rclpy's best-effort time
-source matches a reliable publisher too).
+Every topic is reliable. Streams are volatile, as ROS streams are: a subscriber gets what is sent
+after it matched, so ``ros2 topic echo --once chamber_pressure`` (which takes the publishers'
+durability) prints the pressure the chambers hold now, not a replay of the last seconds. History
+is kept for late readers only where it is a record or a latched state: the plant's
+``applied_command`` (:data:`APPLIED_QOS`) and a node's ``~/ready`` (:data:`HANDED_OVER_QOS`).
+
+The glove's own recorders (the runners' run record, the bag ``recorder``, the testing kit) lose
+nothing of a stream because no plant steps before every node of the session has matched their
+readers (the session protocol, :mod:`.session`), and they keep deep queues
+(:data:`RECORD_QOS`) for when they fall behind. A subscriber with the default rclpy profile
+(``depth=10``, volatile) matches every publisher.
 """
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .messages import (
-    CLOCK,
-    DIAGNOSTICS,
-    JOINT_TARGETS,
-    PATIENT_EFFORT,
-    PRESSURE_COMMAND,
-    VALVE_COMMAND,
-)
+from .messages import APPLIED_COMMAND
 
 WRITER_DEPTH = 1000
-"""Samples each publisher keeps, for readers that have not acknowledged them and for readers
-that match late: 10 s at 100 Hz."""
+"""Samples each publisher keeps for matched readers that have not acknowledged them yet: 10 s at
+100 Hz (a reader that misses one asks again within 50 ms, the project's Fast DDS profile)."""
 
 RECORD_DEPTH = 10_000
 """Samples a recording subscription buffers while its process is behind: 100 s at 100 Hz."""
 
-WRITER_QOS = QoSProfile(
+STREAM_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=WRITER_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""Profile of every stream the glove's nodes publish (states, pressures, forces, estimates,
+commands, markers, ``/diagnostics``, ``/clock``): reliable, keep-last :data:`WRITER_DEPTH`,
+volatile. A matched reader that stalls gets every sample back as long as it is less than
+:data:`WRITER_DEPTH` behind. The publisher never waits for anyone (keep-all would block it, then
+fail, once a stalled reader is 5,000 samples behind: ``benchmarks/bench_transport.py``); a
+runner in simulated time keeps the plant fewer steps ahead than that (``runner/horizon.py``)."""
+
+APPLIED_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=WRITER_DEPTH,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-"""Profile of every publisher of the glove nodes: reliable, keep-last :data:`WRITER_DEPTH`,
-transient-local. A reader that stalls gets every sample back as long as it is less than
-:data:`WRITER_DEPTH` behind (the project's profile, :mod:`.dds`, repairs its gap within 50 ms);
-a transient-local reader that matches late gets the last :data:`WRITER_DEPTH` samples sent
-before (discovery between two processes took up to 3 s on a loaded machine, while a plant in
-simulated time stepped on: a hand's bag once held no step of a plant). The publisher never
-waits for anyone (keep-all would block it, then fail, once a stalled reader is 5,000 samples
-behind: ``benchmarks/bench_transport.py``). Volatile readers (rclpy's default) match it too and
-get only what is sent after they matched."""
+"""Profile of the plant's ``applied_command``, the record of what drove the glove: as
+:data:`STREAM_QOS`, and transient-local, so that a reader that matched late still gets the
+commands the plant took before (from the vent it starts with)."""
 
 HANDED_OVER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -50,12 +53,13 @@ HANDED_OVER_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-"""Profile of a publisher that sends its next sample only once every reader has acknowledged
-the last (the testing kit's ``joint_targets``, one target a step): keep-last 1 loses nothing
-then, and Fast DDS sends a heartbeat with every sample of a full history, which the reader
-answers at once (the kit's profile), so the acknowledgement comes back in one round trip. With
-the usual 1,000 it waited for the periodic heartbeat: 1.2 ms a step against 0.03 ms (500 lockstep
-steps here). Transient-local as :data:`WRITER_QOS`, so every reader profile matches it."""
+"""Profile of a latched state (a node's ``~/ready``) and of a publisher that sends its next
+sample only once every reader has acknowledged the last (the testing kit's ``joint_targets``, one
+target a step): keep-last 1 loses nothing then, and Fast DDS sends a heartbeat with every sample
+of a full history, which the reader answers at once (the kit's profile), so the acknowledgement
+comes back in one round trip. With 1,000 kept it waited for the periodic heartbeat: 1.2 ms a
+step against 0.03 ms (500 lockstep steps here). Transient-local, so a reader that matched after
+the state was said still gets it."""
 
 READER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -80,39 +84,26 @@ RECORD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=RECORD_DEPTH,
     reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    durability=DurabilityPolicy.VOLATILE,
 )
-"""Subscriptions that must keep every message of the glove's own nodes (the live summary's run
-record, the bag recorder, the testing kit): transient-local, so a reader that matched after the
-plant's first steps still gets them from the publisher's history, and keep-last
-:data:`RECORD_DEPTH`, so a recording process that falls behind a plant running faster than real
-time buffers instead of dropping. Only publishers that are transient-local match it (every
-publisher of :data:`WRITER_QOS`); for topics that other nodes publish too, see
-:data:`RECORD_ANY_QOS`."""
+"""Subscriptions that must keep every message (the live summary's run record, the bag recorder,
+the testing kit): keep-last :data:`RECORD_DEPTH`, so a recording process that falls behind a
+plant running faster than real time buffers instead of dropping. Volatile, so every publisher
+matches it, a user's controller with rclpy's default profile included."""
 
-RECORD_ANY_QOS = QoSProfile(
+RECORD_APPLIED_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=RECORD_DEPTH,
     reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-"""Recording subscriptions of topics that any node may publish with rclpy's default (volatile)
-profile: a user's controller on ``pressure_command``, ``valve_command``, ``patient_effort`` and
-``joint_targets``, every node on ``/diagnostics``, another simulator on ``/clock``. Volatile, so
-that such a publisher matches; what it sent before the match is not recorded."""
-
-OPEN_TOPICS = frozenset(
-    {PRESSURE_COMMAND, VALVE_COMMAND, PATIENT_EFFORT, JOINT_TARGETS, DIAGNOSTICS, CLOCK}
-)
-"""Topics that nodes other than the glove's own publish (docs/spec/ros.md, "QoS"): recorded with
-:data:`RECORD_ANY_QOS`. Every other glove topic has only the plant or the estimator as its
-publisher."""
+"""The recording subscription of ``applied_command``: :data:`RECORD_QOS`, transient-local to get
+the plant's record (:data:`APPLIED_QOS`) whole."""
 
 
 def record_profile(topic: str) -> QoSProfile:
     """The recording profile of ``topic`` (a name relative to a glove, or absolute).
 
-    :data:`RECORD_ANY_QOS` for :data:`OPEN_TOPICS`, else :data:`RECORD_QOS`.
+    :data:`RECORD_APPLIED_QOS` for ``applied_command``, else :data:`RECORD_QOS`.
     """
-    name = topic if topic in OPEN_TOPICS else topic.rsplit('/', 1)[-1]
-    return RECORD_ANY_QOS if name in OPEN_TOPICS else RECORD_QOS
+    return RECORD_APPLIED_QOS if topic.rsplit('/', 1)[-1] == APPLIED_COMMAND else RECORD_QOS

@@ -16,9 +16,9 @@ source timestamp, the system clock) or, under ``use_sim_time``, with the node cl
 time) when it arrived. Send times keep a plant step's messages together in the bag even when
 they arrived late or in bursts: from a recorder behind on a loaded machine, or as the history a
 publisher keeps for a reader that matched late (docs/spec/ros.md, "QoS").
-Once every glove's plant has matched all its readers, it publishes ``True`` on ``~/ready``
-(:mod:`.readiness`): the runners start the plants only then, so that no plant can finish a
-session before it knows of the recorder.
+Once every node of ``--nodes`` of every glove has matched all its readers, it publishes
+``True`` on ``~/ready`` (:mod:`.handshake`): the runners start the plants only then, so that no
+step of a session is sent before those nodes know of the recorder.
 The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
 Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
 written); a topic nobody publishes is listed with 0 messages.
@@ -40,10 +40,11 @@ from std_msgs.msg import Float64MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
+from .catalog import PLANT_NODE
+from .handshake import Ready, glove_nodes
 from .message_info import WithInfo
 from .node_base import ConfigurationError, serve
 from .qos import record_profile
-from .readiness import PlantReadiness
 
 TOPICS = {
     messages.CHAMBER_PRESSURE: Float64MultiArray,
@@ -137,10 +138,18 @@ class Recorder(Node):
     ``gloves``: sub-namespaces of its namespace whose topics it records, each to a bag of its own,
     ``output/<glove>`` (a hand's fingers; ``exodigit plot`` reads one glove a bag); the default
     ``('',)``: the namespace itself, to ``output``. /diagnostics and /clock go to every bag.
-    ``node_options`` go to :class:`rclpy.node.Node` (``context``, ``namespace``).
+    ``nodes``: the nodes of each glove that must have matched its readers before it says it is
+    ready (the plant alone by default). ``node_options`` go to :class:`rclpy.node.Node`
+    (``context``, ``namespace``).
     """
 
-    def __init__(self, output: Path, gloves: tuple[str, ...] = ('',), **node_options) -> None:
+    def __init__(
+        self,
+        output: Path,
+        gloves: tuple[str, ...] = ('',),
+        nodes: tuple[str, ...] = (PLANT_NODE.executable,),
+        **node_options,
+    ) -> None:
         super().__init__('recorder', **node_options)
         if gloves != ('',):
             if '' in gloves or len(set(gloves)) != len(gloves):
@@ -178,7 +187,7 @@ class Recorder(Node):
             f'recording {len(routes)} topics to {output} (rosbag2, MCAP): '
             + ', '.join(self._names.values())
         )
-        self.readiness = PlantReadiness(self, gloves)  # after every reader
+        self.readiness = Ready(self, glove_nodes(gloves, nodes))  # after every reader
 
     def _callback_for(self, topic: str):
         """The subscription callback of ``topic``: its first message is also logged.
@@ -234,6 +243,13 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
         'a bag DIR/<glove>; default the namespace itself, to DIR',
     )
     parser.add_argument(
+        '--nodes',
+        default=PLANT_NODE.executable,
+        metavar='A,B',
+        help='comma-separated nodes of each glove that must have matched the readers before '
+        'the recorder says it is ready on ~/ready (default: %(default)s)',
+    )
+    parser.add_argument(
         '--duration',
         type=float,
         default=0.0,
@@ -266,7 +282,11 @@ def main(args: list[str] | None = None) -> int:
     return serve(
         'recorder',
         argv,
-        lambda: Recorder(Path(options.output), tuple(options.gloves.split(','))),
+        lambda: Recorder(
+            Path(options.output),
+            tuple(options.gloves.split(',')),
+            tuple(options.nodes.split(',')),
+        ),
         last_words,
         taken=Recorder.taken,
         duration=options.duration if options.duration > 0 else math.inf,

@@ -38,7 +38,7 @@ from exodigit_model import GloveSimulation, GloveState
 from ..logic.pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
 from .messages import CLOCK, RESET_SIMULATION, SET_PAUSED, STEP
 from .node_base import ConfigurationError
-from .qos import WRITER_QOS
+from .qos import STREAM_QOS
 
 POLL_LIMITS = (0.5e-3, 0.01)
 """Shortest and longest period of the simulated-time loop's wall timer, s."""
@@ -114,7 +114,7 @@ class SimulatedTime:
         self.waiting_since = time.monotonic()
         self.pacer = Pacer()
         self.clock_message = ClockMessage()
-        self.clock_publisher = owner.create_publisher(ClockMessage, CLOCK, WRITER_QOS)
+        self.clock_publisher = owner.create_publisher(ClockMessage, CLOCK, STREAM_QOS)
         self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
         self.timer = None
         self._measure_marks = (time.monotonic(), 0.0)

@@ -48,7 +48,6 @@ from ..nodes.messages import SET_PAUSED
 from ..nodes.run_options import add_options, text, time_parameters
 from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
 from .session import Session, WatchedGlove, identification_references, run_session
-from .summary import published_signals
 
 NODE_PROCESSES = 'nodes'
 """Layout: each node of a lone glove its own process."""
@@ -249,6 +248,7 @@ def recorder_command(config: RunConfig, bag: Path) -> list[str]:
         *(sys.executable, '-m', f'exodigit_nodes.nodes.{RECORDER}'),
         *('--output', str(bag)),
         *(('--gloves', ','.join(hand.fingers)) if hand.fingers else ()),
+        *('--nodes', ','.join(entry.executable for entry in hand.node_entries())),
         *ros_arguments(hand.namespace, config.ros_params, values),
     ]
 
@@ -286,7 +286,6 @@ def session(config: RunConfig, run_dir: Path) -> Session:
             *(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
             *(f'{glove.namespace.rstrip("/")}/{ESTIMATOR_NODE.executable}' for glove in estimated),
         ),
-        signals=published_signals(hand.actuation),
     )
 
 

@@ -1,7 +1,7 @@
 """Keeps a plant in simulated time at most a few hundred steps ahead of what a runner received.
 
 Every glove publisher keeps its last 1,000 samples for readers that have not acknowledged them
-(:data:`.qos.WRITER_QOS`), and a reader that misses one asks for it again within 50 ms (the
+(:data:`.qos.STREAM_QOS`), and a reader that misses one asks for it again within 50 ms (the
 project's Fast DDS profile, :mod:`.dds`). A plant in simulated time at a real-time factor of 0
 takes thousands of steps a second, faster than a Python process records them; without a hold,
 a runner that falls 1,000 steps behind would lose the oldest. Measured on 2026-12-04 with

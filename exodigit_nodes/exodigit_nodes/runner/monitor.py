@@ -17,12 +17,14 @@ from std_srvs.srv import SetBool
 from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
 from exodigit_nodes.nodes.message_info import WithInfo
-from exodigit_nodes.nodes.messages import DIAGNOSTICS, SET_PAUSED
-from exodigit_nodes.nodes.qos import RECORD_ANY_QOS, RECORD_QOS
+from exodigit_nodes.nodes.messages import APPLIED_COMMAND, DIAGNOSTICS, SET_PAUSED
+from exodigit_nodes.nodes.qos import RECORD_QOS, record_profile
 from exodigit_nodes.runner.summary import (
+    COMMAND_SIGNALS,
     JOINT_LABELS,
     SIGNALS,
     STAMPED,
+    VALVE_OPENINGS,
     GloveSignals,
     Sample,
     net_openings,
@@ -75,31 +77,26 @@ class GloveMonitor(Node):
         self._on_sample = on_sample
         self.taken = 0
         """Messages this monitor has taken so far (signals and /diagnostics)."""
-        self._inputs = []
+        # The command of a step is what the plant applied (its applied_command, kept for late
+        # readers), not what a controller sent: a controller's publisher may match us late.
+        self.create_subscription(
+            Float64MultiArray,
+            APPLIED_COMMAND,
+            WithInfo(self._on_applied_command),
+            record_profile(APPLIED_COMMAND),
+        )
         for topic in SIGNALS:
             if topic == 'joint_states':
                 callback, message_type = self._on_joint_state, JointState
             elif topic in STAMPED:
                 callback, message_type = self._stamped_callback(topic), JointState
-            elif topic == 'valve_command':
-                callback, message_type = self._on_valve_command, Float64MultiArray
+            elif topic in COMMAND_SIGNALS:
+                continue
             else:
                 callback, message_type = self._array_callback(topic), Float64MultiArray
-            self._inputs.append(
-                self.create_subscription(message_type, topic, WithInfo(callback), RECORD_QOS)
-            )
-        self.create_subscription(
-            DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_ANY_QOS
-        )
+            self.create_subscription(message_type, topic, WithInfo(callback), RECORD_QOS)
+        self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
         self._pause_client = self.create_client(SetBool, pause_service)
-
-    def connected(self, topics) -> bool:
-        """Whether each of ``topics`` (keys of `SIGNALS`) has a publisher matched to us."""
-        return all(
-            subscription.get_publisher_count() > 0
-            for subscription in self._inputs
-            if subscription.topic_name.rsplit('/', 1)[-1] in topics
-        )
 
     def drain(self, spin: Callable[[], None]) -> None:
         """Take what our readers still hold once the nodes stopped (:func:`.take_backlog`).
@@ -128,10 +125,12 @@ class GloveMonitor(Node):
 
         return callback
 
-    def _on_valve_command(self, message: Float64MultiArray, info: dict) -> None:
-        values = net_openings(message.data)
-        if values is not None:
-            self._update('valve_command', values, info)
+    def _on_applied_command(self, message: Float64MultiArray, info: dict) -> None:
+        """Three pressures (a regulator's command) or six openings (valves: shown net)."""
+        if len(message.data) == VALVE_OPENINGS:
+            self._update('valve_command', net_openings(message.data), info)
+        else:
+            self._update('pressure_command', message.data, info)
 
     def _on_joint_state(self, message: JointState, info: dict) -> None:
         self._update('joint_states', message.position, info, stamp_seconds(message.header.stamp))

@@ -10,7 +10,6 @@ glove or a hand.
 
 from __future__ import annotations
 
-import functools
 import sys
 import time
 from collections.abc import Sequence
@@ -20,7 +19,7 @@ from pathlib import Path
 from ..logic.lifetime import StopRequest
 from ..nodes.dds import use_profile
 from .run_record import RunRecord
-from .summary import SIGNALS, GloveSignals, SummaryDisplay
+from .summary import GloveSignals, SummaryDisplay
 from .supervisor import Supervisor
 
 #: Seconds between two refreshes of the terminal summary.
@@ -80,9 +79,6 @@ class Session:
         before the plants resume, as each says on its ``~/ready``: the recorder (a plant in
         simulated time that ends its session before it knows of a reader takes every sample
         with it) and the estimators (one the plant does not know yet misses the first states).
-    signals : tuple of str
-        The topics of `SIGNALS` the gloves publish (:func:`.summary.published_signals`): the
-        plants resume once each is matched, and not before.
     """
 
     program: str
@@ -96,7 +92,6 @@ class Session:
     duration: float
     log_dir: Path
     listeners: tuple[str, ...] = ()
-    signals: tuple[str, ...] = tuple(SIGNALS)
 
 
 def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:
@@ -131,11 +126,9 @@ def run_session(session: Session, env: dict) -> int:
     import rclpy
     from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
-    from std_msgs.msg import Bool
 
     from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
-    from ..nodes.qos import HANDED_OVER_QOS
-    from ..nodes.readiness import Answers, ready_topic
+    from ..nodes.handshake import Handshake, ReadyWatch, glove_nodes
     from .horizon import Horizon
     from .monitor import GloveMonitor
 
@@ -144,7 +137,7 @@ def run_session(session: Session, env: dict) -> int:
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and env.get('TERM') != 'dumb')
     estimated = ESTIMATOR_NODE.executable in session.nodes
     signals = [
-        GloveSignals(session.nodes, glove.references, estimated=estimated)
+        GloveSignals(session.nodes, glove.references, estimated=estimated, commanded=True)
         for glove in session.gloves
     ]
     executor = None
@@ -165,20 +158,13 @@ def run_session(session: Session, env: dict) -> int:
             )
             monitors.append(monitor)
             executor.add_node(monitor)
-        # every node of every glove answers a question asked after our readers were made: its
-        # publishers have matched them all (nodes/readiness.py), so none of its samples comes
-        # only once the steps it belongs to are written
-        nodes = [f'{g.namespace.rstrip("/")}/{n}' for g in session.gloves for n in session.nodes]
-        answers = Answers(monitors[0], nodes) if session.simulated else None
-        # the listeners say when every plant has matched their readers (the recorder's ~/ready)
-        ready = {name: False for name in session.listeners}
-        for name in session.listeners:
-            monitors[0].create_subscription(
-                Bool,
-                ready_topic(name),
-                functools.partial(_mark_ready, ready, name),
-                HANDED_OVER_QOS,
-            )
+        # the session protocol (nodes/handshake.py): every node of every glove has matched the
+        # summary's readers once it has answered our handshake, and each listener says on its
+        # ~/ready when the nodes it listens to have matched its own
+        handshake = Handshake(
+            monitors[0], glove_nodes([g.namespace for g in session.gloves], session.nodes)
+        )
+        listeners = ReadyWatch(monitors[0], session.listeners)
         # simulated time: the plant runs only a few steps ahead of what this record has received
         plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
         horizon = Horizon(monitors[0], plant) if session.simulated else None
@@ -199,12 +185,7 @@ def run_session(session: Session, env: dict) -> int:
         while not stop.requested:
             spin()
             now = time.monotonic()
-            if (
-                waiting
-                and all(ready.values())
-                and all(monitor.connected(session.signals) for monitor in monitors)
-                and not answers.silent()
-            ):
+            if waiting and listeners.ready() and not handshake.silent():
                 waiting = not (horizon.ready() and monitors[0].resume_plant())
             elif horizon is not None and not waiting:
                 horizon.follow(_joined(signals))
@@ -245,11 +226,6 @@ def _simulated(signals: Sequence[GloveSignals]) -> float:
     """Simulated time every glove has reached, s (0 before each has a state)."""
     stamps = [s.received_stamp for s in signals]
     return 0.0 if None in stamps else min(stamps)
-
-
-def _mark_ready(ready: dict[str, bool], name: str, message) -> None:
-    """A listener's ``~/ready`` (std_msgs/Bool) came: keep what it says."""
-    ready[name] = message.data
 
 
 def _joined(signals: Sequence[GloveSignals]) -> float | None:

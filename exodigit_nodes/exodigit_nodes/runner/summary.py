@@ -60,14 +60,9 @@ SIGNALS = {
     'estimated_finger_stiffness': Signal('K_H est', 'k_est', 1.0, 'N·m/rad', 'nm_per_rad', 4),
     'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
-COMMAND_TOPICS = {'regulator': 'pressure_command', 'valves': 'valve_command'}
-"""The command topic of each plant ``actuation``: the other one has no publisher in a run."""
-
-
-def published_signals(actuation: str) -> tuple[str, ...]:
-    """The topics of :data:`SIGNALS` that a glove of ``actuation`` publishes."""
-    unused = {topic for mode, topic in COMMAND_TOPICS.items() if mode != actuation}
-    return tuple(topic for topic in SIGNALS if topic not in unused)
+COMMAND_SIGNALS = ('pressure_command', 'valve_command')
+"""The signals of the command that drove each step: what the plant applied (its
+``applied_command``), three pressures of a regulator or six openings of valves (shown net)."""
 
 
 #: Openings of a ``valve_command`` (with actuation valves): inlets MCP, PIP, DIP, then outlets.
@@ -143,8 +138,9 @@ class GloveSignals:
     joins the step whose angles carry its stamp: where an estimator runs (``estimated``; else
     once one has been heard), a joined step waits for its estimate until it, or the estimate of
     a later step, arrives (the estimator left that step out: None), at most `ESTIMATE_WAIT`
-    steps. The other signals of the other
-    nodes (command, identified spring) join with their latest value.
+    steps. The command joins the step it drove: the latest one sent before the step's
+    pressure (``commanded``: a step waits for it). The identified spring joins with its latest
+    value.
 
     Parameters
     ----------
@@ -155,9 +151,13 @@ class GloveSignals:
         values (SI), e.g. ``{'estimated_finger_stiffness': {'nominal': k, 'patient': k_true}}``.
     estimated : bool
         An estimator runs: steps wait for their estimates from the first one on.
+    commanded : bool
+        Steps wait for the first command (a plant's ``applied_command`` starts with the vent it
+        applies before any command, so it comes), at most `ESTIMATE_WAIT` steps: a record that
+        matched the plant's states before its commands then has a command in every step.
     """
 
-    def __init__(self, nodes, references=None, *, estimated: bool = False):
+    def __init__(self, nodes, references=None, *, estimated: bool = False, commanded=False):
         self.references = {
             topic: {label: np.asarray(values, dtype=float) for label, values in rows.items()}
             for topic, rows in (references or {}).items()
@@ -177,8 +177,12 @@ class GloveSignals:
             STAMPED, -math.inf if estimated else None
         )
         """Per `STAMPED` signal, the newest stamp received (None: steps need not wait)."""
-        self._held: deque[tuple[float, Sample]] = deque()
-        """Joined steps waiting for their estimates: (stamp, sample)."""
+        self._held: deque[tuple[float, float, Sample]] = deque()
+        """Joined steps waiting for their estimates or command: (stamp, sent, sample)."""
+        self._commanded = commanded
+        self._commands: deque[tuple[float, str, np.ndarray]] = deque()
+        """Commands received, oldest first, from the one in force at the oldest held step on:
+        (sent, signal, values)."""
 
     def update(
         self, signal: str, values, published: float = 0.0, stamp: float | None = None
@@ -211,6 +215,9 @@ class GloveSignals:
             newest = self._newest[signal]
             self._newest[signal] = stamp if newest is None else max(stamp, newest)
             return self._release()
+        if signal in COMMAND_SIGNALS:
+            self._commands.append((published, signal, values))
+            return self._release()
         if signal not in STEP_ORDER:
             return []
         if signal == 'joint_states':
@@ -237,19 +244,21 @@ class GloveSignals:
             self.stamp = stamp
             self.time = stamp - self._first_stamp
             values = {**self.latest, **step.values, 'joint_states': angles}
-            self._held.append((stamp, Sample(self.time, values)))
+            self._held.append((stamp, step.time, Sample(self.time, values)))
         return self._release()
 
     def _release(self, *, every: bool = False) -> list[Sample]:
         """The held samples, oldest first, whose estimates are in or will not come."""
         samples = []
         while self._held:
-            stamp, sample = self._held[0]
+            stamp, sent, sample = self._held[0]
+            known = self._command_at(sent, sample)
+            hold = not every and len(self._held) <= ESTIMATE_WAIT
             waiting = any(
                 newest is not None and newest < stamp and stamp not in self._stamped[signal]
                 for signal, newest in self._newest.items()
             )
-            if waiting and not every and len(self._held) <= ESTIMATE_WAIT:
+            if hold and (waiting or (self._commanded and not known)):
                 break
             self._held.popleft()
             for signal, by_stamp in self._stamped.items():
@@ -258,6 +267,21 @@ class GloveSignals:
                     del by_stamp[older]
             samples.append(sample)
         return samples
+
+    def _command_at(self, sent: float, sample: Sample) -> bool:
+        """Put the command in force when a step was sent (s) into its sample; whether known.
+
+        The command of a step is the latest one sent before the step's pressure: what the
+        plant applied in that step (its ``applied_command``), however late it arrived here.
+        """
+        while len(self._commands) > 1 and self._commands[1][0] <= sent:
+            self._commands.popleft()
+        if not self._commands or self._commands[0][0] > sent:
+            sample.values.update(dict.fromkeys(COMMAND_SIGNALS))
+            return False
+        _, signal, values = self._commands[0]
+        sample.values[signal] = values
+        return True
 
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""

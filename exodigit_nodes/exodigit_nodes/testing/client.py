@@ -194,8 +194,6 @@ class GloveSim:
         from rclpy.experimental import EventsExecutor
         from rclpy.signals import SignalHandlerOptions
 
-        from ..nodes.messages import rate_request
-        from ..nodes.repeated_call import RepeatedCall
         from .ros_client import GloveClient
 
         use_profile()
@@ -214,12 +212,10 @@ class GloveSim:
         )
         self._executor = EventsExecutor(context=self._context)
         self._executor.add_node(self._node)
-        self._wait(self._node.connected, 'the plant to start and connect')
-        # rmw_fastrtps drops a service's answer when the server has not matched the client's
-        # reader within 100 ms (a loaded machine takes longer): ask something harmless again
-        # until answered, so that no answer of the plant is lost later.
-        call = RepeatedCall(self._node.warm_up_client, rate_request())
-        self._wait(lambda: call.answer() is not None, 'the plant to answer a request')
+        self._wait(self._node.connected, 'the glove to start and match our readers')
+        # the vent the plant applied before any command (its record starts with it): no
+        # command of ours
+        self._wait(lambda: self._node.command_count() >= 1, "the plant's first applied_command")
 
     def close(self) -> None:
         """Stop every process the kit started and release the domain (idempotent)."""

@@ -11,15 +11,16 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from rcl_interfaces.srv import GetParameters, SetParameters
+from rcl_interfaces.srv import SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool, Float64MultiArray
+from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from ..logic.pacing import known_node
-from ..nodes.catalog import ESTIMATOR_NODE
+from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
+from ..nodes.handshake import Handshake, ReadyWatch
 from ..nodes.messages import (
     APPLIED_COMMAND,
     CHAMBER_PRESSURE,
@@ -38,8 +39,7 @@ from ..nodes.messages import (
     set_double_request,
     valve_command_message,
 )
-from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, WRITER_QOS
-from ..nodes.readiness import ready_topic
+from ..nodes.qos import RECORD_QOS, STREAM_QOS, record_profile
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -79,42 +79,30 @@ class GloveClient(Node):
         self.estimates: deque | None = deque() if estimator else None
         """The estimator's estimates (stamp in ns, forces in N), oldest first."""
         self.commands: deque = deque()
-        self.inputs = [
-            self.create_subscription(JointState, JOINT_STATES, self._joint_queue, RECORD_QOS),
-            *(
+        self.create_subscription(JointState, JOINT_STATES, self._joint_queue, RECORD_QOS)
+        for topic in self.queues:
+            if topic != JOINT_STATES:
                 self.create_subscription(
                     Float64MultiArray, topic, self._vector_queue(topic), RECORD_QOS
                 )
-                for topic in self.queues
-                if topic != JOINT_STATES
-            ),
-        ]
-        self.estimator_ready = not estimator
-        """Whether the plant has matched the estimator's readers (its ``~/ready``), if any."""
         if estimator:
-            self.inputs.append(
-                self.create_subscription(
-                    JointState, ESTIMATED_CONTACT_FORCES, self._estimate_queue, RECORD_QOS
-                )
-            )
             self.create_subscription(
-                Bool,
-                ready_topic(ESTIMATOR_NODE.executable),
-                self._on_estimator_ready,
-                HANDED_OVER_QOS,
+                JointState, ESTIMATED_CONTACT_FORCES, self._estimate_queue, RECORD_QOS
             )
         self.command_topic = VALVE_COMMAND if valves else PRESSURE_COMMAND
         # The commands as the plant took them (applied_command), not as a controller sent them:
         # a volatile controller's first commands reach a reader only once its writer has matched
         # that reader, which can come after our reader has matched it (a CI run heard none of
-        # 20 answers the plant had taken). The plant's record is transient-local.
-        self.inputs.append(
-            self.create_subscription(
-                Float64MultiArray, APPLIED_COMMAND, self._vector_queue(None), RECORD_QOS
-            )
+        # 20 answers the plant had taken). The plant's record is transient-local: it starts
+        # with the vent the plant applies before any command.
+        self.create_subscription(
+            Float64MultiArray,
+            APPLIED_COMMAND,
+            self._vector_queue(None),
+            record_profile(APPLIED_COMMAND),
         )
         self.command_message = valve_command_message() if valves else joint_vector_message()
-        self.publisher = self.create_publisher(Float64MultiArray, self.command_topic, WRITER_QOS)
+        self.publisher = self.create_publisher(Float64MultiArray, self.command_topic, STREAM_QOS)
         plant = f'{namespace.rstrip("/")}/plant'
         self.reset_client = self.create_client(Trigger, RESET)
         self.reset_simulation_client = self.create_client(Trigger, RESET_SIMULATION)
@@ -130,9 +118,12 @@ class GloveClient(Node):
             raise_every=FOREIGN_RAISE_STEPS,
         )
         """Holds the plant a few steps ahead of the states received in a :meth:`run`."""
-        # Created last: Fast DDS announces our readers in creation order on one reliable stream,
-        # so once the plant answers this client it has matched every reader of ours before it.
-        self.warm_up_client = self.create_client(GetParameters, f'{plant}/get_parameters')
+        # The session protocol (nodes/handshake.py), after every reader of ours: the glove's
+        # nodes have matched our readers once they have answered, and the estimator says on its
+        # ~/ready when the plant has matched its own.
+        nodes = [PLANT_NODE.executable, *([ESTIMATOR_NODE.executable] if estimator else [])]
+        self.handshake = Handshake(self, nodes)
+        self.listeners = ReadyWatch(self, nodes[1:])
         self.plant_services = (
             self.reset_client,
             self.reset_simulation_client,
@@ -140,9 +131,6 @@ class GloveClient(Node):
             self.pause_client,
             self.parameter_client,
         )
-
-    def _on_estimator_ready(self, message: Bool) -> None:
-        self.estimator_ready = message.data
 
     def _joint_queue(self, message: JointState) -> None:
         self.queues[JOINT_STATES].append(message)
@@ -161,19 +149,18 @@ class GloveClient(Node):
     # -- connection ------------------------------------------------------------------------
 
     def connected(self) -> bool:
-        """Whether every glove output reaches us, our commands reach the plant, services are up.
+        """Whether the session protocol is through and the plant's services are up.
 
-        With an estimator also whether the plant has matched the estimator's readers (its
-        ``~/ready``, :mod:`..nodes.readiness`): the plant takes a requested step once it has
-        matched every reader it knows of, and an estimator it does not know yet would miss the
-        first state (volatile) and never estimate it (a kit's first reset waited for that
-        estimate in vain).
+        The glove's nodes have matched our readers (:attr:`handshake`), the plant has matched the
+        estimator's (its ``~/ready``: an estimator the plant does not know yet would miss the
+        first state and never estimate it; a kit's first reset waited for that estimate in
+        vain), and our commands reach the plant.
         """
         return (
-            all(subscription.get_publisher_count() > 0 for subscription in self.inputs)
+            not self.handshake.silent()
+            and self.listeners.ready()
             and self.publisher.get_subscription_count() > 0
             and all(client.service_is_ready() for client in self.plant_services)
-            and self.estimator_ready
         )
 
     def other_controllers(self) -> list[str]:

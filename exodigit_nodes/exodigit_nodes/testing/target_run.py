@@ -46,15 +46,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from rcl_interfaces.srv import GetParameters
 from rclpy.duration import Duration
 from std_msgs.msg import Float64MultiArray
 
 from ..logic.lifetime import exit_status
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
+from ..nodes.handshake import Handshake
 from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message
 from ..nodes.qos import HANDED_OVER_QOS
-from ..nodes.repeated_call import RepeatedCall
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
 from .processes import ros_args
@@ -234,13 +233,11 @@ class TargetGloveSim(GloveSim):
         self._wait_matched(controllers)
         # A node publishes (and its reader acknowledges) before its executor spins; an
         # executor that starts with a target and a state waiting may take the state first (a
-        # run here answered state 0 with the node's default target). A node that answers a
-        # request spins: ask each its parameters (rclpy and rclcpp nodes serve them).
-        for name in controllers:
-            client = node.create_client(GetParameters, f'{name}/get_parameters')
-            call = RepeatedCall(client, GetParameters.Request(names=['use_sim_time']))
-            self._wait(lambda call=call: call.answer(), f'{name} to spin (get_parameters)')
-            node.destroy_client(client)
+        # run here answered state 0 with the node's default target). A node that answers the
+        # session protocol's handshake spins (and has matched our readers).
+        handshake = Handshake(node, controllers)
+        self._wait(lambda: not handshake.silent(), f'{", ".join(controllers)} to spin')
+        handshake.destroy()
         if self._targets is None:
             self._targets = node.create_publisher(
                 Float64MultiArray, JOINT_TARGETS, HANDED_OVER_QOS
