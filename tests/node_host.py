@@ -27,7 +27,8 @@ import sys
 import threading
 from pathlib import Path
 
-from exodigit_nodes.testing.processes import ros_args, ros_environment
+from exodigit_nodes.logic.ros_env import ros_args
+from exodigit_nodes.testing.processes import ros_environment
 
 HOST = Path(__file__).resolve()
 START_TIMEOUT = 30.0

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from exodigit_nodes.logic.ros_env import format_value, ros_args  # noqa: F401 (public)
 from exodigit_nodes.nodes.dds import use_profile
 from exodigit_nodes.nodes.handshake import Handshake
 from exodigit_nodes.nodes.repeated_call import RepeatedCall
@@ -48,8 +49,6 @@ from exodigit_nodes.testing.processes import (  # noqa: F401 (the harness's publ
     NodeProcess,
     claim_domain,
     cpu_seconds,
-    format_value,
-    ros_args,
     ros_environment,
 )
 from rcl_interfaces.srv import (

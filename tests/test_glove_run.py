@@ -102,16 +102,21 @@ def joint_columns(table, stem, unit):
 def assert_each_step_has_a_command_and_an_estimate(table, stem, unit):
     """Every row of a lockstep record holds a command (``stem``: its column) and an estimate.
 
-    The runner resumes the plant only once the controller has matched the summary's readers (a
+    The runner resumes the plant only once every node has matched the summary's readers (a
     CI run's valves session recorded a command in none of its 100 rows), and the estimator keeps
     every state it is behind on in simulated time (with 10, 20-26 % of a run's rows had no
-    estimate). A row takes the latest command heard when its step is complete, so the first two
-    may come before the answer to the first state.
+    estimate). A row's command is what the plant applied in that step (its applied_command,
+    which starts with the vent the plant applies before the first answer): every row has one.
     """
-    commanded = ~np.isnan(joint_columns(table, stem, unit)).any(axis=1)
-    assert commanded[2:].all(), f'rows without a command: {np.flatnonzero(~commanded)}'
+    assert_every_row_has_a_command(table, stem, unit)
     estimated = np.isfinite(joint_columns(table, 'f_est', 'n')).all(axis=1)
     assert estimated.all(), f'rows without an estimate: {np.flatnonzero(~estimated)}'
+
+
+def assert_every_row_has_a_command(table, stem, unit):
+    """Each row of a record holds the command that drove its step (``stem``: its column)."""
+    commanded = ~np.isnan(joint_columns(table, stem, unit)).any(axis=1)
+    assert commanded.all(), f'rows without a command: {np.flatnonzero(~commanded)}'
 
 
 def recorded_rows(path):
@@ -474,6 +479,20 @@ def test_sigint_stops_every_node_with_zero_pressure_sent_first_and_recorded(inte
     assert len(bag_messages(bag, f'{interrupted_run.ns}/joint_states')) >= 20
     width, height = png_size(interrupted_run.out / 'signals.png')
     assert width >= 400 and height >= 400
+
+
+def test_a_wall_clock_record_has_the_command_of_every_row_from_the_first(interrupted_run):
+    # make run's path: nothing holds a plant on the wall clock, and the summary's readers match
+    # the plant's states before they match the controller (a fresh clone's record had no
+    # command in its first 221 rows). The plant's record of its commands is kept for late
+    # readers, the bag's too.
+    assert interrupted_run.returncode == 0, interrupted_run.output()
+    assert_every_row_has_a_command(
+        read_record(interrupted_run.out / 'signals.csv'), 'p_cmd', 'kpa'
+    )
+    applied = bag_messages(interrupted_run.out / 'bag', f'{interrupted_run.ns}/applied_command')
+    assert np.all(applied[0].data == 0.0)  # the vent the plant starts with, before any command
+    assert any(np.any(message.data > 0.0) for message in applied)
 
 
 def test_each_recorded_step_is_what_the_patient_model_predicts_from_the_step_before(

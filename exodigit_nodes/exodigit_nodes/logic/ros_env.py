@@ -1,4 +1,4 @@
-"""The ROS discovery environment every glove process gets (README, "Networking").
+"""The ROS discovery environment and the ``--ros-args`` every glove process gets.
 
 Fast DDS by default announces itself by multicast on the machine's network interfaces. The glove
 keeps discovery on this machine unless the user opens it on purpose: when
@@ -8,6 +8,7 @@ keeps discovery on this machine unless the user opens it on purpose: when
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 #: Values ROS 2 Jazzy accepts for ROS_AUTOMATIC_DISCOVERY_RANGE.
 DISCOVERY_RANGES = ('LOCALHOST', 'SUBNET', 'OFF', 'SYSTEM_DEFAULT')
@@ -79,3 +80,35 @@ def discovery_settings(environ: Mapping[str, str]) -> DiscoverySettings:
             f'ROS_DOMAIN_ID={raw_domain!r} must be an integer from 0 to {MAX_DOMAIN_ID}'
         )
     return DiscoverySettings(discovery_range, domain_id, not raw_range, not raw_domain)
+
+
+def format_value(value: Any) -> str:
+    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, str):
+        return "'" + value.replace("'", "''") + "'"
+    if isinstance(value, list | tuple):
+        return '[' + ','.join(format_value(v) for v in value) + ']'
+    return repr(value)
+
+
+def ros_args(
+    parameters: Mapping[str, Any] | None = None,
+    namespace: str | None = None,
+    name: str | None = None,
+    extra: list[str] | None = None,
+) -> list[str]:
+    """The ``--ros-args`` tail: ``extra``, then overrides, namespace and node-name remaps.
+
+    ``extra`` comes first so that the ``-p`` overrides win over a ``--params-file`` in it (the
+    last setting of a parameter wins).
+    """
+    args = ['--ros-args', *(extra or [])]
+    for key, value in (parameters or {}).items():
+        args += ['-p', f'{key}:={format_value(value)}']
+    if namespace:
+        args += ['-r', f'__ns:={namespace}']
+    if name:
+        args += ['-r', f'__node:={name}']
+    return args

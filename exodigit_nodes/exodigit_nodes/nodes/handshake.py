@@ -66,6 +66,16 @@ def glove_nodes(namespaces: Iterable[str], names: Iterable[str]) -> list[str]:
     ]
 
 
+def matched_every_listed(node: Node, publisher, least: int = 0) -> bool:
+    """Whether ``publisher`` of ``node`` has matched every subscriber the graph lists (>= least).
+
+    The graph lists a subscriber as soon as ``node``'s participant has discovered it; the match
+    can follow a moment later, and a volatile publisher sends only to the readers it matched.
+    """
+    listed = node.count_subscribers(publisher.topic_name)
+    return publisher.get_subscription_count() >= max(listed, least)
+
+
 class Handshake:
     """Asks each of some nodes the harmless question until it has answered (module docstring).
 

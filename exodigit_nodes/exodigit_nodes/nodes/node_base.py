@@ -42,6 +42,7 @@ from ..logic.inputs import MAX_PRESSURE_READING, InvalidInputError, RejectionTal
 from ..logic.lifetime import StopRequest, stop_with_parent
 from ..logic.parameters import ParamSpec, ParamTable
 from .dds import use_profile
+from .handshake import matched_every_listed
 from .messages import CHAMBER_PRESSURE, DIAGNOSTICS, status
 from .qos import STREAM_QOS
 
@@ -406,8 +407,7 @@ def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
             for publisher in node.publishers:
                 if not node.context.ok():
                     return
-                listed = node.count_subscribers(publisher.topic_name)
-                while publisher.get_subscription_count() < listed:
+                while not matched_every_listed(node, publisher):
                     if time.monotonic() >= deadline:
                         return
                     time.sleep(POLL_PERIOD)

@@ -58,11 +58,11 @@ from ..logic.plant_report import StepCounts, plant_report
 from ..logic.plant_settings import PlantSettings, plant_settings
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
+from .handshake import matched_every_listed
 from .markers import GloveMarkers
 from .messages import (
     APPLIED_COMMAND,
     CHAMBER_PRESSURE,
-    CLOCK,
     CONTACT_FORCES,
     JOINT_STATES,
     MARKERS,
@@ -129,11 +129,11 @@ class Plant(GloveNode):
             Float64MultiArray, APPLIED_COMMAND, APPLIED_QOS
         )
         self.outputs = (
-            (self.pressure_publisher, CHAMBER_PRESSURE),
-            (self.joint_publisher, JOINT_STATES),
-            (self.force_publisher, CONTACT_FORCES),
-            (self.length_publisher, SEGMENT_LENGTHS),
-            (self.applied_publisher, APPLIED_COMMAND),
+            self.pressure_publisher,
+            self.joint_publisher,
+            self.force_publisher,
+            self.length_publisher,
+            self.applied_publisher,
         )
         # What the first steps apply, before any command: the record starts with the vent.
         self.applied_publisher.publish(fill(self.applied_message, self.command))
@@ -149,7 +149,7 @@ class Plant(GloveNode):
         self.time: SimulatedTime | None = None
         if self.sim_clock:
             self.time = sim_time or SimulatedTime(self, settings.time)
-            self.outputs += ((self.time.clock_publisher, CLOCK),)
+            self.outputs += (self.time.clock_publisher,)
         else:
             self.create_timer(self.period, self.on_wall_timer)
         self.apply(settings, {'marker_rate_hz'})
@@ -404,10 +404,7 @@ class Plant(GloveNode):
 
     def readers_matched(self) -> bool:
         """Whether each output has matched every subscriber the graph knows of its topic."""
-        return all(
-            publisher.get_subscription_count() >= self.count_subscribers(topic)
-            for publisher, topic in self.outputs
-        )
+        return all(matched_every_listed(self, publisher) for publisher in self.outputs)
 
     def lockstep_controllers(self) -> list[str]:
         """Nodes that publish our commands and subscribe our states, both matched with us.

@@ -7,9 +7,10 @@ Usage::
 
 Subscribes, in its namespace (with ``--gloves``, in each of those sub-namespaces: one recorder
 for a whole hand), to every glove topic of docs/spec/ros.md (``chamber_pressure``,
-``joint_states``, ``pressure_command``, ``contact_forces``, ``segment_lengths``,
-``patient_effort``, ``estimated_contact_forces``, ``estimated_finger_stiffness``,
-``estimated_finger_torque``, ``estimated_rest_angle``, ``joint_targets``, ``markers``) and to
+``joint_states``, ``pressure_command``, ``applied_command``, ``contact_forces``,
+``segment_lengths``, ``patient_effort``, ``estimated_contact_forces``,
+``estimated_finger_stiffness``, ``estimated_finger_torque``, ``estimated_rest_angle``,
+``joint_targets``, ``markers``) and to
 ``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive to the
 bag folder ``DIR`` with the ``rosbags`` library, each stamped with the time it was sent (its DDS
 source timestamp, the system clock) or, under ``use_sim_time``, with the node clock (simulated

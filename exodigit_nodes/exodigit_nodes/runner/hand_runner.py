@@ -41,11 +41,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..logic.options import UsageError
-from ..logic.ros_env import discovery_settings
+from ..logic.ros_env import discovery_settings, ros_args
 from ..nodes.catalog import ESTIMATOR_NODE
 from ..nodes.hand_config import HandConfig, command_options, hand_config
 from ..nodes.messages import SET_PAUSED
-from ..nodes.run_options import add_options, text, time_parameters
+from ..nodes.run_options import add_options, time_parameters
 from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
 from .session import Session, WatchedGlove, identification_references, run_session
 
@@ -190,21 +190,17 @@ def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
 
 
 def ros_arguments(namespace: str, ros_params: Sequence[str], values: dict) -> list[str]:
-    """``--ros-args`` of one node process: its namespace, the ROS parameter files, ``values``."""
-    words = ['--ros-args', '-r', f'__ns:={namespace}']
-    for path in ros_params:
-        words += ['--params-file', path]
-    for name, value in values.items():
-        words += ['-p', f'{name}:={parameter_text(value)}']
-    return words
+    """``--ros-args`` of one node process: its namespace, the ROS parameter files, ``values``.
 
-
-def parameter_text(value) -> str:
-    """A parameter value as ``-p`` reads it (YAML): a list of paths quoted, ``true``, ``0.5``."""
-    if isinstance(value, list):
-        quoted = ("'" + str(Path(item).resolve()).replace("'", "''") + "'" for item in value)
-        return f'[{",".join(quoted)}]'
-    return text(value)
+    A list value is of files (``params_file``): given absolute, as the process may run
+    elsewhere.
+    """
+    values = {
+        name: [str(Path(item).resolve()) for item in value] if isinstance(value, list) else value
+        for name, value in values.items()
+    }
+    files = [word for path in ros_params for word in ('--params-file', path)]
+    return ros_args(values, namespace, extra=files)
 
 
 def node_processes(config: RunConfig) -> dict[str, list[str]]:

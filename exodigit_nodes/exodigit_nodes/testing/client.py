@@ -33,9 +33,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..logic.inputs import InvalidInputError, valve_openings
-from ..logic.pacing import CONTROLLERS_LABEL
-from ..nodes.catalog import SIMULATED_SAMPLE_AGE
+from ..logic.pacing import CONTROLLERS_LABEL, TimeSettings
+from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
 from ..nodes.dds import use_profile
+from ..nodes.run_options import time_parameters
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 from .records import SimRecord, SimState, state_arrays
 
@@ -46,13 +47,12 @@ POLL = 0.05
 processes still run, s."""
 PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
 """Plant parameters the kit changes from the node's defaults: no chamber lag, no markers."""
-FIXED_PLANT = {
-    'clock': 'sim',
-    'lockstep': True,
-    'lockstep_timeout': 0.0,
-    'real_time_factor': 0.0,
-    'start_paused': True,
-}
+KIT_TIME = TimeSettings(
+    real_time_factor=0.0, lockstep=True, lockstep_timeout=0.0, start_paused=True
+)
+"""How the kit runs simulated time: as fast as possible, in lockstep, waiting for the test however
+long it takes, paused between the test's calls."""
+FIXED_PLANT = time_parameters(PLANT_NODE.executable, 'sim', KIT_TIME)
 """Plant parameters the kit sets itself (they define how it drives the plant)."""
 KIT_OPTIONS = ('actuation',)
 """Plant parameters given as :class:`GloveSim`'s own keyword arguments (the client needs them)."""
@@ -154,7 +154,6 @@ class GloveSim:
             log_dir = self._temporary.name
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        from ..nodes.catalog import PLANT_NODE
 
         self.actuation = PLANT_NODE.table['actuation'].check(actuation)
         parameters = {
@@ -169,10 +168,7 @@ class GloveSim:
         try:
             self._start('plant', parameters)
             if estimator:
-                estimator_parameters = {
-                    'use_sim_time': True,
-                    'max_sample_age': SIMULATED_SAMPLE_AGE,
-                }
+                estimator_parameters = time_parameters(ESTIMATOR_NODE.executable, 'sim', KIT_TIME)
                 if params_file is not None:  # else the nominal model, as the plant's
                     estimator_parameters['params_file'] = parameters['params_file']
                 self._start('estimator', estimator_parameters)

@@ -23,6 +23,7 @@ from typing import Any
 
 from domain_coordinator import domain_id
 
+from ..logic.ros_env import ros_args
 from ..nodes.dds import with_profile
 from ..runner.supervisor import STOP_GRACE, Child
 
@@ -76,38 +77,6 @@ def ros_environment(domain_id: int) -> dict[str, str]:
     env.pop('ROS_LOCALHOST_ONLY', None)
     env['PYTHONUNBUFFERED'] = '1'
     return with_profile(env)
-
-
-def format_value(value: Any) -> str:
-    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, str):
-        return "'" + value.replace("'", "''") + "'"
-    if isinstance(value, list | tuple):
-        return '[' + ','.join(format_value(v) for v in value) + ']'
-    return repr(value)
-
-
-def ros_args(
-    parameters: Mapping[str, Any] | None = None,
-    namespace: str | None = None,
-    name: str | None = None,
-    extra: list[str] | None = None,
-) -> list[str]:
-    """The ``--ros-args`` tail: ``extra``, then overrides, namespace and node-name remaps.
-
-    ``extra`` comes first so that the ``-p`` overrides win over a ``--params-file`` in it (the
-    last setting of a parameter wins).
-    """
-    args = ['--ros-args', *(extra or [])]
-    for key, value in (parameters or {}).items():
-        args += ['-p', f'{key}:={format_value(value)}']
-    if namespace:
-        args += ['-r', f'__ns:={namespace}']
-    if name:
-        args += ['-r', f'__node:={name}']
-    return args
 
 
 # -- node processes ------------------------------------------------------------------------

@@ -50,13 +50,13 @@ from rclpy.duration import Duration
 from std_msgs.msg import Float64MultiArray
 
 from ..logic.lifetime import exit_status
+from ..logic.ros_env import ros_args
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
-from ..nodes.handshake import Handshake
+from ..nodes.handshake import Handshake, matched_every_listed
 from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message
 from ..nodes.qos import HANDED_OVER_QOS
 from ..runner.supervisor import Child
 from .client import POLL, GloveSim, GloveSimError
-from .processes import ros_args
 from .records import SimState, StateHistory, state_arrays
 
 KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
@@ -251,10 +251,7 @@ class TargetGloveSim(GloveSim):
             ' (follows=False for a controller that does not)' if follows else ''
         )
         self._wait(
-            lambda: (
-                publisher.get_subscription_count()
-                >= max(int(follows), node.count_subscribers(publisher.topic_name))
-            ),
+            lambda: matched_every_listed(node, publisher, least=int(follows)),
             wanted,
         )
 
