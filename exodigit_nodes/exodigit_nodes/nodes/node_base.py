@@ -8,6 +8,7 @@ the post-set callback applies (ros2/demos, ``set_parameters_callback.py``).
 
 from __future__ import annotations
 
+import argparse
 import gc
 import math
 import signal
@@ -33,6 +34,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 
 import exodigit_model
 from exodigit_model import ParameterError, load_params
@@ -268,9 +270,20 @@ SPIN_PERIOD = 0.05
 """Longest time between two checks for a stop request while spinning, s."""
 
 
-def _wants_help(args: list[str]) -> bool:
-    ours = args[: args.index('--ros-args')] if '--ros-args' in args else args
-    return '-h' in ours or '--help' in ours
+def parse_own_arguments(node_class: type[GloveNode], argv: list[str]) -> None:
+    """A node's own command line: none but ``--help``, which prints its parameter table.
+
+    The ROS arguments are left to rclpy (``rclpy.utilities.remove_ros_args``); argparse exits
+    with 0 after the help and with 2 and a usage line for anything else.
+    """
+    parser = argparse.ArgumentParser(
+        prog=node_class.executable,
+        usage=f'{node_class.executable} [-h] [--ros-args -p name:=value ...]',
+        description=sys.modules[node_class.__module__].__doc__,
+        epilog='parameters:\n' + node_class.table.help(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.parse_args(remove_ros_args(['', *argv])[1:])
 
 
 def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
@@ -284,11 +297,10 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     """
     argv = sys.argv[1:] if args is None else list(args)
     program = node_class.executable
-    if _wants_help(argv):
-        print(f'usage: {program} [--ros-args -p name:=value ...]\n')
-        print(sys.modules[node_class.__module__].__doc__)
-        print('parameters:\n' + node_class.table.help())
-        return 0
+    try:
+        parse_own_arguments(node_class, argv)
+    except SystemExit as done:  # --help (0), or an argument that is not ours (2)
+        return done.code
 
     def make_node() -> GloveNode:
         node = node_class()
