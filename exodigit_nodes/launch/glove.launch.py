@@ -83,32 +83,9 @@ def end_the_glove(event, context):
     return Shutdown(reason=f'{event.process_name} exited: stopping the glove')
 
 
-def generate_launch_description():
-    """The glove's three nodes, the arguments that configure them, and the exit handlers."""
-    config_dir = os.path.join(get_package_share_directory(PACKAGE), 'config')
-    namespace = LaunchConfiguration('namespace')
-    clock = LaunchConfiguration('clock')
-    use_sim_time = LaunchConfiguration('use_sim_time')
-    params_file = ParameterValue(LaunchConfiguration('params_file'), value_type=str)
-    joint_prefix = ParameterValue(LaunchConfiguration('joint_prefix'), value_type=str)
-    mode = ParameterValue(LaunchConfiguration('mode'), value_type=str)
-    actuation = LaunchConfiguration('actuation')
-    # pressure_command publishes what the plant takes: valve_command for valves
-    output = IfElseSubstitution(
-        EqualsSubstitution(actuation, 'valves'), if_value='valves', else_value='pressure'
-    )
-    real_time_factor = ParameterValue(LaunchConfiguration('real_time_factor'), value_type=float)
-    lockstep = ParameterValue(LaunchConfiguration('lockstep'), value_type=bool)
-    node_sim_time = ParameterValue(use_sim_time, value_type=bool)
-    # With clock sim the plant is the time source: its stamps are its steps, and its
-    # diagnostics and markers stay on the wall clock, which goes on while simulated time is
-    # paused or waits for a lockstep answer (as with python -m exodigit_nodes.glove). With clock
-    # wall, use_sim_time makes it follow somebody else's /clock, as it makes every node.
-    plant_sim_time = ParameterValue(
-        AndSubstitution(use_sim_time, NotEqualsSubstitution(clock, 'sim')), value_type=bool
-    )
-
-    arguments = [
+def launch_arguments() -> list[DeclareLaunchArgument]:
+    """The glove's launch arguments, with the node table's defaults and choices."""
+    return [
         DeclareLaunchArgument(
             'namespace',
             default_value='/glove',
@@ -168,6 +145,31 @@ def generate_launch_description():
         ),
     ]
 
+
+def glove_nodes(config_dir: str) -> list[Node]:
+    """The plant, estimator and pressure_command, configured by the launch arguments."""
+    namespace = LaunchConfiguration('namespace')
+    clock = LaunchConfiguration('clock')
+    use_sim_time = LaunchConfiguration('use_sim_time')
+    params_file = ParameterValue(LaunchConfiguration('params_file'), value_type=str)
+    joint_prefix = ParameterValue(LaunchConfiguration('joint_prefix'), value_type=str)
+    mode = ParameterValue(LaunchConfiguration('mode'), value_type=str)
+    actuation = LaunchConfiguration('actuation')
+    # pressure_command publishes what the plant takes: valve_command for valves
+    output = IfElseSubstitution(
+        EqualsSubstitution(actuation, 'valves'), if_value='valves', else_value='pressure'
+    )
+    real_time_factor = ParameterValue(LaunchConfiguration('real_time_factor'), value_type=float)
+    lockstep = ParameterValue(LaunchConfiguration('lockstep'), value_type=bool)
+    node_sim_time = ParameterValue(use_sim_time, value_type=bool)
+    # With clock sim the plant is the time source: its stamps are its steps, and its
+    # diagnostics and markers stay on the wall clock, which goes on while simulated time is
+    # paused or waits for a lockstep answer (as with python -m exodigit_nodes.glove). With clock
+    # wall, use_sim_time makes it follow somebody else's /clock, as it makes every node.
+    plant_sim_time = ParameterValue(
+        AndSubstitution(use_sim_time, NotEqualsSubstitution(clock, 'sim')), value_type=bool
+    )
+
     def glove_node(entry, overrides):
         return Node(
             package=PACKAGE,
@@ -179,7 +181,7 @@ def generate_launch_description():
             parameters=[os.path.join(config_dir, entry.config_file), overrides],
         )
 
-    nodes = [
+    return [
         glove_node(
             PLANT_NODE,
             {
@@ -207,10 +209,15 @@ def generate_launch_description():
             },
         ),
     ]
+
+
+def generate_launch_description():
+    """The glove's three nodes, the arguments that configure them, and the exit handlers."""
+    nodes = glove_nodes(os.path.join(get_package_share_directory(PACKAGE), 'config'))
     # Registered before the nodes start, so that each node's own exit handlers (which flush its
     # last output) come first: a raising handler ends the handling of that event.
     exit_handlers = [
         RegisterEventHandler(OnProcessExit(target_action=node, on_exit=end_the_glove))
         for node in nodes
     ]
-    return LaunchDescription(arguments + exit_handlers + nodes)
+    return LaunchDescription(launch_arguments() + exit_handlers + nodes)
