@@ -27,8 +27,6 @@ from ..logic.lifetime import STOP_SIGNALS, exit_status, stop_with_parent
 #: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL (as the
 #: default ``sigterm_timeout`` of ``ros2 launch``).
 STOP_GRACE = 5.0
-#: Seconds between two checks while waiting for processes to exit.
-POLL_INTERVAL = 0.05
 #: The escalation of a stop, in order.
 ESCALATION = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
 
@@ -212,12 +210,13 @@ class Child:
             forced = signum != signal.SIGINT
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.pid, signum)
+            if idle is None:
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.popen.wait(grace)
+                continue
             deadline = time.monotonic() + grace
             while self.poll() is None and time.monotonic() < deadline:
-                if idle is not None:
-                    idle()
-                else:
-                    time.sleep(POLL_INTERVAL)
+                idle()
         self.popen.wait()
         # Children the process may have started itself go with its group.
         with contextlib.suppress(ProcessLookupError):
