@@ -33,6 +33,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
@@ -408,10 +409,11 @@ def serve(
 def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
     """Wait until every reader of the nodes' publishers has acknowledged what they sent.
 
-    Every reader the graph lists: one the graph lists but the publisher has not matched yet
-    (discovery is per pair of processes) is waited for too, and then gets the publisher's
-    history (transient-local, :data:`.qos.STREAM_QOS`). At most ``limit`` s in all; nothing
-    after an external shutdown (nothing can be sent then).
+    A publisher that keeps its history for late readers (``applied_command``, ``~/ready``:
+    transient-local) first waits for every reader the graph lists but it has not matched yet
+    (discovery is per pair of processes), which then gets that history; a stream has nothing
+    for a reader that matches now. At most ``limit`` s in all; nothing after an external
+    shutdown (nothing can be sent then).
     """
     deadline = time.monotonic() + limit
     try:
@@ -419,7 +421,8 @@ def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
             for publisher in node.publishers:
                 if not node.context.ok():
                     return
-                while not matched_every_listed(node, publisher):
+                kept = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                while kept and not matched_every_listed(node, publisher):
                     if time.monotonic() >= deadline:
                         return
                     time.sleep(POLL_PERIOD)
