@@ -299,11 +299,19 @@ def base_policy(observations):
     return 15e3 + 6e4 * rows[:, 9:12] - 2e4 * rows[:, 0:3] + 0.1 * rows[:, 6:9]
 
 
+def scaled_policy(observations, scale):
+    """base_policy in Pa; normalized: p / 30 kPa − 1 (the same Pa where the range is 60 kPa)."""
+    pressures = base_policy(observations)
+    return pressures if scale == 'physical' else pressures / 30e3 - 1.0
+
+
+@pytest.mark.parametrize('scale', ['physical', 'normalized'])
 @pytest.mark.parametrize('safety', [LIMITS, None], ids=['limited', 'unlimited'])
-def test_a_policy_commands_each_glove_of_a_batch_as_glove_env_commands_one(safety):
+def test_a_policy_commands_each_glove_of_a_batch_as_glove_env_commands_one(safety, scale):
     count = len(OFFSETS)
-    env = GloveEnv(NOMINAL, safety=safety, episode_steps=SESSION)
-    controller = PolicyController(lambda obs: base_policy(obs) + OFFSETS, env)
+    offsets = OFFSETS if scale == 'physical' else OFFSETS / 30e3
+    env = GloveEnv(NOMINAL, safety=safety, episode_steps=SESSION, action_scale=scale)
+    controller = PolicyController(lambda obs: scaled_policy(obs, scale) + offsets, env)
     assert isinstance(controller, BatchController)
     simulation = GloveSimulation(NOMINAL, env.settings, count=count)
     controller.reset(count)
@@ -312,11 +320,11 @@ def test_a_policy_commands_each_glove_of_a_batch_as_glove_env_commands_one(safet
         state = simulation.step(controller.command(state.t, simulation.period, state))
         states.append(state)
     limited = 0
-    for row, offset in enumerate(OFFSETS):
-        glove = GloveEnv(NOMINAL, safety=safety, episode_steps=SESSION)
+    for row, offset in enumerate(offsets):
+        glove = GloveEnv(NOMINAL, safety=safety, episode_steps=SESSION, action_scale=scale)
         observation, _ = glove.reset(seed=0)
         for state in states:
-            action = base_policy(observation[None])[0] + offset
+            action = scaled_policy(observation[None], scale)[0] + offset
             observation, _, _, _, info = glove.step(action)
             assert state.command[row].tobytes() == info['command'].tobytes()
             assert state.q[row].tobytes() == info['q'].tobytes()

@@ -15,7 +15,7 @@ from dataclasses import replace
 import gymnasium
 import numpy as np
 import pytest
-from exodigit_model.gym import DEFAULT_SAFETY, ENV_ID, GloveEnv
+from exodigit_model.gym import DEFAULT_SAFETY, ENV_ID, NODE_SAFETY, GloveEnv
 from gymnasium.utils.env_checker import check_env
 
 from exodigit_model import (
@@ -35,8 +35,8 @@ EXACT = 1e-12
 REWARD_FLOOR = 1e-15
 #: Largest angle error of a feedforward through the exact inverse, rad.
 ANGLE_TOLERANCE = 1e-9
-#: The one check_env warning we accept: the action space is in Pa, as the issue asks.
-ACCEPTED_WARNING = 'symmetric and normalized space'
+#: Actions in Pa, as most tests here give them.
+PHYSICAL = {'action_scale': 'physical'}
 
 
 def documented_target(t, pressure=50e3, period=4.0):
@@ -59,7 +59,7 @@ def run_episode(env, seed, commands):
 
 
 @pytest.mark.parametrize('made', [True, False], ids=['gymnasium.make', 'noisy GloveEnv'])
-def test_check_env_passes_without_other_warnings(made):
+def test_check_env_passes_without_warnings(made):
     if made:
         env = gymnasium.make(ENV_ID).unwrapped  # a spec, so the close check runs too
     else:
@@ -67,9 +67,15 @@ def test_check_env_passes_without_other_warnings(made):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter('always')
         check_env(env, skip_render_check=not made)
-    other = [str(w.message) for w in caught if ACCEPTED_WARNING not in str(w.message)]
-    assert other == []
+    assert [str(w.message) for w in caught] == []
     assert isinstance(env, GloveEnv)
+
+
+def test_check_env_of_physical_actions_only_recommends_normalizing_them():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        check_env(GloveEnv(**PHYSICAL), skip_render_check=True)
+    assert len(caught) == 1 and 'symmetric and normalized space' in str(caught[0].message)
 
 
 def test_importing_the_model_does_not_import_gymnasium():
@@ -94,9 +100,9 @@ def test_make_passes_options_to_the_environment():
 
 def test_equal_seeds_give_identical_episodes_and_different_seeds_differ():
     commands = actions(150)
-    env = GloveEnv(settings=SimulationSettings(**NOISY))
+    env = GloveEnv(settings=SimulationSettings(**NOISY), **PHYSICAL)
     first = run_episode(env, 5, commands)
-    again = run_episode(GloveEnv(settings=SimulationSettings(**NOISY)), 5, commands)
+    again = run_episode(GloveEnv(settings=SimulationSettings(**NOISY), **PHYSICAL), 5, commands)
     other = run_episode(env, 6, commands)
     np.testing.assert_array_equal(first, again)
     assert not np.array_equal(first[1:, 0:3], other[1:, 0:3])  # angle noise
@@ -108,7 +114,7 @@ def test_unseeded_resets_follow_the_last_seed():
     commands = actions(20)
 
     def two_episodes():
-        env = GloveEnv(settings=SimulationSettings(**NOISY))
+        env = GloveEnv(settings=SimulationSettings(**NOISY), **PHYSICAL)
         first = run_episode(env, 9, commands)
         env.reset()
         second = np.array([env.step(command)[0] for command in commands])
@@ -124,7 +130,7 @@ def test_unseeded_resets_follow_the_last_seed():
 
 def test_observations_equal_a_plain_simulation_with_the_same_seed():
     settings = SimulationSettings(rate_hz=50.0, pressure_time_constant=0.08, **NOISY)
-    env = GloveEnv(MODEL, settings=settings, safety=None)
+    env = GloveEnv(MODEL, settings=settings, safety=None, **PHYSICAL)
     plain = GloveSimulation(MODEL, SimulationSettings(50.0, 0.08, 100e3, 1e-3, 200.0, seed=21))
 
     def expected(state, k):
@@ -150,7 +156,7 @@ def test_a_params_file_gives_the_model_it_describes(tmp_path):
     path.write_text('finger:\n  joints:\n    - {stiffness: 0.30}\n    - {}\n    - {}\n')
     ideal = SimulationSettings(pressure_time_constant=0.0)
     plain = GloveSimulation(GloveModel(load_params(path)), ideal)
-    env = GloveEnv(params=path, settings=ideal, safety=None)
+    env = GloveEnv(params=path, settings=ideal, safety=None, **PHYSICAL)
     env.reset(seed=0)
     for command in actions(10):
         observation = env.step(command)[0]
@@ -163,21 +169,35 @@ def test_a_params_file_gives_the_model_it_describes(tmp_path):
 # -- spaces --------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize('supply', [100e3, 80e3])
-def test_the_action_space_is_the_supply_range_in_pa(supply):
-    env = GloveEnv(settings=SimulationSettings(max_supply_pressure=supply))
+@pytest.mark.parametrize(
+    ('supply', 'safety', 'top'),
+    [
+        (100e3, None, 100e3),
+        (80e3, None, 80e3),
+        (100e3, DEFAULT_SAFETY, 60e3),
+        (50e3, NODE_SAFETY, 50e3),
+    ],
+)
+def test_the_physical_action_space_is_the_range_the_limiter_and_supply_allow_in_pa(
+    supply, safety, top
+):
+    settings = SimulationSettings(max_supply_pressure=supply)
+    env = GloveEnv(settings=settings, safety=safety, **PHYSICAL)
     space = env.action_space
+    normalized = GloveEnv(settings=settings, safety=safety)
+    assert space == env.physical_action_space == normalized.physical_action_space
     assert isinstance(space, gymnasium.spaces.Box) and space.shape == (3,)
     assert space.dtype == np.float32
     np.testing.assert_array_equal(space.low, np.zeros(3))
-    np.testing.assert_array_equal(space.high, np.full(3, supply))
+    np.testing.assert_array_equal(space.high, np.full(3, top))
     observation, _ = env.reset(seed=0)
     assert env.observation_space.shape == (12,) and observation.shape == (12,)
     assert env.observation_space.dtype == np.float32
 
 
 def test_commands_beyond_the_supply_are_clipped_as_the_plant_clips_them():
-    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0), safety=None)
+    settings = SimulationSettings(pressure_time_constant=0.0)
+    env = GloveEnv(settings=settings, safety=None, **PHYSICAL)
     env.reset(seed=0)
     _, _, _, _, info = env.step([150e3, -1e3, 20e3])
     assert info['saturated']
@@ -199,7 +219,8 @@ def test_an_observation_beyond_its_bounds_is_clipped_and_reported():
 def test_the_node_limits_stand_between_the_agent_and_the_chambers():
     # Ideal chambers: the pressure is the command, which may rise by at most
     # max_pressure_rate·Δt = 100 kPa/s · 10 ms = 1 kPa a step, up to max_pressure = 60 kPa.
-    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0))
+    settings = SimulationSettings(pressure_time_constant=0.0)
+    env = GloveEnv(settings=settings, safety=NODE_SAFETY, **PHYSICAL)
     env.reset(seed=0)
     for k in range(1, 71):
         _, _, _, _, info = env.step([100e3, 100e3, 100e3])
@@ -215,8 +236,9 @@ def test_leaving_the_range_of_motion_ramps_the_command_down_then_caps_it():
     # The default glove at 60 kPa bends MCP to about 0.6 rad: a range ending at 0.3 rad is left
     # on the way up. Outside, each step lowers the command by the rate limit (1 kPa); back
     # inside, it stays capped although the agent keeps asking for 60 kPa.
-    limits = replace(DEFAULT_SAFETY, joint_upper=(0.3, 1.75, 1.4))
-    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0), safety=limits)
+    limits = replace(NODE_SAFETY, joint_upper=(0.3, 1.75, 1.4))
+    settings = SimulationSettings(pressure_time_constant=0.0)
+    env = GloveEnv(settings=settings, safety=limits, **PHYSICAL)
     env.reset(seed=0)
     commands, outside = [0.0], []
     for _ in range(150):
@@ -237,7 +259,7 @@ def test_leaving_the_range_of_motion_ramps_the_command_down_then_caps_it():
 
 
 def test_the_default_reward_is_minus_the_squared_angle_error_to_the_documented_target():
-    env = GloveEnv(MODEL, settings=SimulationSettings(**NOISY), safety=None)
+    env = GloveEnv(MODEL, settings=SimulationSettings(**NOISY), safety=None, **PHYSICAL)
     plain = GloveSimulation(MODEL)  # the true state does not depend on the noise
     previous, _ = env.reset(seed=2)
     for command in actions(200, seed=8, peak=90e3):
@@ -261,7 +283,8 @@ def test_the_default_target_peaks_at_the_model_at_half_the_supply_and_is_reachab
 
 
 def test_a_feedforward_through_the_exact_inverse_tracks_the_default_target_perfectly():
-    env = GloveEnv(settings=SimulationSettings(pressure_time_constant=0.0), episode_steps=400)
+    ideal = SimulationSettings(pressure_time_constant=0.0)
+    env = GloveEnv(settings=ideal, episode_steps=400, **PHYSICAL)
     env.reset(seed=0)
     for k in range(1, 401):
         command = MODEL.pressure_for(documented_target(k / 100.0))
@@ -290,7 +313,7 @@ def test_a_custom_target_and_reward_are_used():
         calls.append((state, desired, action))
         return 7.0 - float(action.sum())
 
-    env = GloveEnv(target=target, reward=reward)
+    env = GloveEnv(target=target, reward=reward, **PHYSICAL)
     observation, _ = env.reset(seed=0)
     np.testing.assert_array_equal(observation[9:], np.float32([0.001, 0.2, 0.0]))
     for k, command in enumerate(actions(5), start=1):
@@ -309,7 +332,7 @@ def test_a_failed_solve_terminates_the_episode_keeping_the_last_good_state():
     # A silicone of C1 = 1 Pa holds 5 kPa on the finger but not 100 kPa (test_model_solver).
     soft = GloveModel(params_from_dict({'material': {'c1': 1.0, 'c2': 0.0, 'c3': 0.0}}))
     settings = SimulationSettings(pressure_time_constant=0.0)
-    env = GloveEnv(soft, settings=settings, target=lambda t: np.zeros(3), safety=None)
+    env = GloveEnv(soft, settings=settings, target=lambda t: np.zeros(3), safety=None, **PHYSICAL)
     env.reset(seed=0)
     good, _, terminated, _, _ = env.step([5e3, 5e3, 5e3])
     assert not terminated
@@ -336,6 +359,7 @@ def test_a_failed_solve_terminates_the_episode_keeping_the_last_good_state():
         ({'observe_target': 1}, 'observe_target'),
         ({'safety': {'max_pressure': 50e3}}, 'safety'),
         ({'settings': SimulationSettings(max_supply_pressure=1e10)}, 'model'),
+        ({'action_scale': 'pascal'}, 'action_scale'),
     ],
     ids=lambda value: re.sub(' at 0x[0-9a-f]+', '', repr(value)),  # the same in every run
 )

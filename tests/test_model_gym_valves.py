@@ -29,6 +29,8 @@ INTEGRATION = 1e-3
 #: The defaults' valves (default_params.yaml, pneumatics): C, m³/(s·Pa), and b.
 CONDUCTANCE, CRITICAL = 5e-10, 0.3
 T = 293.15
+#: Openings in [0, 1], as most tests here give them.
+PHYSICAL = {'action_scale': 'physical'}
 
 
 def openings(steps, count=None, seed=0):
@@ -53,10 +55,13 @@ def test_check_env_passes_behind_valves_without_warnings(made):
 def test_the_action_is_six_openings_and_the_pressure_bounds_are_the_pneumatic_supplys():
     model = GloveModel(params_from_dict({'pneumatics': {'supply_pressure': 80e3}}))
     env = GloveEnv(model, actuation='valves')
-    space = env.action_space
-    assert space.shape == (6,) and space.dtype == np.float32
-    np.testing.assert_array_equal(space.low, np.zeros(6))
+    space, physical = env.action_space, env.physical_action_space
+    assert space.shape == physical.shape == (6,) and space.dtype == physical.dtype == np.float32
+    np.testing.assert_array_equal(space.low, -np.ones(6))
     np.testing.assert_array_equal(space.high, np.ones(6))
+    np.testing.assert_array_equal(physical.low, np.zeros(6))
+    np.testing.assert_array_equal(physical.high, np.ones(6))
+    assert GloveEnv(model, actuation='valves', **PHYSICAL).action_space == physical
     np.testing.assert_array_equal(
         env.observation_space.high[6:9], [80e3 + VALVE_PRESSURE_MARGIN] * 3
     )
@@ -66,7 +71,7 @@ def test_the_action_is_six_openings_and_the_pressure_bounds_are_the_pneumatic_su
 
 
 def test_a_valve_episode_is_a_plain_valve_simulation_with_the_same_seed():
-    env = GloveEnv(settings=NOISY, actuation='valves')
+    env = GloveEnv(settings=NOISY, actuation='valves', **PHYSICAL)
     plain = GloveSimulation(env.model, replace(NOISY, seed=7), actuation='valves')
     observation, info = env.reset(seed=7)
     np.testing.assert_array_equal(info['mass'], plain.state.mass)
@@ -84,7 +89,7 @@ def test_a_valve_episode_is_a_plain_valve_simulation_with_the_same_seed():
 
 
 def test_one_step_of_open_inlets_lets_in_the_air_iso_6358_allows():
-    env = GloveEnv(actuation='valves')
+    env = GloveEnv(actuation='valves', **PHYSICAL)
     _, info = env.reset(seed=0)
     before = info['mass']
     inlets = np.array([0.2, 0.5, 1.0])
@@ -112,7 +117,7 @@ def test_one_step_of_open_inlets_lets_in_the_air_iso_6358_allows():
 
 
 def test_closed_valves_keep_the_air_and_open_outlets_vent_to_rest():
-    env = GloveEnv(actuation='valves')
+    env = GloveEnv(actuation='valves', **PHYSICAL)
     _, rest = env.reset(seed=0)
     for _ in range(5):
         env.step([0.4, 0.4, 0.4, 0.0, 0.0, 0.0])
@@ -128,11 +133,19 @@ def test_closed_valves_keep_the_air_and_open_outlets_vent_to_rest():
 
 
 def test_openings_outside_zero_one_are_clipped_and_reported():
-    env = GloveEnv(actuation='valves')
+    env = GloveEnv(actuation='valves', **PHYSICAL)
     env.reset(seed=0)
     _, _, _, _, info = env.step([1.5, -0.2, 0.5, 0.0, 2.0, 0.0])
     assert info['saturated']
     np.testing.assert_array_equal(info['command'], [1.0, 0.0, 0.5, 0.0, 1.0, 0.0])
+
+
+def test_normalized_openings_map_linearly_onto_zero_one():
+    env = GloveEnv(actuation='valves')
+    env.reset(seed=0)
+    _, _, _, _, info = env.step([-1.0, 0.0, 1.0, -0.5, 0.5, 3.0])
+    assert info['saturated']  # 3 is opening 2, clipped
+    np.testing.assert_array_equal(info['command'], [0.0, 0.5, 1.0, 0.25, 0.75, 1.0])
 
 
 @pytest.mark.parametrize(

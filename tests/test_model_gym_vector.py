@@ -27,9 +27,9 @@ SOFT = GloveModel(params_from_dict({'material': {'c1': 1.0, 'c2': 0.0, 'c3': 0.0
 STRONG = SimulationSettings(pressure_time_constant=0.0, max_supply_pressure=1e6)
 
 
-def random_actions(steps, count, seed=0, peak=100e3):
-    """Actions up to the supply: the limiter's pressure and rate limits act on many."""
-    return np.random.default_rng(seed).uniform(0.0, peak, (steps, count, 3))
+def random_actions(steps, count, seed=0):
+    """Random normalized actions, (steps, count, 3)."""
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (steps, count, 3))
 
 
 def run(envs, seed, actions):
@@ -64,6 +64,7 @@ def glove_env(envs, row, **kwargs):
         target=definition.target,
         safety=definition.safety,
         actuation=definition.actuation,
+        action_scale=definition.action_scale,
         **kwargs,
     )
 
@@ -109,6 +110,7 @@ def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env
         safety=None,
         episode_steps=5,
         target=lambda t: np.zeros(3),
+        action_scale='physical',
     )
     actions = np.full((9, 3, 3), 5e3)
     actions[1, 0] = 1e6  # row 0 fails at step 2, resets at step 3; the others go on
@@ -125,7 +127,7 @@ def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env
 
 def test_behind_valves_each_sub_env_steps_as_a_valve_glove_env_on_its_patient():
     envs = GloveVectorEnv(3, episode_steps=4, actuation='valves')
-    actions = np.random.default_rng(2).uniform(0.0, 1.0, (11, 3, 6))
+    actions = np.random.default_rng(2).uniform(-1.0, 1.0, (11, 3, 6))
     assert assert_sub_envs_are_glove_envs(envs, actions) == 6
     assert envs.single_action_space.shape == (6,) and envs.action_space.shape == (3, 6)
     _, _, _, _, infos = envs.step(actions[0])
@@ -189,15 +191,15 @@ def test_autoreset_is_next_step_ignoring_the_action_of_a_resetting_sub_env():
     def ends(last_action):
         envs = GloveVectorEnv(2, episode_steps=3)
         envs.reset(seed=0)
-        steps = [envs.step(np.full((2, 3), 20e3)) for _ in range(3)]
+        steps = [envs.step(np.full((2, 3), -0.3)) for _ in range(3)]
         return steps, envs.step(np.full((2, 3), last_action))
 
-    steps, (observations, rewards, terminated, truncated, infos) = ends(20e3)
+    steps, (observations, rewards, terminated, truncated, infos) = ends(-0.3)
     assert [s[3].tolist() for s in steps] == [[False] * 2, [False] * 2, [True] * 2]
     assert infos['t'].tolist() == [0.0, 0.0] and rewards.tolist() == [0.0, 0.0]
     assert not terminated.any() and not truncated.any()
     np.testing.assert_array_equal(observations[:, 3:9], 0.0)  # at rest: q̇ = 0, vented
-    _, (other, *_) = ends(90e3)
+    _, (other, *_) = ends(0.8)
     np.testing.assert_array_equal(observations, other)
 
 

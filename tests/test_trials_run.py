@@ -198,11 +198,12 @@ def test_a_gymnasium_policy_by_its_factory(tmp_path):
     module = tmp_path / 'my_policy.py'
     module.write_text(
         'import numpy as np\n'
-        'def make(*, env, pressure):\n'
+        'def make(*, env, action):\n'
         '    assert env.observation_space.shape == (12,)\n'
-        '    return lambda observations: np.full((len(observations), 3), pressure)\n'
+        '    return lambda observations: np.full((len(observations), 3), action)\n'
     )
-    controller = ControllerSpec('policy', f'{module}:make', {'pressure': 30e3})
+    # 0 is the middle of the normalized range [-1, 1]: 30 kPa of [0, 60 kPa]
+    controller = ControllerSpec('policy', f'{module}:make', {'action': 0.0})
     result = run_trial(spec(patients=3, controller=controller))
     pressures = result.metrics.values['peak_pressure_pa']
     assert np.all((pressures > 20e3) & (pressures <= 30e3))

@@ -13,9 +13,11 @@ Importing the module registers the environment as ``exodigit/Glove-v0``:
 >>> import exodigit_model.gym
 >>> env = gymnasium.make('exodigit/Glove-v0', episode_steps=100)
 >>> observation, info = env.reset(seed=1)
->>> observation.shape, env.action_space.high.tolist()
-((12,), [100000.0, 100000.0, 100000.0])
->>> observation, reward, terminated, truncated, info = env.step([30e3, 30e3, 30e3])
+>>> observation.shape, env.action_space.low.tolist(), env.action_space.high.tolist()
+((12,), [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
+>>> observation, reward, terminated, truncated, info = env.step([0.0, 0.0, 0.0])
+>>> info['command'].tolist()  # the middle of [0, 60 kPa], the limiter's highest pressure
+[30000.0, 30000.0, 30000.0]
 >>> bool(reward < 0.0), terminated, truncated
 (True, False, False)
 """
@@ -62,8 +64,25 @@ NOISE_MARGIN = 10.0
 SEED_BOUND = 2**63
 """Noise seeds drawn for an unseeded reset lie in [0, this)."""
 
-DEFAULT_SAFETY = SafetyLimits()
-"""The limits between the agent and the chambers: ``pressure_command``'s defaults."""
+NODE_SAFETY = SafetyLimits()
+"""The ``pressure_command`` node's default limits (60 kPa, 100 kPa/s, range of motion, 10 N)."""
+
+OPEN_PRESSURE_RATE = 1e8
+"""The rate limit of :data:`DEFAULT_SAFETY`, Pa/s: a swing across a 100 kPa supply in 1 ms, so
+at any rate up to 1 kHz no action is slowed; the highest ``max_pressure_rate`` the
+``pressure_command`` node accepts, which gives the ROS graph the same limits."""
+
+DEFAULT_SAFETY = replace(NODE_SAFETY, max_pressure_rate=OPEN_PRESSURE_RATE)
+"""The limits between the agent and the chambers by default: the node's, without its rate limit.
+
+The node's 100 kPa/s (1 kPa a step at 100 Hz) slows nearly every action of an exploring policy
+(all of 32,768 random normalized actions; docs/gym.md, "The safety limiter"), so what the
+policy chose would rarely be what the glove got; the range of motion and the contact force
+stay guarded and the pressure limit is the top of the normalized action range."""
+
+ACTION_SCALES = ('normalized', 'physical')
+"""How actions are given: ``'normalized'``, [−1, 1] per chamber (or valve), mapped linearly onto
+the physical range inside the environment; ``'physical'``, Pa (or openings in [0, 1])."""
 
 VALVE_PRESSURE_MARGIN = 5e3
 """Behind valves, Pa beyond [0, supply] still inside the observed pressures' bounds: a closed
@@ -159,11 +178,11 @@ def tracking_reward(
 class GloveEnv(gymnasium.Env):
     r"""One simulated glove as a Gymnasium environment (docs/spec/model.md §13), tracking a target.
 
-    Each step passes the action through the safety limiter of the ROS graph's
-    ``pressure_command`` and applies what it lets through as the chamber pressure command for
-    Δt = 1/``rate_hz``: the chambers lag toward it (clipped to the supply range), the coupled
-    quasi-static equations are solved at the new pressures, and the sensors are read with
-    seeded noise.
+    Each step maps the action onto the physical range (:attr:`physical_action_space`), passes
+    it through the safety limiter of the ROS graph's ``pressure_command`` and applies what it
+    lets through as the chamber pressure command for Δt = 1/``rate_hz``: the chambers lag
+    toward it (clipped to the supply range), the coupled quasi-static equations are solved at
+    the new pressures, and the sensors are read with seeded noise.
 
     Parameters
     ----------
@@ -185,29 +204,39 @@ class GloveEnv(gymnasium.Env):
         4 s (peak ≈ 28.9, 26.0, 17.1° with the default model and supply).
     reward : callable, optional
         ``reward(state, target, action) -> float`` with the :class:`GloveState` after the
-        step, the target at ``state.t`` (rad, (3,)) and the action as given (Pa, (3,)).
-        Default: :func:`tracking_reward`, −Σ(q − q*)² in rad².
+        step, the target at ``state.t`` (rad, (3,)) and the physical action, before the
+        limiter (Pa, (3,); openings (6,) behind valves). Default: :func:`tracking_reward`,
+        −Σ(q − q*)² in rad².
     observe_target : bool, optional
         Whether the observation ends with the target of the next step (default True: without
         it the agent cannot know where the target is going).
     safety : SafetyLimits or None, optional
-        The limiter's limits (default :data:`DEFAULT_SAFETY`, the node's defaults: at most
-        60 kPa, 100 kPa/s, backing off outside the range of motion or above 10 N of contact
-        force). As on the ROS graph it sees the last measured angles and the robot-side
-        estimate of the contact forces from the measured angles and pressures (the
-        ``estimator`` node's). None sends the action to the chambers unlimited. Behind valves
-        the default means None and other limits are refused (see Notes).
+        The limiter's limits. Default :data:`DEFAULT_SAFETY`: the node's defaults (at most
+        60 kPa, backing off outside the range of motion or above 10 N of contact force)
+        without their rate limit; :data:`NODE_SAFETY` are the node's own, 100 kPa/s included.
+        As on the ROS graph it sees the last measured angles and the robot-side estimate of the
+        contact forces from the measured angles and pressures (the ``estimator`` node's). None
+        sends the action to the chambers unlimited. Behind valves the default means None and
+        other limits are refused (see Notes).
     actuation : str, optional
         One of :data:`~exodigit_model.simulation.ACTUATIONS`: ``'regulator'`` (default; the
         action is three chamber pressures) or ``'valves'`` (six valve openings,
         docs/spec/model.md §14).
+    action_scale : str, optional
+        One of :data:`ACTION_SCALES`: ``'normalized'`` (default; Box(−1, 1) per chamber, what
+        RL libraries expect) or ``'physical'`` (the action space is
+        :attr:`physical_action_space`).
 
     Notes
     -----
-    **Action**, Box(0, ``max_supply_pressure``, (3,), float32): chamber pressure commands,
-    MCP, PIP, DIP segment, Pa. The limiter bounds them first (``info['safety']`` says why
-    it changed an action); commands outside the box are then clipped by the chambers
-    (``info['saturated']``), as the plant clips them.
+    **Action**, Box(−1, 1, (3,), float32): chamber pressure commands, MCP, PIP, DIP segment,
+    mapped linearly onto :attr:`physical_action_space`, Box(0, p_top, (3,), float32) in Pa
+    (−1 → 0 Pa, 1 → p_top), with p_top the limiter's ``max_pressure`` capped at the supply
+    (the supply without a limiter); with ``action_scale='physical'`` the action is that Pa
+    box itself. :meth:`physical_action` does the mapping. The limiter bounds the command
+    first (``info['safety']`` says why it changed an action); commands outside the supply
+    range are then clipped by the chambers (``info['saturated']``), as the plant clips them.
+    Actions outside the box are mapped by the same line and then limited or clipped.
 
     **Observation**, float32, shape (12,) (or (9,) without the target), at t_k:
 
@@ -221,10 +250,11 @@ class GloveEnv(gymnasium.Env):
     and clipped to the bounds, which only a state far outside the validated range or a noise
     draw of 10 σ reaches (``info['observation_clipped']`` says when).
 
-    **Behind valves** (``actuation='valves'``) the action is Box(0, 1, (6,), float32): the
-    openings of the inlet valves (from the supply) of MCP, PIP, DIP, then of their outlet
-    valves (to the atmosphere), held over the step; the chambers' air masses follow the valves'
-    flows (14.3)-(14.4) and their pressures the gas law (14.2). The observation is the same:
+    **Behind valves** (``actuation='valves'``) the action is Box(−1, 1, (6,), float32),
+    mapped onto Box(0, 1, (6,), float32) (physical): the openings of the inlet valves (from
+    the supply) of MCP, PIP, DIP, then of their outlet valves (to the atmosphere), held over
+    the step; the chambers' air masses follow the valves' flows (14.3)-(14.4) and their
+    pressures the gas law (14.2). The observation is the same:
     a chamber's air mass is m = (p + P_atm)·V(q)/(R·T) (14.1)-(14.2), a function of the
     observed pressure and angles, and the valves have no state of their own (an opening acts
     for its step only), so nothing a valve controller needs is hidden; a real glove has no
@@ -272,6 +302,7 @@ class GloveEnv(gymnasium.Env):
         observe_target: bool = True,
         safety: SafetyLimits | None = DEFAULT_SAFETY,
         actuation: str = 'regulator',
+        action_scale: str = 'normalized',
     ) -> None:
         self.model = _model(model, params)
         if settings is None:
@@ -293,8 +324,13 @@ class GloveEnv(gymnasium.Env):
             raise ValueError(f'safety = {safety!r}: must be a SafetyLimits (or None)')
         if actuation not in ACTUATIONS:
             raise ValueError(f'actuation = {actuation!r}: must be one of {", ".join(ACTUATIONS)}')
+        if action_scale not in ACTION_SCALES:
+            raise ValueError(
+                f'action_scale = {action_scale!r}: must be one of {", ".join(ACTION_SCALES)}'
+            )
         self.actuation = actuation
         self.valves = actuation == 'valves'
+        self.action_scale = action_scale
         if self.valves and safety is not DEFAULT_SAFETY and safety is not None:
             raise ValueError(
                 f'safety = {safety!r}: behind valves the action is openings, which the '
@@ -311,16 +347,25 @@ class GloveEnv(gymnasium.Env):
 
         supply = settings.max_supply_pressure
         if self.valves:
-            self.action_space = spaces.Box(0.0, 1.0, (OPENINGS,), dtype=np.float32)
+            physical = spaces.Box(0.0, 1.0, (OPENINGS,), dtype=np.float32)
             supply = self.model.params.pneumatics.supply_pressure
             margin = VALVE_PRESSURE_MARGIN
             if supply is None:
                 supply = settings.max_supply_pressure
         else:
-            self.action_space = spaces.Box(
-                np.zeros(3, np.float32), np.full(3, supply, np.float32), dtype=np.float32
+            top = supply if self.safety is None else min(supply, self.safety.max_pressure)
+            physical = spaces.Box(
+                np.zeros(3, np.float32), np.full(3, top, np.float32), dtype=np.float32
             )
             margin = 0.0
+        self.physical_action_space = physical
+        """The actions in physical units: Pa (openings behind valves), float32."""
+        if action_scale == 'physical':
+            self.action_space = physical
+        else:
+            self.action_space = spaces.Box(-1.0, 1.0, physical.shape, dtype=np.float32)
+        self._action_low = physical.low.astype(float)
+        self._action_span = physical.high.astype(float) - self._action_low
         angle = ANGLE_BOUND + NOISE_MARGIN * settings.angle_noise_std
         velocity = 2.0 * ANGLE_BOUND * settings.rate_hz
         noise = NOISE_MARGIN * settings.pressure_noise_std
@@ -340,6 +385,16 @@ class GloveEnv(gymnasium.Env):
         self._next_target = np.zeros(3)
         self._limiter: SafetyLimiter | None = None
         self._limited: dict[str, str] = {}
+
+    def physical_action(self, action: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``action`` (one (3,) or (6,), or rows of them) in physical units: Pa or openings.
+
+        Normalized: low + (a + 1)/2 · (high − low) of :attr:`physical_action_space`, elementwise
+        (−1 → low, 1 → high); physical: ``action`` itself.
+        """
+        if self.action_scale == 'physical':
+            return action
+        return self._action_low + (action + 1.0) * 0.5 * self._action_span
 
     @property
     def state(self) -> GloveState | None:
@@ -384,7 +439,9 @@ class GloveEnv(gymnasium.Env):
     def step(
         self, action: ArrayLike
     ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
-        """Apply ``action`` (chamber pressure commands, Pa, (3,); openings (6,) behind valves).
+        """Apply ``action``: three chamber pressure commands (six openings behind valves).
+
+        In [−1, 1] by default, in Pa (openings in [0, 1]) with ``action_scale='physical'``.
 
         Returns
         -------
@@ -410,6 +467,7 @@ class GloveEnv(gymnasium.Env):
             action = as_actions('action', action, self.action_space.shape)
         else:
             action = as_joint_vector('action', action)
+        action = self.physical_action(action)
         state = self.simulation.step(self._limit(action))
         target = self._next_target
         reward = self.reward(state, target.copy(), action.copy())
@@ -517,7 +575,8 @@ class PolicyController:
     At each step every glove of the batch is observed as ``env`` observes its glove
     (:func:`observe`: the same layout, float32 and bounds, and the target of the next step,
     whose time is the state's next step as in :meth:`GloveEnv.step`), the policy is called once
-    on the (N, d) observations, and its (N, 3) actions pass ``env``'s safety limits from the
+    on the (N, d) observations, and its (N, 3) actions, mapped to Pa as ``env`` maps them
+    (:meth:`GloveEnv.physical_action`), pass ``env``'s safety limits from the
     feedback :meth:`GloveEnv.step` uses (:meth:`~exodigit_model.control.Feedback.of_state` with
     ``env.model``). So each glove of a noise-free batch is commanded, bit for bit, as a
     :class:`GloveEnv` is by the same policy (tests/test_control_batch.py).
@@ -527,7 +586,9 @@ class PolicyController:
     ----------
     policy : callable
         ``policy(observations) -> actions``: float32 (N, d) to chamber pressure commands
-        (N, 3), Pa; e.g. ``lambda obs: agent.predict(obs, deterministic=True)[0]``.
+        (N, 3) in ``env``'s action space (in [−1, 1] by default, Pa with
+        ``action_scale='physical'``); e.g.
+        ``lambda obs: agent.predict(obs, deterministic=True)[0]``.
     env : GloveEnv
         The environment the policy is for: its target, observation space and safety limits
         (``env.safety``; None: the actions go to the chambers unlimited). Its model estimates
@@ -571,6 +632,7 @@ class PolicyController:
         observations, _ = observe(state, env.observation_space, target)
         actions = as_joint_rows('action', self.policy(observations))
         check_shape('action', actions, np.shape(state.q_measured))
+        actions = env.physical_action(actions)
         if self._limiter is None:
             return actions
         feedback = Feedback.of_state(state, env.model)

@@ -7,8 +7,9 @@ domain randomisation over patients. The sub-environments step together on the ba
 patient, with ``GloveEnv``'s observation (:func:`~exodigit_model.gym.observe`), target, reward
 and safety limiter.
 
-Importing the module registers the environment as ``exodigit/GlovePatients-v0`` for
-``gymnasium.make_vec``:
+Importing the module registers ``exodigit/GlovePatients-v0``: ``gymnasium.make_vec`` makes a
+:class:`GloveVectorEnv`, ``gymnasium.make`` (and so Stable-Baselines3's ``make_vec_env``) one
+glove on a new patient at every reset, :class:`GlovePatientEnv`:
 
 >>> import gymnasium
 >>> import exodigit_model.gym_vector
@@ -53,6 +54,9 @@ from .settings import SimulationSettings
 from .simulation import GloveSimulation
 from .trials.populations import Population, load_population
 
+AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+"""The autoreset modes :class:`GloveVectorEnv` offers (not ``DISABLED``'s masked resets)."""
+
 VECTOR_ENV_ID = 'exodigit/GlovePatients-v0'
 """The id under which importing this module registers :class:`GloveVectorEnv`."""
 
@@ -93,24 +97,33 @@ class GloveVectorEnv(VectorEnv):
         ``stroke_moderate``, ``stroke_severe``), a population file (docs/populations.md) or a
         :class:`~exodigit_model.trials.populations.Population`; default
         :data:`DEFAULT_POPULATION`. Patients keep the link lengths of ``model``'s finger.
-    model, params, settings, episode_steps, target, observe_target, safety, actuation
+    model, params, settings, episode_steps, target, observe_target, safety, actuation, \
+    action_scale
         As :class:`~exodigit_model.gym.GloveEnv`'s, shared by every sub-environment: the target
         is a function of the time since the sub-environment's reset; behind valves
         (``actuation='valves'``) the actions are (num_envs, 6) openings and there is no
-        limiter.
+        limiter; actions are in [−1, 1] unless ``action_scale='physical'``.
     reward : callable, optional
         ``reward(state, target, actions) -> (n,)`` over a batch: the :class:`GloveState` of n
         gloves after the step (arrays (n, 3)), the target at ``state.t`` (rad, (3,)) and the
-        actions (Pa, (n, 3), or openings (n, 6)). Default:
+        physical actions (Pa, (n, 3), or openings (n, 6)). Default:
         :func:`~exodigit_model.gym.tracking_reward`, which takes one glove or a batch.
+    autoreset_mode : AutoresetMode, optional
+        ``AutoresetMode.NEXT_STEP`` (default) or ``AutoresetMode.SAME_STEP`` (see Notes).
 
     Notes
     -----
-    **Autoreset**: ``AutoresetMode.NEXT_STEP`` (``metadata['autoreset_mode']``, Gymnasium's
-    default). The step that ends a sub-environment's episode (``terminated`` or
+    **Autoreset** (``metadata['autoreset_mode']``): ``AutoresetMode.NEXT_STEP`` by default,
+    Gymnasium's. The step that ends a sub-environment's episode (``terminated`` or
     ``truncated``) returns its last observation; the next step ignores that sub-environment's
     action, draws a new patient, and returns the first observation of the new episode with
-    reward 0 and both flags False.
+    reward 0 and both flags False. With ``AutoresetMode.SAME_STEP`` (as Stable-Baselines3
+    steps, :mod:`exodigit_model.gym_sb3`) the step that ends an episode draws the new patient
+    at once and returns the new episode's first observation, with the step's reward and
+    flags; ``infos['final_obs']`` (an object array, None where no episode ended, mask
+    ``'_final_obs'``) holds the last observation and ``infos['final_info']`` the last infos,
+    and ``infos`` of those sub-environments are their new episode's. Patients and noise seeds
+    are drawn in the same order in both modes.
 
     **Seeding**: ``reset(seed=s)`` seeds :attr:`np_random`; every reset, the first and each
     autoreset, draws from it the seed of the patients it needs
@@ -157,7 +170,14 @@ class GloveVectorEnv(VectorEnv):
         observe_target: bool = True,
         safety: SafetyLimits | None = DEFAULT_SAFETY,
         actuation: str = 'regulator',
+        action_scale: str = 'normalized',
+        autoreset_mode: AutoresetMode = AutoresetMode.NEXT_STEP,
     ) -> None:
+        if autoreset_mode not in AUTORESET_MODES:
+            raise ValueError(
+                f'autoreset_mode = {autoreset_mode!r}: must be one of '
+                f'{", ".join(str(mode) for mode in AUTORESET_MODES)}'
+            )
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer):
             raise ValueError(f'num_envs = {num_envs!r}: must be an integer')
         if num_envs < 1:
@@ -181,10 +201,12 @@ class GloveVectorEnv(VectorEnv):
             observe_target=observe_target,
             safety=safety,
             actuation=actuation,
+            action_scale=action_scale,
         )
         """The GloveEnv every sub-environment is, on its patient (its checks, spaces, target,
         reward and limits; never stepped)."""
         self.num_envs = int(num_envs)
+        self.metadata = {**self.metadata, 'autoreset_mode': autoreset_mode}
         self.model = self.definition.model
         self.single_action_space = self.definition.action_space
         self.single_observation_space = self.definition.observation_space
@@ -229,10 +251,12 @@ class GloveVectorEnv(VectorEnv):
     ) -> tuple[
         NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict
     ]:
-        """Apply ``actions`` (pressure commands, Pa, (num_envs, 3); openings (num_envs, 6)).
+        """Apply ``actions``: pressure commands (num_envs, 3), or openings (num_envs, 6).
 
-        Sub-environments whose episode ended at the last step are reset instead (their
-        actions are not used).
+        In [−1, 1] by default, in Pa (openings in [0, 1]) with ``action_scale='physical'``.
+        With ``NEXT_STEP`` autoreset, sub-environments whose episode ended at the last step are
+        reset instead (their actions are not used); with ``SAME_STEP`` those whose episode
+        ends at this step are reset at its end.
 
         Returns
         -------
@@ -260,6 +284,7 @@ class GloveVectorEnv(VectorEnv):
         else:
             actions = as_joint_rows('actions', actions)
             check_shape('actions', actions, (self.num_envs, 3))
+        actions = self.definition.physical_action(actions)
         restarting = np.flatnonzero(self._ended)
         for cohort in self._cohorts:
             cohort.leave(self._ended)
@@ -270,6 +295,8 @@ class GloveVectorEnv(VectorEnv):
             self._cohorts.append(self._enrol(restarting))
         result = self._gather()
         self._ended = result[2] | result[3]
+        if self.metadata['autoreset_mode'] == AutoresetMode.SAME_STEP and self._ended.any():
+            return self._reset_ended(*result)
         return result
 
     # -- helpers ---------------------------------------------------------------------------
@@ -285,6 +312,21 @@ class GloveVectorEnv(VectorEnv):
         for row, finger in zip(rows.tolist(), patients, strict=True):
             self.fingers[row] = finger
         return _Cohort(self.definition, rows, patients, noise_seed)
+
+    def _reset_ended(self, observations, rewards, terminated, truncated, infos) -> tuple:
+        """SAME_STEP: the ended sub-environments' new episodes, their last in ``final_*``."""
+        ended, self._ended = self._ended, np.zeros(self.num_envs, bool)
+        for cohort in self._cohorts:
+            cohort.leave(ended)
+        self._cohorts = [cohort for cohort in self._cohorts if cohort.members.any()]
+        self._cohorts.append(self._enrol(np.flatnonzero(ended)))
+        started, *_, new_infos = self._gather()
+        final = np.full(self.num_envs, None, object)
+        for row in np.flatnonzero(ended).tolist():
+            final[row] = observations[row]
+        new_infos['final_obs'], new_infos['_final_obs'] = final, ended
+        new_infos['final_info'], new_infos['_final_info'] = infos, ended.copy()
+        return started, rewards, terminated, truncated, new_infos
 
     def _gather(self) -> tuple:
         """Every sub-environment's last outcome, from the cohort it belongs to."""
@@ -398,7 +440,79 @@ class _Cohort:
         }
 
 
+class GlovePatientEnv(gymnasium.Env):
+    """One glove on a patient drawn from a population at every reset: a GloveVectorEnv of one.
+
+    What ``gymnasium.make('exodigit/GlovePatients-v0')`` makes, so that libraries that build
+    their vector of environments from single ones (Stable-Baselines3's ``make_vec_env``,
+    ``gymnasium.vector.SyncVectorEnv``) get the population too. Every keyword is
+    :class:`GloveVectorEnv`'s but ``num_envs`` and ``autoreset_mode``; the spaces are its
+    single spaces.
+
+    ``reset(seed=s)`` seeds :attr:`np_random`; every reset draws from it the seed of the
+    :class:`GloveVectorEnv` of one glove it resets (:attr:`patients`), so equal seeds give
+    equal sequences of patients and episodes. ``info`` has the keys of
+    :data:`INFO_KEYS` (behind valves also ``mass`` and ``volume``), one glove's values, and
+    ``safety`` is the tuple of the limits of :data:`~exodigit_model.control.LIMIT_KINDS` that
+    acted on the action. After an episode ends, call :meth:`reset`.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {'render_modes': []}
+
+    def __init__(self, **kwargs: Any) -> None:
+        for name in ('num_envs', 'autoreset_mode'):
+            if name in kwargs:
+                raise ValueError(f'{name} = {kwargs[name]!r}: GlovePatientEnv is one glove')
+        self.patients = GloveVectorEnv(1, **kwargs)
+        """The vector environment of the one glove."""
+        self.action_space = self.patients.single_action_space
+        self.observation_space = self.patients.single_observation_space
+
+    @property
+    def finger(self) -> Finger | None:
+        """The patient of the current episode (None before the first reset)."""
+        return self.patients.fingers[0]
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        """Start an episode at rest on a new patient (see the class)."""
+        super().reset(seed=seed)
+        observations, infos = self.patients.reset(
+            seed=int(self.np_random.integers(SEED_BOUND)), options=options
+        )
+        return observations[0], self._info(infos)
+
+    def step(
+        self, action: ArrayLike
+    ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        """Apply ``action``, as :meth:`GloveEnv.step <exodigit_model.gym.GloveEnv.step>`."""
+        try:
+            actions = np.asarray(action, dtype=float)[None]
+        except (TypeError, ValueError):
+            actions = action  # refused by the vector environment, naming it
+        observations, rewards, terminated, truncated, infos = self.patients.step(actions)
+        return (
+            observations[0],
+            float(rewards[0]),
+            bool(terminated[0]),
+            bool(truncated[0]),
+            self._info(infos),
+        )
+
+    def _info(self, infos: dict[str, NDArray]) -> dict[str, Any]:
+        info = {key: infos[key][0] for key in self.patients.info_keys}
+        for key in ('t', 'converged', 'in_valid_range', 'observation_clipped'):
+            info[key] = info[key].item()
+        info['safety'] = tuple(
+            kind for kind, acted in zip(LIMIT_KINDS, info['safety'], strict=True) if acted
+        )
+        return info
+
+
 if VECTOR_ENV_ID not in gymnasium.registry:
     gymnasium.register(
-        id=VECTOR_ENV_ID, vector_entry_point='exodigit_model.gym_vector:GloveVectorEnv'
+        id=VECTOR_ENV_ID,
+        entry_point='exodigit_model.gym_vector:GlovePatientEnv',
+        vector_entry_point='exodigit_model.gym_vector:GloveVectorEnv',
     )

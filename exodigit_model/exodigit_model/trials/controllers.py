@@ -9,8 +9,9 @@ Three kinds run in process (docs/trials.md, "Controllers"):
 - ``controller``: a user's :class:`~exodigit_model.control.BatchController`, made by the factory
   ``module:attribute`` as ``factory(protocol=..., model=..., **parameters)``.
 - ``policy``: a Gymnasium policy made by ``factory(env=..., **parameters)`` for a
-  :class:`~exodigit_model.gym.GloveEnv` on the nominal glove whose target is the protocol's, run
-  by :class:`~exodigit_model.gym.PolicyController` (needs the ``gym`` extra).
+  :class:`~exodigit_model.gym.GloveEnv` on the nominal glove whose target is the protocol's,
+  behind the node's limits (:data:`~exodigit_model.gym.NODE_SAFETY`), run by
+  :class:`~exodigit_model.gym.PolicyController` (needs the ``gym`` extra).
 
 A fourth, ``ros`` (a ROS node's command line), runs through the testing kit of
 ``exodigit_nodes`` (``KitEngine``, docs/trials.md, "A ROS node as the controller");
@@ -284,10 +285,10 @@ def build_controller(
             )
         return controller
     try:
-        from ..gym import GloveEnv, PolicyController
+        from ..gym import NODE_SAFETY, GloveEnv, PolicyController
     except ImportError:
         raise ValueError('a policy needs Gymnasium: pip install "./exodigit_model[gym]"') from None
-    env = GloveEnv(model, settings=settings, target=protocol.targets)
+    env = GloveEnv(model, settings=settings, target=protocol.targets, safety=NODE_SAFETY)
     return PolicyController(_call(spec, factory, env=env, **parameters), env)
 
 
