@@ -2,9 +2,10 @@
 
 ``GloveVectorEnv(--envs)`` on ``--population`` steps ``--steps`` times (default 802: two
 episodes of 400 steps and their two autoreset steps, so the patients' draws and the new
-cohorts' rest solves are counted) under random actions in [0, 100 kPa], once with the default
-safety limiter (which needs the robot-side force estimate of every glove at every step) and once
-with ``safety=None``, the two taking turns ``--repeats`` times. With ``--valves`` a third kind
+cohorts' rest solves are counted) under random actions in [0, 100 kPa] (``action_scale=
+'physical'``), once behind the ``pressure_command`` node's limiter (``NODE_SAFETY``, which needs
+the robot-side force estimate of every glove at every step) and once with ``safety=None``, the
+two taking turns ``--repeats`` times. With ``--valves`` a third kind
 takes its turn too: ``actuation='valves'`` (docs/spec/model.md §14) under random openings in
 [0, 1] (six per glove; no limiter), so the two actuations are measured in one run, side by
 side. Env-steps count what Gymnasium's ``utils.performance.benchmark_vector_step`` counts for
@@ -24,6 +25,7 @@ import statistics
 import time
 
 import numpy as np
+from exodigit_model.gym import NODE_SAFETY
 from exodigit_model.gym_vector import GloveVectorEnv
 
 SUPPLY = 100e3
@@ -59,17 +61,14 @@ def main() -> None:
     options = parser.parse_args()
     rng = np.random.default_rng(0)
     pressures = rng.uniform(0.0, SUPPLY, (options.steps, options.envs, 3))
-    population = options.population
+    common = {'population': options.population, 'action_scale': 'physical'}
     kinds = {
-        'limiter': (GloveVectorEnv(options.envs, population=population), pressures),
-        'safety=None': (
-            GloveVectorEnv(options.envs, population=population, safety=None),
-            pressures,
-        ),
+        'limiter': (GloveVectorEnv(options.envs, safety=NODE_SAFETY, **common), pressures),
+        'safety=None': (GloveVectorEnv(options.envs, safety=None, **common), pressures),
     }
     if options.valves:
         openings = rng.uniform(0.0, 1.0, (options.steps, options.envs, 6))
-        envs = GloveVectorEnv(options.envs, population=population, actuation='valves')
+        envs = GloveVectorEnv(options.envs, actuation='valves', **common)
         kinds['valves'] = (envs, openings)
     for envs, actions in kinds.values():
         timed(envs, actions[:2], 0)  # first use of every kernel and array
