@@ -4,19 +4,21 @@ The task (docs/gym.md, "Learning with Stable-Baselines3"): ``exodigit/GlovePatie
 ``population='healthy'`` and otherwise its defaults. Each episode is one glove on a new patient
 of the population, 4 s at 100 Hz, and the finger should follow a slow flex-extend (up to 28.9,
 26.0, 17.1° at MCP, PIP, DIP, the nominal finger's angles at 50 kPa); the reward is
-−Σ(q − q*)² per step, rad², so the return of an episode is 0 for perfect tracking. The agent sees the measured angles, joint velocities, chamber pressures and
-the next target, and sends three normalized pressures in [−1, 1] (0 to 60 kPa).
+−Σ(q − q*)² per step, rad², so the return of an episode is 0 for perfect tracking. The agent
+sees the measured angles, joint velocities, chamber pressures and the next target, and sends
+three normalized pressures in [−1, 1] (0 to 60 kPa).
 
 PPO (``MlpPolicy``, SB3's defaults but ``n_steps`` and ``batch_size``) trains on ``--envs``
-gloves through the population adapter (:func:`exodigit_model.gym_sb3.sb3_vec_env`) with ``VecNormalize`` (the
-pressures are in Pa, the angles in rad). Every ``--timesteps``/``--evaluations`` steps the
-deterministic policy is scored on the same ``--patients`` held-out patients (one episode each;
-their draw does not change), beside four fixed policies: the zero action (30 kPa in every
-chamber), vented chambers (−1), uniform random actions and the open-loop pressure curve of
-docs/gym.md's first example. Printed: the learning curve (env-steps, training wall seconds,
-mean and standard deviation of the return over the patients) and the training speed; drawn:
-the curve to ``--plot``. SB3 learns in whole rollouts (``--envs`` × ``--n-steps`` env-steps),
-so each stretch of training between evaluations is rounded up to them. Torch runs on one thread (the machine is shared).
+gloves through the population adapter (:func:`exodigit_model.gym_sb3.sb3_vec_env`) with
+``VecNormalize`` (the pressures are in Pa, the angles in rad). Every
+``--timesteps``/``--evaluations`` steps the deterministic policy is scored on the same
+``--patients`` held-out patients (one episode each; their draw does not change), beside four
+fixed policies: the zero action (30 kPa in every chamber), vented chambers (−1), uniform random
+actions and the open-loop pressure curve of docs/gym.md's first example. Printed: the learning
+curve (env-steps, training wall seconds, mean and standard deviation of the return over the
+patients) and the training speed; drawn: the curve to ``--plot``. SB3 learns in whole rollouts
+(``--envs`` × ``--n-steps`` env-steps), so each stretch of training between evaluations is
+rounded up to them. Torch runs on one thread (the machine is shared).
 
 Needs the ``rl`` extra (docs/gym.md): ``pip install "./exodigit_model[rl]"``.
 Run: ``python examples/ppo_glove.py [--timesteps 327680] [--plot ppo_learning_curve.png]``.
