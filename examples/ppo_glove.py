@@ -123,8 +123,10 @@ def main() -> None:
         f'{agent.num_timesteps / trained:,.0f} env-steps/s'
     )
     for name in ('zero action', 'random'):
-        print(f'final return {final:.3f} vs {name} {fixed[name].mean():.3f}: '
-              f'{fixed[name].mean() / final:.1f} times the squared error')
+        print(
+            f'final return {final:.3f} vs {name} {fixed[name].mean():.3f}: '
+            f'{fixed[name].mean() / final:.1f} times the squared error'
+        )
     if options.plot:
         draw(curve, fixed, options)
 
