@@ -9,8 +9,10 @@ extra) are skipped, with the reason, where it is not installed; the adapter's pr
 without it.
 """
 
+import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -320,10 +322,24 @@ def test_the_adapter_without_sb3_says_how_to_install_it(monkeypatch):
 
 
 def test_importing_the_adapter_does_not_import_sb3():
-    import subprocess
-
     code = (
         'import sys, exodigit_model.gym_sb3; '
         "sys.exit(1 if 'stable_baselines3' in sys.modules else 0)"
     )
     assert subprocess.run([sys.executable, '-c', code]).returncode == 0
+
+
+def test_the_ppo_example_prints_and_draws_its_learning_curve(tmp_path):
+    sb3()
+    pytest.importorskip('matplotlib', reason='the example draws with matplotlib (rl extra)')
+    plot = tmp_path / 'curve.png'
+    example = Path(__file__).resolve().parents[1] / 'examples' / 'ppo_glove.py'
+    arguments = ['--timesteps', '256', '--envs', '2', '--n-steps', '64', '--batch-size', '64']
+    arguments += ['--evaluations', '2', '--patients', '2', '--plot', str(plot)]
+    result = subprocess.run(
+        [sys.executable, str(example), *arguments], capture_output=True, text=True, timeout=600
+    )
+    assert result.returncode == 0, result.stderr
+    rows = [line.split() for line in result.stdout.splitlines() if line[:10].strip().isdigit()]
+    assert [row[0] for row in rows] == ['0', '128', '256']
+    assert 'env-steps/s' in result.stdout and plot.read_bytes().startswith(b'\x89PNG')
