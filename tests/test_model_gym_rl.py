@@ -29,7 +29,7 @@ from exodigit_model.gym_sb3 import PopulationVecEnv, _sb3_class, sb3_vec_env
 from exodigit_model.gym_vector import VECTOR_ENV_ID, GlovePatientEnv, GloveVectorEnv
 from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
-from test_model_gym_vector import SOFT, STRONG, glove_env
+from test_model_gym_vector import failing, glove_env
 
 from exodigit_model import SimulationSettings
 
@@ -234,19 +234,7 @@ def test_the_adapter_steps_as_a_plain_loop_of_glove_envs_through_resets():
 
 
 def test_the_adapter_tells_a_failed_solve_from_a_time_limit():
-    envs = GloveVectorEnv(
-        3,
-        population='healthy',
-        model=SOFT,
-        settings=STRONG,
-        safety=None,
-        episode_steps=5,
-        target=lambda t: np.zeros(3),
-        action_scale='physical',
-        **SAME_STEP,
-    )
-    actions = np.full((9, 3, 3), 5e3)
-    actions[1, 0] = 1e6  # row 0 fails at step 2 and resets at once; the others go on
+    envs, actions = failing(**SAME_STEP)  # row 0 fails at step 2, resets at once
     ends = assert_adapter_is_a_plain_loop(PopulationVecEnv(envs), actions, 4)
     assert ends == {'terminated': 1, 'truncated': 3}
 

@@ -101,7 +101,8 @@ def test_each_sub_env_steps_as_a_glove_env_on_its_patient_through_autoresets():
     assert assert_sub_envs_are_glove_envs(envs, random_actions(11, 3)) == 6
 
 
-def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env():
+def failing(**keywords):
+    """Three soft gloves and actions under which row 0's solve fails at step 2 (only)."""
     envs = GloveVectorEnv(
         3,
         population='healthy',
@@ -111,9 +112,15 @@ def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env
         episode_steps=5,
         target=lambda t: np.zeros(3),
         action_scale='physical',
+        **keywords,
     )
     actions = np.full((9, 3, 3), 5e3)
-    actions[1, 0] = 1e6  # row 0 fails at step 2, resets at step 3; the others go on
+    actions[1, 0] = 1e6
+    return envs, actions
+
+
+def test_a_sub_env_whose_solve_fails_resets_alone_and_still_steps_as_a_glove_env():
+    envs, actions = failing()  # row 0 fails at step 2, resets at step 3; the others go on
     envs.reset(seed=4)
     *_, terminated, _, _ = envs.step(actions[0])
     _, _, terminated, truncated, _ = envs.step(actions[1])

@@ -76,9 +76,10 @@ DEFAULT_SAFETY = replace(NODE_SAFETY, max_pressure_rate=OPEN_PRESSURE_RATE)
 """The limits between the agent and the chambers by default: the node's, without its rate limit.
 
 The node's 100 kPa/s (1 kPa a step at 100 Hz) slows nearly every action of an exploring policy
-(all of 32,768 random normalized actions; docs/gym.md, "The safety limiter"), so what the
-policy chose would rarely be what the glove got; the range of motion and the contact force
-stay guarded and the pressure limit is the top of the normalized action range."""
+(99.996 % of random normalized actions, where these limits acted on none:
+benchmarks/bench_rl_limiter.py, docs/gym.md "The safety limiter"), so what the policy chose
+would rarely be what the glove got; the range of motion and the contact force stay guarded, and
+the pressure limit is the top of the normalized action range."""
 
 ACTION_SCALES = ('normalized', 'physical')
 """How actions are given: ``'normalized'``, [−1, 1] per chamber (or valve), mapped linearly onto
