@@ -227,6 +227,9 @@ def assert_adapter_is_a_plain_loop(venv, actions, seed):
     return ends
 
 
+# Random full-range pressures flex some patient past their range of motion, which the limiter's
+# force estimate warns of; the adapter must step through it as the plain loop does.
+@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
 def test_the_adapter_steps_as_a_plain_loop_of_glove_envs_through_resets():
     venv = PopulationVecEnv(GloveVectorEnv(3, episode_steps=4, **SAME_STEP))
     ends = assert_adapter_is_a_plain_loop(venv, normalized(11 * 3, seed=5).reshape(11, 3, 3), 1)
