@@ -7,10 +7,13 @@
 #                            ACTUATION=valves drives the chambers by inlet and outlet valves
 #                            (plant actuation valves, pressure_command output valves)
 #   make test [PYTEST_WORKERS=2] [PYTEST_ARGS=...]
-#                            lint, format check and the whole test suite (what CI runs)
+#                            lint, format check, the documentation site and the whole test
+#                            suite (what CI runs)
+#   make docs                the documentation site into build/docs/ (Sphinx, warnings as errors;
+#                            docs/development.md, "The documentation site")
 # Both create .venv and install everything on first use; later calls only re-install when a
 # requirements or package file changed. Both also compile the model's kernels into numba's cache
-# (`make warm`, README "Compiled model") when their sources changed, so no test or node compiles.
+# (`make warm`, docs/compiled.md) when their sources changed, so no test or node compiles.
 
 SHELL := /bin/bash
 PYTHON ?= python3
@@ -21,17 +24,17 @@ NAMESPACE ?= /glove
 RECORD ?=
 ACTUATION ?=
 PYTEST_ARGS ?=
-# Test workers (pytest-xdist; README "The two commands"): two, for this project's two-core VMs;
+# Test workers (pytest-xdist; docs/development.md, "The two commands"): two, for this project's two-core VMs;
 # 0 runs every test in the one pytest process.
 PYTEST_WORKERS ?= 2
 
-# Discovery never leaves this machine (see README, "Networking"); one domain per command.
+# Discovery never leaves this machine (docs/networking.md, "Networking"); one domain per command.
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export ROS_DOMAIN_ID ?= 37
 export PIP_DISABLE_PIP_VERSION_CHECK := 1
 export MPLBACKEND := Agg
 
-INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt \
+INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt requirements/docs.txt \
 	$(wildcard exodigit_model/pyproject.toml exodigit_model/setup.py \
 	           exodigit_nodes/setup.py exodigit_nodes/setup.cfg)
 
@@ -40,7 +43,13 @@ INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt \
 WARM_INPUTS := $(wildcard exodigit_model/exodigit_model/kernels/*.py \
 	                    exodigit_model/exodigit_model/*.py)
 
-.PHONY: run test venv warm bench clean
+# The site is built again when a page, a picture or a docstring changed (like the kernels' cache
+# above); every build starts afresh (-E), so each warning of every page shows, and fails (-W).
+DOCS_OUT := build/docs
+DOCS_INPUTS := README.md $(shell find docs -path docs/api -prune -o -type f -print) \
+	$(shell find exodigit_model/exodigit_model exodigit_nodes/exodigit_nodes -name '*.py')
+
+.PHONY: run test docs venv warm bench clean
 
 venv: $(VENV)/.installed
 
@@ -49,7 +58,8 @@ warm: $(VENV)/.warm
 $(VENV)/.installed: $(INSTALL_INPUTS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip setuptools wheel
-	$(BIN)/python -m pip install --quiet -r requirements/ros.txt -r requirements/dev.txt
+	$(BIN)/python -m pip install --quiet -r requirements/ros.txt -r requirements/dev.txt \
+		-r requirements/docs.txt
 	$(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e './exodigit_model[tools,gym,ray]'
 	if [ -f exodigit_nodes/setup.py ]; then $(BIN)/python -m pip install --quiet --config-settings editable_mode=compat -e ./exodigit_nodes; fi
 	touch $@
@@ -69,7 +79,15 @@ else
 		$(if $(RECORD),--record) $(if $(ACTUATION),--actuation $(ACTUATION))
 endif
 
-test: warm
+docs: $(DOCS_OUT)/.built
+
+# sphinx-autoapi writes the API pages into docs/api/ while it builds and removes them after.
+$(DOCS_OUT)/.built: $(VENV)/.installed $(DOCS_INPUTS)
+	rm -rf docs/api
+	$(BIN)/python -m sphinx -b html -E -W --keep-going -q docs $(DOCS_OUT)
+	touch $@
+
+test: warm docs
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest --numprocesses $(PYTEST_WORKERS) --dist loadfile $(PYTEST_ARGS)
@@ -78,4 +96,4 @@ bench: warm
 	$(BIN)/python benchmarks/bench_model.py
 
 clean:
-	rm -rf $(VENV) runs ros_ws/build ros_ws/install ros_ws/log
+	rm -rf $(VENV) runs build docs/api ros_ws/build ros_ws/install ros_ws/log

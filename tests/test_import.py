@@ -36,7 +36,7 @@ def test_importing_the_model_and_every_public_name_imports_no_ros():
     ],
 )
 def test_a_process_that_steps_no_glove_imports_no_numba(module):
-    # numba costs a process about 0.45 s of CPU and 100 MB (README, "Compiled model"): the
+    # numba costs a process about 0.45 s of CPU and 100 MB (docs/compiled.md): the
     # recorder and the runners load none of the model's kernels, so they must not import it.
     assert modules_after(f'import {module}', {'numba', 'llvmlite'}) == []
 

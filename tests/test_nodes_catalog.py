@@ -1,8 +1,8 @@
 """The node table (exodigit_nodes.nodes.catalog) is the one source of the nodes, modes and
-defaults: the parameters say their units, setup.py's console scripts, the venv runner, the config
-YAML and the README's parameter blocks agree with it (the launch file: test_packaging_launch.py;
-each node module's --help prints its entry's table: test_nodes_units.py; the interface
-specification names every parameter)."""
+defaults: the parameters say their units; setup.py's console scripts, the venv runner and the
+config YAML (which docs/parameters.md shows) agree with it (the launch file:
+test_packaging_launch.py; each node module's --help prints its entry's table:
+test_nodes_units.py; the interface specification names every parameter)."""
 
 import ast
 import re
@@ -21,8 +21,7 @@ from exodigit_nodes.runner import hand_runner
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE_DIR = ROOT / 'exodigit_nodes'
 CONFIG = PACKAGE_DIR / 'config'
-README = ROOT / 'README.md'
-README_SECTION = '## Nodes, topics and parameters'
+PARAMETER_PAGE = ROOT / 'docs' / 'parameters.md'
 REGENERATE = 'python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config'
 by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
 ROS_PARAMETERS = ('use_sim_time',)
@@ -193,45 +192,15 @@ def test_write_config_writes_every_nodes_file(tmp_path):
     assert refused.value.code == 2
 
 
-# -- README ------------------------------------------------------------------------------------
+# -- docs/parameters.md ------------------------------------------------------------------------
 
 
-def readme_parameter_blocks() -> dict[str, str]:
-    """The code blocks of the README's node section, by the paragraph before each.
-
-    A block belongs to the node named first in that paragraph: ```plant```, ```pressure_command```
-    (modes: ...).
-    """
-    text = README.read_text()
-    start = text.index(f'\n{README_SECTION}\n')
-    lines = text[start : text.index('\n## ', start + 1)].splitlines()
-    blocks, paragraph, block = {}, '', None
-    for previous, line in zip(['', *lines], lines, strict=False):
-        if block is not None:
-            if line == '```':
-                name = re.match(r'`(\w+)`', paragraph)
-                assert name and name[1] not in blocks, f'a block after: {paragraph}'
-                blocks[name[1]], block = '\n'.join(block) + '\n', None
-            else:
-                block.append(line)
-        elif line == '```':
-            block = []
-        elif not previous.strip():
-            paragraph = line
-    return blocks
-
-
-def test_the_readme_has_a_parameter_block_for_each_node_and_no_other():
-    assert sorted(readme_parameter_blocks()) == sorted(node.executable for node in NODES)
-
-
-@by_executable
-def test_each_readme_parameter_block_is_the_nodes_help(node):
-    block = readme_parameter_blocks()[node.executable]
-    assert block == node.table.help() + '\n', (
-        f'README, "{README_SECTION[3:]}": paste the parameters of '
-        f'python -m {node.module} --help into the {node.executable} block'
-    )
+def test_the_parameter_page_shows_each_nodes_generated_file_and_no_other():
+    # The page shows the committed config files (checked against the table above), so that a
+    # node added to the table without a section on the page fails here.
+    page = PARAMETER_PAGE.read_text()
+    included = re.findall(r'^```\{literalinclude\} \.\./exodigit_nodes/(\S+)$', page, re.MULTILINE)
+    assert sorted(included) == sorted(f'config/{node.config_file}' for node in NODES)
 
 
 @pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)

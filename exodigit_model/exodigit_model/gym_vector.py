@@ -97,8 +97,7 @@ class GloveVectorEnv(VectorEnv):
         ``stroke_moderate``, ``stroke_severe``), a population file (docs/populations.md) or a
         :class:`~exodigit_model.trials.populations.Population`; default
         :data:`DEFAULT_POPULATION`. Patients keep the link lengths of ``model``'s finger.
-    model, params, settings, episode_steps, target, observe_target, safety, actuation, \
-    action_scale
+    model, params, settings, episode_steps, target, observe_target, safety, actuation, action_scale
         As :class:`~exodigit_model.gym.GloveEnv`'s, shared by every sub-environment: the target
         is a function of the time since the sub-environment's reset; behind valves
         (``actuation='valves'``) the actions are (num_envs, 6) openings and there is no
