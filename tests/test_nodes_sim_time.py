@@ -34,7 +34,6 @@ from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
 from lockstep_controller import command_at
-from rclpy.logging import LoggingSeverity
 from rclpy.parameter import Parameter
 from reliability_inprocess import InProcessNode
 from ros_harness import RosProbe, stop_process, wait_until
@@ -369,27 +368,6 @@ def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch)
         node.close()
 
 
-def test_set_paused_asked_again_and_again_logs_with_debug_logging_on(probe):
-    # The state changes (info), then is asked for again as the testing kit does (debug).
-    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
-    logger = node.node.get_logger()  # rclpy's levels are per name and process: set back below
-    try:
-        logger.set_level(LoggingSeverity.DEBUG)
-        answers = [
-            call(node, 'set_paused', SetBool.Request(data=paused), SetBool.Response())
-            for paused in (False, False, True, True)
-        ]
-        assert [answer.message.split(' at ')[0] for answer in answers] == [
-            'running',
-            'running',
-            'paused',
-            'paused',
-        ]
-    finally:
-        logger.set_level(LoggingSeverity.UNSET)  # the level of its parent again
-        node.close()
-
-
 def ignore(message) -> None:
     """A subscription callback that does nothing."""
 
@@ -419,6 +397,35 @@ def test_lockstep_starts_only_once_one_node_both_reads_the_states_and_answers(pr
             assert wait_until(plant.controller_present, 10.0)
             node.fire_timers()
             assert len(node.take()['joint_states']) == 1
+    finally:
+        node.close()
+
+
+def listed(node: InProcessNode) -> list[list[str]]:
+    """The controllers of each ``lockstep_controllers`` message the plant published since."""
+    return [[value.key for value in m.values] for m in node.take().get('lockstep_controllers', [])]
+
+
+def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, monkeypatch):
+    # The typed answer the testing kit waits on before it publishes a state that a controller
+    # it has just started must answer: a node that publishes commands and reads the states.
+    monkeypatch.setattr(sim_time, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
+    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
+    plant = node.node
+    try:
+        node.fire_timers()
+        assert listed(node) == [[]]
+        with probe.local_node('controller') as ours:
+            ours.create_publisher(Float64MultiArray, plant.command_subscription.topic_name, 10)
+            node.fire_timers()
+            assert listed(node) == []  # it publishes only when the list changes
+            ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
+            assert wait_until(plant.controller_present, 10.0)
+            node.fire_timers()
+            assert listed(node) == [[ours.get_fully_qualified_name()]]
+        assert wait_until(lambda: not plant.controller_present(), 10.0)
+        call(node, 'set_paused', SetBool.Request(data=True), SetBool.Response())
+        assert listed(node) == [[]]
     finally:
         node.close()
 
@@ -484,8 +491,8 @@ def test_pause_and_step_advance_exactly_one_step_each(sim_plant):
 
 
 def test_set_paused_logs_a_change_once_however_often_it_is_asked(sim_plant, capfd):
-    # The testing kit asks set_paused for the matched controllers until its controller is
-    # there: hundreds of calls a second, which once filled the plant's log.
+    # A client may ask again and again (the testing kit once asked hundreds of times a
+    # second, which filled the plant's log).
     node = sim_plant()
     capfd.readouterr()
     for paused in (True, True, True, True, False, False):

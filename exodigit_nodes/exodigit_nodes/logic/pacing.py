@@ -15,9 +15,6 @@ CLOCKS = ('wall', 'sim')
 """Time sources of the plant: the system clock, or its own simulated time."""
 MAX_REAL_TIME_FACTOR = 1000.0
 """Highest real-time factor a plant accepts."""
-CONTROLLERS_LABEL = 'lockstep controllers: '
-"""Where the plant's ``set_paused`` response lists the controllers it has matched (the testing
-kit reads it before it publishes a state that a just-started controller must not miss)."""
 MAX_CATCH_UP = 0.1
 """Largest lag behind the schedule that is caught up with back-to-back steps, wall s."""
 

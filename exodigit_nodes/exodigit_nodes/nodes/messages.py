@@ -30,6 +30,7 @@ RESET = 'reset'
 RESET_SIMULATION = 'reset_simulation'
 SET_PAUSED = 'set_paused'
 STEP = 'step'
+LOCKSTEP_CONTROLLERS = 'lockstep_controllers'
 
 JOINT_DIMENSION = 'joint'
 """Label of the one layout dimension of every joint-vector topic."""

@@ -8,7 +8,7 @@ is kept for late readers only where it is a record or a latched state: the plant
 
 The glove's own recorders (the runners' run record, the bag ``recorder``, the testing kit) lose
 nothing of a stream because no plant steps before every node of the session has matched their
-readers (the session protocol, :mod:`.session`), and they keep deep queues
+readers (the session protocol, :mod:`.handshake`), and they keep deep queues
 (:data:`RECORD_QOS`) for when they fall behind. A subscriber with the default rclpy profile
 (``depth=10``, volatile) matches every publisher.
 """

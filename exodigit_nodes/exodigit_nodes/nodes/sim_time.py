@@ -8,8 +8,9 @@ member has its answer (a command: ``pressure_command``, or ``valve_command`` wit
 member whose controller stays silent for ``lockstep_timeout`` wall seconds unlocks the clock: the
 silent members vent and every member steps on at real time until the silent ones answer again.
 ``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger, one step while paused) are
-served by the owner node, ``pause_at`` pauses once simulated time reaches it, and no step goes
-past ``run_until`` until it is raised.
+served by the owner node, which also says on ``lockstep_controllers`` (diagnostic_msgs/
+DiagnosticStatus, latched) which controllers its members have matched both ways; ``pause_at``
+pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
 ``reset_simulation`` (std_srvs/Trigger, as Gazebo's) starts a new session: every member rebuilt
 from its parameters (a new patient's ``params_file`` and ``seed``), simulated time back to zero,
 the rest state published as step 1; so ``/clock`` jumps back, the standard signal on which the
@@ -23,11 +24,13 @@ A member is a :class:`.plant.Plant`; what is asked of it is :class:`Member`.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 from typing import Protocol
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMessage
@@ -35,10 +38,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from exodigit_model import GloveSimulation, GloveState
 
-from ..logic.pacing import CONTROLLERS_LABEL, Pacer, TimeSettings
-from .messages import CLOCK, RESET_SIMULATION, SET_PAUSED, STEP
+from ..logic.pacing import Pacer, TimeSettings
+from .messages import CLOCK, LOCKSTEP_CONTROLLERS, RESET_SIMULATION, SET_PAUSED, STEP, status
 from .node_base import ConfigurationError
-from .qos import STREAM_QOS
+from .qos import HANDED_OVER_QOS, STREAM_QOS
 
 POLL_LIMITS = (0.5e-3, 0.01)
 """Shortest and longest period of the simulated-time loop's wall timer, s."""
@@ -51,6 +54,8 @@ WAITING = (
     f'published once every new subscriber of the outputs is matched (at most {READER_WAIT:g} s)'
 )
 """What a service answers about a step it could not take at once."""
+CONTROLLERS_PERIOD = 0.02
+"""How often a paused clock looks again for the controllers its members have matched, wall s."""
 MEASURE_WINDOW = 0.5
 """Shortest wall time over which the real-time factor is measured, s (every member reports
 about once a second; the reports within one window share one measurement)."""
@@ -121,6 +126,11 @@ class SimulatedTime:
         self._measured = 0.0
         self.requested = 0  # steps asked for by a service, waiting for readers to match
         self.requested_since = 0.0
+        self.controllers: tuple[str, ...] | None = None
+        self.controllers_seen = -math.inf
+        self.controllers_publisher = owner.create_publisher(
+            DiagnosticStatus, LOCKSTEP_CONTROLLERS, HANDED_OVER_QOS
+        )
         owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
         owner.create_service(Trigger, STEP, self.on_step)
         owner.create_service(Trigger, RESET_SIMULATION, self.on_reset_simulation)
@@ -178,6 +188,8 @@ class SimulatedTime:
         """Take the steps that are due (and watch the lockstep timeout and the reader waits)."""
         wall = time.monotonic()
         self._take_requested(wall)
+        if self.paused and wall - self.controllers_seen >= CONTROLLERS_PERIOD:
+            self.publish_controllers(wall)
         if self.paused or not self.members:
             return
         if self.settings.lockstep and self.awaiting and not self.unlocked:
@@ -202,9 +214,7 @@ class SimulatedTime:
     ) -> SetBool.Response:
         """Pause (data true) or resume simulated time; a resumed lockstep waits for answers.
 
-        The answer says the state and the lockstep controllers matched; the log says it when
-        the state changed (a client that asks again and again for the controllers, as the
-        testing kit does while it waits for one, is logged at debug level).
+        The answer and the log say the state and the simulated time.
         """
         changed = request.data != self.paused
         if changed:
@@ -213,19 +223,36 @@ class SimulatedTime:
                 self.restart_pacing()
         response.success = True
         state = 'paused' if self.paused else 'running'
-        controllers = [name for member in self.members for name in member.lockstep_controllers()]
-        response.message = (
-            f'{state} at t = {self.t:.9f} s (step {self._step_number()}); '
-            f'{CONTROLLERS_LABEL}{", ".join(controllers) or "none"}'
-        )
-        # Two call sites: rclpy refuses one call site logging at two severities.
+        response.message = f'{state} at t = {self.t:.9f} s (step {self._step_number()})'
         if changed:
             self.owner.get_logger().info(response.message)
-        else:
-            self.owner.get_logger().debug(response.message)
+        self.publish_controllers(time.monotonic())
         if not self.paused:
             self.try_step(time.monotonic())
         return response
+
+    def publish_controllers(self, wall: float) -> None:
+        """Say on ``lockstep_controllers`` whom the members have matched both ways, if it changed.
+
+        A KeyValue per controller, keyed by its fully qualified name
+        (:meth:`Member.lockstep_controllers`): what the testing kit waits for before it
+        publishes a state that a controller it has just started must answer. Looked at every
+        `CONTROLLERS_PERIOD` while paused (it asks the graph, so not at every step) and at
+        every ``set_paused``.
+        """
+        self.controllers_seen = wall
+        controllers = tuple(n for member in self.members for n in member.lockstep_controllers())
+        if controllers != self.controllers:
+            self.controllers = controllers
+            self.controllers_publisher.publish(
+                status(
+                    self.owner.get_fully_qualified_name(),
+                    '',
+                    DiagnosticStatus.OK,
+                    f'{len(controllers)} lockstep controllers matched both ways',
+                    dict.fromkeys(controllers, 'publishes the commands, subscribes the states'),
+                )
+            )
 
     def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """While paused: one step with the latest commands; answered after it is published.

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..logic.inputs import InvalidInputError, valve_openings
-from ..logic.pacing import CONTROLLERS_LABEL, TimeSettings
+from ..logic.pacing import TimeSettings
 from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
 from ..nodes.dds import use_profile
 from ..nodes.run_options import time_parameters
@@ -425,16 +425,9 @@ class GloveSim:
         """
         names = ', '.join(controllers)
         self._wait(
-            lambda: set(controllers) <= self._plant_controllers(), f'the plant to match {names}'
+            lambda: set(controllers) <= self._node.lockstep_controllers,
+            f'the plant to match {names}',
         )
-
-    def _plant_controllers(self) -> set[str]:
-        """The controllers the plant has matched (its ``set_paused`` answer lists them)."""
-        response = self._call(
-            self._node.pause_client, self._node.pause_request(self._paused), 'set_paused'
-        )
-        listed = response.message.partition(CONTROLLERS_LABEL)[2]
-        return {name.strip() for name in listed.split(',')}
 
     def _next_state(self, *, with_estimate: bool = True) -> SimState:
         return self._wait(

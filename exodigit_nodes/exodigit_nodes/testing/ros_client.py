@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.srv import SetParameters
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -27,6 +28,7 @@ from ..nodes.messages import (
     CONTACT_FORCES,
     ESTIMATED_CONTACT_FORCES,
     JOINT_STATES,
+    LOCKSTEP_CONTROLLERS,
     PRESSURE_COMMAND,
     RESET,
     RESET_SIMULATION,
@@ -39,7 +41,7 @@ from ..nodes.messages import (
     set_double_request,
     valve_command_message,
 )
-from ..nodes.qos import RECORD_QOS, STREAM_QOS, record_profile
+from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, STREAM_QOS, record_profile
 from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
 from .records import SimState
 
@@ -101,6 +103,11 @@ class GloveClient(Node):
             self._vector_queue(None),
             record_profile(APPLIED_COMMAND),
         )
+        self.lockstep_controllers: set[str] = set()
+        """The controllers the plant has matched both ways (its ``lockstep_controllers``)."""
+        self.create_subscription(
+            DiagnosticStatus, LOCKSTEP_CONTROLLERS, self._take_controllers, HANDED_OVER_QOS
+        )
         self.command_message = valve_command_message() if valves else joint_vector_message()
         self.publisher = self.create_publisher(Float64MultiArray, self.command_topic, STREAM_QOS)
         plant = f'{namespace.rstrip("/")}/plant'
@@ -131,6 +138,9 @@ class GloveClient(Node):
             self.pause_client,
             self.parameter_client,
         )
+
+    def _take_controllers(self, message: DiagnosticStatus) -> None:
+        self.lockstep_controllers = {value.key for value in message.values}
 
     def _joint_queue(self, message: JointState) -> None:
         self.queues[JOINT_STATES].append(message)
