@@ -68,7 +68,7 @@ def test_simulated_time_options_on_the_wall_clock_are_refused_naming_the_command
 @pytest.mark.parametrize(
     ('values', 'message'),
     [
-        ({'real_time_factor': '-2'}, '--real-time-factor -2: real_time_factor must lie in'),
+        ({'real_time_factor': '-2'}, '--real-time-factor -2: real_time_factor = -2.0: must lie'),
         ({'real_time_factor': 'fast'}, '--real-time-factor fast: '),
         ({'pause_at': '-1'}, '--pause-at -1: '),
     ],

@@ -1,8 +1,10 @@
 """The checks every parameter file and dataclass of the package uses; a broken rule names its key.
 
 :class:`ParameterError` is the error: a ``ValueError`` whose message names the key, the value and
-the rule. The glove's parameters (:mod:`.params`), the populations and the trials
-(:mod:`.trials`) validate with these functions and read their YAML with :func:`read_yaml`.
+the rule (``key = value: must ...``). The glove's parameters (:mod:`.params`), the populations
+and the trials (:mod:`.trials`) validate with these functions and read their YAML with
+:func:`read_yaml`; the ROS nodes' parameter table (``exodigit_nodes.logic.parameters``) checks
+its values with them too.
 """
 
 from __future__ import annotations
@@ -27,6 +29,45 @@ def check_number(key: str, value: Any) -> float:
     if not math.isfinite(value):
         raise ParameterError(f'{key} = {value!r}: must be finite')
     return value
+
+
+def check_integer(key: str, value: Any) -> int:
+    """``value`` as an int (not a bool, not a float)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ParameterError(f'{key} = {value!r}: must be an integer')
+    return int(value)
+
+
+def check_flag(key: str, value: Any) -> bool:
+    """``value`` as a bool: true or false, nothing else."""
+    if not isinstance(value, bool):
+        raise ParameterError(f'{key} = {value!r}: must be true or false')
+    return value
+
+
+def check_choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
+    """``value``, one of ``choices``."""
+    if value not in choices:
+        raise ParameterError(f'{key} = {value!r}: must be one of {", ".join(choices)}')
+    return value
+
+
+def check_range(key: str, value: float, low: float | None, high: float | None) -> float:
+    """``value`` within [``low``, ``high``] (either end None: no limit on that side)."""
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise ParameterError(f'{key} = {value!r}: must {range_words(low, high)}')
+    return value
+
+
+def range_words(low: float | None, high: float | None) -> str:
+    """The rule of :func:`check_range` in words: ``lie in [0, 5]``, ``be >= 0``, ``''``."""
+    if low is not None and high is not None:
+        return f'lie in [{low:g}, {high:g}]'
+    if low is not None:
+        return f'be >= {low:g}'
+    if high is not None:
+        return f'be <= {high:g}'
+    return ''
 
 
 def check_positive(key: str, value: Any, unit: str) -> float:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .chambers import ChamberSettings
+from .checks import check_integer
 
 NANOSECONDS = 10**9
 ACTUATIONS = ('regulator', 'valves')
@@ -71,8 +72,7 @@ class SimulationSettings:
                 raise ValueError(f'{item.name} = {value!r}: must be finite and >= 0')
         if self.rate_hz <= 0.0:
             raise ValueError(f'rate_hz = {self.rate_hz!r}: must be > 0')
-        if not isinstance(self.seed, int):
-            raise ValueError(f'seed = {self.seed!r}: must be an integer')
+        check_integer('seed', self.seed)
         ChamberSettings(self.pressure_time_constant, self.max_supply_pressure)
 
     @property

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from ..checks import (
     ParameterError,
     build_checked,
+    check_choice,
     check_keys,
     check_name,
     check_number,
@@ -349,8 +350,7 @@ def _distribution(path: str, raw: Any) -> Distribution:
             )
         return Fixed(check_number(path, raw))
     kind = raw.get('kind')
-    if not isinstance(kind, str) or kind not in KINDS:
-        raise ParameterError(f'{path}.kind = {kind!r}: must be one of {", ".join(KINDS)}')
+    check_choice(f'{path}.kind', kind, tuple(KINDS))
     keys = [item.name for item in fields(KINDS[kind])]
     check_keys(path, raw, dict.fromkeys(['kind', *keys]))
     missing = [key for key in keys if key not in raw]

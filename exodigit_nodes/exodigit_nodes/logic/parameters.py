@@ -3,15 +3,24 @@
 Each node lists its parameters once as :class:`ParamSpec` rows (in :mod:`.catalog`). The same
 rows give the ROS ``ParameterDescriptor`` (see :mod:`.node_base`), the ``--help`` text, the
 ``config/*.yaml`` parameter files, and the checks that refuse a bad value with a reason naming the
-parameter. No rclpy here, so the rules are unit-testable.
+parameter (the model's :mod:`exodigit_model.checks`, one format for every parameter of the
+project). No rclpy here, so the rules are unit-testable.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from dataclasses import KW_ONLY, dataclass
 from typing import Any
+
+from exodigit_model.checks import (
+    ParameterError,
+    check_choice,
+    check_flag,
+    check_integer,
+    check_number,
+    check_range,
+)
 
 ParamValue = bool | int | float | str | tuple[float, ...] | tuple[str, ...]
 
@@ -55,74 +64,51 @@ class ParamSpec:
     files: bool = False
 
     def check(self, value: Any) -> ParamValue:
-        """``value`` converted to this parameter's type, or a ValueError naming the parameter."""
-        kind = type(self.default)
+        """``value`` converted to this parameter's type.
+
+        Raises
+        ------
+        exodigit_model.checks.ParameterError
+            A ValueError ``name = value: must ...``, from the checks the model's own
+            parameters use.
+        """
+        kind, name = type(self.default), self.name
         if kind is bool:
-            if not isinstance(value, bool):
-                raise ValueError(f'{self.name} must be true or false, got {value!r}')
-            return value
+            return check_flag(name, value)
         if kind is str and self.files:
             paths = [value] if isinstance(value, str) else value
             if not isinstance(paths, list | tuple) or not all(isinstance(p, str) for p in paths):
-                raise ValueError(
-                    f'{self.name} must be a file name or a list of file names, got {value!r}'
-                )
+                raise ParameterError(f'{name} = {value!r}: must be a file name or a list of them')
             return tuple(path for path in paths if path.strip())
         if kind is str:
-            if not isinstance(value, str):
-                raise ValueError(f'{self.name} must be a string, got {value!r}')
-            if self.required and not value.strip():
-                raise ValueError(f'{self.name} must not be empty')
-            if self.choices and value not in self.choices:
-                raise ValueError(
-                    f'{self.name} must be one of {", ".join(self.choices)}, got {value!r}'
-                )
-            return value
+            if not isinstance(value, str) or (self.required and not value.strip()):
+                raise ParameterError(f'{name} = {value!r}: must be a non-empty string')
+            return check_choice(name, value, self.choices) if self.choices else value
         if kind is tuple:
-            if isinstance(value, str | bytes) or not isinstance(value, Iterable):
-                raise ValueError(f'{self.name} must be a list of 3 numbers, got {value!r}')
-            items = list(value)
-            if len(items) != len(self.default):
-                raise ValueError(
-                    f'{self.name} must be a list of {len(self.default)} numbers (MCP, PIP, DIP), '
-                    f'got {len(items)}'
+            size = len(self.default)
+            listed = not isinstance(value, str | bytes) and isinstance(value, Iterable)
+            if not listed or len(items := list(value)) != size:
+                raise ParameterError(
+                    f'{name} = {value!r}: must be a list of {size} numbers (MCP, PIP, DIP)'
                 )
             return tuple(self._number(item, float) for item in items)
         return self._number(value, kind)
 
     def _number(self, value: Any, kind: type) -> float | int:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ValueError(f'{self.name} must be a number, got {value!r}')
-        if kind is int and not isinstance(value, int):
-            raise ValueError(f'{self.name} must be an integer, got {value!r}')
-        if not math.isfinite(value):
-            raise ValueError(f'{self.name} must be finite, got {value!r}')
-        if (self.low is not None and value < self.low) or (
-            self.high is not None and value > self.high
-        ):
-            bounds = self._bounds('lie in [{}, {}]', 'be {}')
-            raise ValueError(f'{self.name} must {bounds}, got {value!r}')
-        return kind(value)
-
-    def _bounds(self, both: str, one: str = '{}') -> str:
-        """The range in words (empty without one).
-
-        ``both`` filled with low and high when the range has both ends, else ``one`` filled
-        with ``>= low`` or ``<= high``.
-        """
-        if self.low is not None and self.high is not None:
-            return both.format(f'{self.low:g}', f'{self.high:g}')
-        if self.low is not None:
-            return one.format(f'>= {self.low:g}')
-        if self.high is not None:
-            return one.format(f'<= {self.high:g}')
-        return ''
+        number = check_integer(self.name, value) if kind is int else check_number(self.name, value)
+        return check_range(self.name, number, self.low, self.high)
 
     def rule(self) -> str:
         """The rule a value follows, as ``--help`` shows it: ``[1 .. 5000] (read-only)``."""
-        allowed = self._bounds('[{} .. {}]')
+        low, high = self.low, self.high
         if self.choices:
             allowed = f'{{{", ".join(self.choices)}}}'
+        elif low is not None and high is not None:
+            allowed = f'[{low:g} .. {high:g}]'
+        elif low is not None or high is not None:
+            allowed = f'>= {low:g}' if high is None else f'<= {high:g}'
+        else:
+            allowed = ''
         return ' '.join(filter(None, (allowed, '(read-only)' if self.read_only else '')))
 
     def help_line(self) -> str:
@@ -164,7 +150,7 @@ class ParamTable:
         for name, value in values.items():
             spec = self.specs.get(name)
             if spec is None:
-                raise ValueError(f'{name} is not a parameter of this node')
+                raise ParameterError(f'{name} is not a parameter of this node')
             checked[name] = spec.check(value)
         return checked
 
