@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from model_reference import (
@@ -15,6 +16,10 @@ from model_reference import (
 from exodigit_model import GloveModel, params_from_dict
 
 EXAMPLES = 50
+
+# Random gloves at up to 60 kPa may stretch a fibre or bend a joint past the validated ranges,
+# which the model warns of; every property here must hold there all the same.
+pytestmark = pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
 """Examples per property (each builds a model, ~50 ms)."""
 RESIDUAL_BOUND = 1e-10
 """Largest residual norm a converged solve may report, N·m."""
