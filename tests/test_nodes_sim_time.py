@@ -28,7 +28,7 @@ import pytest
 from builtin_interfaces.msg import Time
 from exodigit_model.params import patient_file
 from exodigit_model.settings import step_time_ns
-from exodigit_nodes.nodes import sim_time
+from exodigit_nodes.nodes import sim_services
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
@@ -354,7 +354,7 @@ def test_a_service_step_waits_for_new_readers_in_the_loop_not_in_the_callback(pr
 
 
 def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch):
-    monkeypatch.setattr(sim_time, 'READER_WAIT', 0.0)
+    monkeypatch.setattr(sim_services, 'READER_WAIT', 0.0)
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
     try:
         node.node.readers_matched = lambda: False
@@ -409,7 +409,7 @@ def listed(node: InProcessNode) -> list[list[str]]:
 def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, monkeypatch):
     # The typed answer the testing kit waits on before it publishes a state that a controller
     # it has just started must answer: a node that publishes commands and reads the states.
-    monkeypatch.setattr(sim_time, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
+    monkeypatch.setattr(sim_services, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
     plant = node.node
     try:

@@ -77,7 +77,8 @@ from .messages import (
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model, run
 from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
-from .sim_time import WAITING, SimulatedTime
+from .sim_services import WAITING
+from .sim_time import SimulatedTime
 
 LATE_FACTOR = 1.5
 """A wall-clock cycle is late when it starts more than this many periods after the previous."""
@@ -314,7 +315,7 @@ class Plant(GloveNode):
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
         if self.time is not None:
-            if self.time.request_step():
+            if self.time.services.request_step():
                 response.message += f' (rest state published at t = {self.state.t:.9f} s)'
             else:
                 response.message += f' (rest state {WAITING})'

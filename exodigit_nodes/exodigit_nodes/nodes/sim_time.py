@@ -7,14 +7,10 @@ outputs, and the steps are paced at ``real_time_factor`` simulated seconds per w
 member has its answer (a command: ``pressure_command``, or ``valve_command`` with valves); a
 member whose controller stays silent for ``lockstep_timeout`` wall seconds unlocks the clock: the
 silent members vent and every member steps on at real time until the silent ones answer again.
-``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger, one step while paused) are
-served by the owner node, which also says on ``lockstep_controllers`` (diagnostic_msgs/
-DiagnosticStatus, latched) which controllers its members have matched both ways; ``pause_at``
-pauses once simulated time reaches it, and no step goes past ``run_until`` until it is raised.
-``reset_simulation`` (std_srvs/Trigger, as Gazebo's) starts a new session: every member rebuilt
-from its parameters (a new patient's ``params_file`` and ``seed``), simulated time back to zero,
-the rest state published as step 1; so ``/clock`` jumps back, the standard signal on which the
-other nodes start over (docs/spec/ros.md, "When time goes back").
+``pause_at`` pauses once simulated time reaches it, and no step goes past ``run_until`` until it
+is raised. The owner node serves ``set_paused``, ``step`` and ``reset_simulation`` (a new
+session: simulated time back to zero, so ``/clock`` jumps back, the standard signal on which the
+other nodes start over) and says whom lockstep waits for: :mod:`.sim_services`.
 
 A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
 (:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
@@ -24,38 +20,26 @@ A member is a :class:`.plant.Plant`; what is asked of it is :class:`Member`.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import replace
 from typing import Protocol
 
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMessage
-from std_srvs.srv import SetBool, Trigger
 
 from exodigit_model import GloveSimulation, GloveState
 
 from ..logic.pacing import Pacer, TimeSettings
-from .messages import CLOCK, LOCKSTEP_CONTROLLERS, RESET_SIMULATION, SET_PAUSED, STEP, status
-from .node_base import ConfigurationError
-from .qos import HANDED_OVER_QOS, STREAM_QOS
+from .messages import CLOCK
+from .qos import STREAM_QOS
+from .sim_services import TimeServices
 
 POLL_LIMITS = (0.5e-3, 0.01)
 """Shortest and longest period of the simulated-time loop's wall timer, s."""
 FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
-READER_WAIT = 2.0
-"""Longest wait of a service-triggered step for new subscribers to be matched, wall s (the
-simulated-time loop waits, not the service callback)."""
-WAITING = (
-    f'published once every new subscriber of the outputs is matched (at most {READER_WAIT:g} s)'
-)
-"""What a service answers about a step it could not take at once."""
-CONTROLLERS_PERIOD = 0.02
-"""How often a paused clock looks again for the controllers its members have matched, wall s."""
 MEASURE_WINDOW = 0.5
 """Shortest wall time over which the real-time factor is measured, s (every member reports
 about once a second; the reports within one window share one measurement)."""
@@ -124,16 +108,7 @@ class SimulatedTime:
         self.timer = None
         self._measure_marks = (time.monotonic(), 0.0)
         self._measured = 0.0
-        self.requested = 0  # steps asked for by a service, waiting for readers to match
-        self.requested_since = 0.0
-        self.controllers: tuple[str, ...] | None = None
-        self.controllers_seen = -math.inf
-        self.controllers_publisher = owner.create_publisher(
-            DiagnosticStatus, LOCKSTEP_CONTROLLERS, HANDED_OVER_QOS
-        )
-        owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
-        owner.create_service(Trigger, STEP, self.on_step)
-        owner.create_service(Trigger, RESET_SIMULATION, self.on_reset_simulation)
+        self.services = TimeServices(self)
 
     # -- members ---------------------------------------------------------------------------
 
@@ -187,9 +162,9 @@ class SimulatedTime:
     def on_timer(self) -> None:
         """Take the steps that are due (and watch the lockstep timeout and the reader waits)."""
         wall = time.monotonic()
-        self._take_requested(wall)
-        if self.paused and wall - self.controllers_seen >= CONTROLLERS_PERIOD:
-            self.publish_controllers(wall)
+        self.services.take_requested(wall)
+        if self.paused:
+            self.services.look_for_controllers(wall)
         if self.paused or not self.members:
             return
         if self.settings.lockstep and self.awaiting and not self.unlocked:
@@ -208,100 +183,6 @@ class SimulatedTime:
         budget = wall + FREE_RUN_BUDGET
         while self.try_step(wall) and wall < budget and not self.awaiting:
             wall = time.monotonic()
-
-    def on_set_paused(
-        self, request: SetBool.Request, response: SetBool.Response
-    ) -> SetBool.Response:
-        """Pause (data true) or resume simulated time; a resumed lockstep waits for answers.
-
-        The answer and the log say the state and the simulated time.
-        """
-        changed = request.data != self.paused
-        if changed:
-            self.paused = request.data
-            if not self.paused:
-                self.restart_pacing()
-        response.success = True
-        state = 'paused' if self.paused else 'running'
-        response.message = f'{state} at t = {self.t:.9f} s (step {self._step_number()})'
-        if changed:
-            self.owner.get_logger().info(response.message)
-        self.publish_controllers(time.monotonic())
-        if not self.paused:
-            self.try_step(time.monotonic())
-        return response
-
-    def publish_controllers(self, wall: float) -> None:
-        """Say on ``lockstep_controllers`` whom the members have matched both ways, if it changed.
-
-        A KeyValue per controller, keyed by its fully qualified name
-        (:meth:`Member.lockstep_controllers`): what the testing kit waits for before it
-        publishes a state that a controller it has just started must answer. Looked at every
-        `CONTROLLERS_PERIOD` while paused (it asks the graph, so not at every step) and at
-        every ``set_paused``.
-        """
-        self.controllers_seen = wall
-        controllers = tuple(n for member in self.members for n in member.lockstep_controllers())
-        if controllers != self.controllers:
-            self.controllers = controllers
-            self.controllers_publisher.publish(
-                status(
-                    self.owner.get_fully_qualified_name(),
-                    '',
-                    DiagnosticStatus.OK,
-                    f'{len(controllers)} lockstep controllers matched both ways',
-                    dict.fromkeys(controllers, 'publishes the commands, subscribes the states'),
-                )
-            )
-
-    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """While paused: one step with the latest commands; answered after it is published.
-
-        If new subscribers are not yet matched the answer comes first and says so
-        (:meth:`request_step`).
-        """
-        if not self.paused:
-            response.success = False
-            response.message = 'not paused: call set_paused (true) first'
-            return response
-        response.success = True
-        if self.request_step():
-            response.message = f'stepped to t = {self.t:.9f} s (step {self._step_number()})'
-        else:
-            response.message = f'step {self._step_number() + self.requested}: {WAITING}'
-        return response
-
-    def on_reset_simulation(
-        self, request: Trigger.Request, response: Trigger.Response
-    ) -> Trigger.Response:
-        """A new session: every member rebuilt from its parameters at t = 0, step 1 published.
-
-        Each member's simulation is built first: a ``params_file`` that no longer loads refuses
-        the reset (saying why) and changes nothing. Lockstep waits for the answer to the new
-        step 1 (an answer owed to the old session is void, a silent controller is forgiven);
-        paused stays paused; ``pause_at`` and ``run_until`` keep their values (simulated times:
-        set them for the new session). Step 1 is published at once unless a subscriber is not
-        yet matched (:meth:`request_step`), and its ``/clock`` goes back: the other nodes' sign
-        that a new session began.
-        """
-        try:
-            simulations = [member.new_simulation() for member in self.members]
-        except ConfigurationError as error:
-            response.success = False
-            response.message = f'simulation not reset: {error}'
-            return response
-        for member, simulation in zip(self.members, simulations, strict=True):
-            member.use_simulation(simulation)
-        self.awaiting, self.silent, self.requested = set(), set(), 0
-        self._measure_marks = (time.monotonic(), 0.0)
-        self.restart_pacing()
-        response.success = True
-        if self.request_step():
-            response.message = f'simulation reset: rest state published at t = {self.t:.9f} s'
-        else:
-            response.message = f'simulation reset: rest state {WAITING}'
-        self.owner.get_logger().info(response.message)
-        return response
 
     # -- stepping --------------------------------------------------------------------------
 
@@ -325,41 +206,17 @@ class SimulatedTime:
         run_until = self.settings.run_until
         return run_until > 0.0 and self.t + 0.5 * self.period > run_until
 
-    def request_step(self) -> bool:
-        """A step asked for by a service (``step``, ``reset``); whether it was taken at once.
-
-        A subscriber created just before the call must get the step: if the outputs have not
-        yet matched every subscriber the graph knows of their topics, the step is left to the
-        loop (:meth:`on_timer`), which takes it once they have, or after ``READER_WAIT`` wall
-        seconds anyway (saying so). The service callback never waits: a hand's other fingers
-        step on meanwhile.
-        """
-        if not self.requested and self._readers_matched():
-            self.step()
-            return True
-        if not self.requested:
-            self.requested_since = time.monotonic()
-        self.requested += 1
-        return False
-
-    def _take_requested(self, wall: float) -> None:
-        """Take the requested steps whose readers are matched or whose wait is over."""
-        if not self.requested:
-            return
-        matched = self._readers_matched()
-        if not matched and wall - self.requested_since < READER_WAIT:
-            return
-        if not matched:
-            self.owner.get_logger().warning(
-                f'subscribers still not matched after {READER_WAIT:g} s: taking the requested '
-                'step anyway (they may miss it)'
-            )
-        for _ in range(self.requested):
-            self.step()
-        self.requested = 0
-
-    def _readers_matched(self) -> bool:
+    def readers_matched(self) -> bool:
+        """Whether every member's outputs have matched every subscriber the graph lists."""
         return all(member.readers_matched() for member in self.members)
+
+    def set_paused(self, paused: bool) -> bool:
+        """Pause or resume (a resumed schedule starts at now); whether the state changed."""
+        changed = paused != self.paused
+        self.paused = paused
+        if changed and not paused:
+            self.restart_pacing()
+        return changed
 
     def step(self) -> None:
         """One step of every member: /clock, then each member's outputs stamped with its time."""
@@ -384,8 +241,18 @@ class SimulatedTime:
             self.paused = True
             self.owner.get_logger().info(f'paused at t = {t:.9f} s (pause_at)')
 
-    def _step_number(self) -> int:
+    @property
+    def step_number(self) -> int:
+        """The number of the latest step (0 before the first)."""
         return self.members[0].state.step if self.members else 0
+
+    def restart(self, simulations: list[GloveSimulation]) -> None:
+        """A new session: each member on its simulation (at rest at t = 0), nothing owed."""
+        for member, simulation in zip(self.members, simulations, strict=True):
+            member.use_simulation(simulation)
+        self.awaiting, self.silent = set(), set()
+        self._measure_marks = (time.monotonic(), 0.0)
+        self.restart_pacing()
 
     # -- pacing ----------------------------------------------------------------------------
 
