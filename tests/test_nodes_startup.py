@@ -3,7 +3,7 @@
 Every node reads its ``params_file`` through ``node_base.load_model``: each kind of bad file is
 checked there, without a process. Each node class is built in this process with a bad file and
 with a bad parameter, and must refuse with a ``ConfigurationError`` naming it. How a refusal
-leaves a process (``node_base.serve``: status 2, that one line on stderr, no traceback, nothing
+leaves a process (``process.serve``: status 2, that one line on stderr, no traceback, nothing
 else rclpy might print) is the same for every node: two processes check it, one per kind.
 """
 

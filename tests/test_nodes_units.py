@@ -294,7 +294,7 @@ def test_the_plain_logic_and_the_node_table_import_no_ros():
 
 @pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
 def test_help_lists_every_parameter_and_exits_0(node, capsys):
-    # In process: ``--help`` is answered before rclpy starts (node_base.run); the module's
+    # In process: ``--help`` is answered before rclpy starts (process.run); the module's
     # ``__main__`` line runs in every test that starts a node process.
     assert importlib.import_module(node.module).main(['--help']) == 0
     assert 'parameters:\n' + node.table.help() in capsys.readouterr().out

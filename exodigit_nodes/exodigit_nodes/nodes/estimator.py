@@ -48,7 +48,8 @@ from .messages import (
     fill,
     joint_vector_message,
 )
-from .node_base import GloveNode, load_model, run
+from .node_base import GloveNode, load_model
+from .process import run
 from .qos import BACKLOG_QOS, READER_QOS, STREAM_QOS
 
 

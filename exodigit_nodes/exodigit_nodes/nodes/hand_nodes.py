@@ -37,8 +37,8 @@ from rclpy.utilities import remove_ros_args
 
 from ..logic.options import UsageError
 from .hand_config import HandConfig, command_options, hand_config
-from .node_base import freeze_start_up, last_words, serve
 from .plant import Plant
+from .process import freeze_start_up, last_words, serve
 from .run_options import add_options
 from .sim_time import SimulatedTime
 

@@ -75,7 +75,8 @@ from .messages import (
     joint_vector_message,
     valve_command_message,
 )
-from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model, run
+from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model
+from .process import run
 from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
 from .sim_services import WAITING
 from .sim_time import SimulatedTime

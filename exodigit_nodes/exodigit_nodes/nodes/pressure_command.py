@@ -86,7 +86,8 @@ from .messages import (
     joint_vector_message,
     valve_command_message,
 )
-from .node_base import LOG_THROTTLE, GloveNode, load_model_params, run
+from .node_base import LOG_THROTTLE, GloveNode, load_model_params
+from .process import run
 from .qos import READER_QOS, STREAM_QOS
 
 if TYPE_CHECKING:

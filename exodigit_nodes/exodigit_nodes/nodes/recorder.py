@@ -44,7 +44,8 @@ from . import messages
 from .catalog import PLANT_NODE
 from .handshake import Ready, glove_nodes
 from .message_info import WithInfo
-from .node_base import ConfigurationError, serve
+from .node_base import ConfigurationError
+from .process import serve
 from .qos import record_profile
 
 TOPICS = {

@@ -20,7 +20,7 @@ The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`)
     starts it: the fingers share one simulated time, and on one EventsExecutor five fingers keep
     their pace on two cores, where fifteen processes do not (README, "A whole hand"). Its stop
     gives every command node's zero pressure before any node is destroyed
-    (:func:`..nodes.node_base.serve`).
+    (:func:`..nodes.process.serve`).
 
 With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
 a lone glove's to ``<run>/bag``, finger f's to ``<run>/bag/f``; it starts first and stops last.
