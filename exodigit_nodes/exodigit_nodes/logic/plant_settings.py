@@ -9,6 +9,7 @@ from typing import Any
 from exodigit_model import SimulationSettings
 
 from .pacing import TimeSettings
+from .parameters import describe_files
 
 
 @dataclass(frozen=True)
@@ -61,4 +62,26 @@ def plant_settings(values: Mapping[str, Any]) -> PlantSettings:
             pause_at=values['pause_at'],
             run_until=values['run_until'],
         ),
+    )
+
+
+def start_line(values: Mapping[str, Any], settings: PlantSettings) -> str:
+    """What the plant logs as it starts: rate, time source, model files, actuation, timeout."""
+    time = settings.time
+    if values['clock'] == 'sim':
+        timeout = f'{time.lockstep_timeout:g} s' if time.lockstep_timeout > 0.0 else 'none'
+        lockstep = f'on, answer timeout {timeout}' if time.lockstep else 'off'
+        time_source = (
+            f'simulated time (real-time factor {time.real_time_factor:g}, lockstep {lockstep})'
+        )
+    else:
+        time_source = 'the wall clock'
+    if values['actuation'] == 'valves':
+        actuation = 'valves on valve_command'
+    else:
+        actuation = f'chamber lag {settings.simulation.pressure_time_constant:g} s'
+    return (
+        f'plant running at {values["rate_hz"]:g} Hz on {time_source}, model from '
+        f'{describe_files(values["params_file"])}, {actuation}, command timeout '
+        f'{settings.command_timeout:g} s'
     )

@@ -35,6 +35,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from std_msgs.msg import Bool
 
+from ..logic.pacing import known_node
 from .qos import HANDED_OVER_QOS
 from .repeated_call import RepeatedCall
 
@@ -74,6 +75,27 @@ def matched_every_listed(node: Node, publisher, least: int = 0) -> bool:
     """
     listed = node.count_subscribers(publisher.topic_name)
     return publisher.get_subscription_count() >= max(listed, least)
+
+
+def controllers_matched(node: Node, commands, states) -> list[str]:
+    """Nodes that publish on ``commands`` and read ``states``, both matched with ``node``.
+
+    ``commands`` is a subscription of ``node``, ``states`` one of its publishers; nobody until
+    the subscription has matched every publisher the graph lists. Fully qualified names,
+    sorted; a node whose name the graph does not know yet is left out.
+    """
+    if node.count_publishers(commands.topic_name) > commands.get_publisher_count():
+        return []
+    publishers = node.get_publishers_info_by_topic(commands.topic_name)
+    readers = node.get_subscriptions_info_by_topic(states.topic_name)
+    listening = {(info.node_namespace, info.node_name) for info in readers}
+    return sorted(
+        f'{namespace.rstrip("/")}/{name}'
+        for namespace, name in {
+            (i.node_namespace, i.node_name) for i in publishers if known_node(i)
+        }
+        if (namespace, name) in listening
+    )
 
 
 class Handshake:

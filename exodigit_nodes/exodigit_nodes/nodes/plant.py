@@ -21,14 +21,8 @@ is the record of what drove the glove from its first step, which a late reader s
 (transient-local), whatever the controller's QoS.
 
 Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
-``rate_hz``. With ``clock:=sim`` it owns simulated time: step k is at t_k = round(k·10⁹/rate_hz)
-ns, published on ``/clock`` before that step's outputs, paced at ``real_time_factor`` simulated
-seconds per wall second (0 = as fast as possible). ``lockstep:=true`` keeps one step in flight:
-after publishing a step the plant waits for a ``pressure_command`` (the answer) before the next;
-no answer within ``lockstep_timeout`` wall seconds and it vents and steps on at real time until
-a command comes. Services ``set_paused`` (std_srvs/SetBool) and ``step`` (std_srvs/Trigger,
-one step while paused) control simulated time; ``pause_at`` pauses at a given simulated time,
-``run_until`` holds the steps there until it is raised.
+``rate_hz``; with ``clock:=sim`` it owns simulated time (:mod:`.sim_time`: ``/clock``, pacing,
+lockstep, pause; :mod:`.sim_services`: ``set_paused``, ``step``, ``reset_simulation``).
 
 Run: ``python -m exodigit_nodes.nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or,
 for a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
@@ -37,47 +31,37 @@ for a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor
 from __future__ import annotations
 
 import time
-from array import array
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_model.settings import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
-from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState
+from exodigit_model import GloveSimulation, GloveState
 
 from ..logic.inputs import InvalidInputError, joint_vector, valve_openings
-from ..logic.pacing import TIME_SETTING_NAMES, known_node
-from ..logic.parameters import describe_files
+from ..logic.pacing import TIME_SETTING_NAMES
 from ..logic.plant_report import StepCounts, plant_report
-from ..logic.plant_settings import PlantSettings, plant_settings
+from ..logic.plant_settings import PlantSettings, plant_settings, start_line
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
-from .handshake import matched_every_listed
+from .handshake import controllers_matched, matched_every_listed
 from .markers import GloveMarkers
 from .messages import (
-    APPLIED_COMMAND,
-    CHAMBER_PRESSURE,
-    CONTACT_FORCES,
-    JOINT_STATES,
     MARKERS,
     PATIENT_EFFORT,
     PRESSURE_COMMAND,
     RESET,
-    SEGMENT_LENGTHS,
     VALVE_COMMAND,
-    fill,
-    joint_vector_message,
-    valve_command_message,
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model
+from .plant_outputs import PlantOutputs
 from .process import run
-from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
+from .qos import READER_QOS, STREAM_QOS
 from .sim_services import WAITING
 from .sim_time import SimulatedTime
 
@@ -111,34 +95,10 @@ class Plant(GloveNode):
         self.late_cycles = 0
         self._last_wall: float | None = None
 
-        self.joint_state = JointState()
-        self.joint_state.name = [values['joint_prefix'] + name for name in JOINT_NAMES]
-        self.pressure_message = joint_vector_message()
-        self.force_message = joint_vector_message()
-        self.length_message = joint_vector_message()
-        self.applied_message = valve_command_message() if self.valves else joint_vector_message()
-        # Outputs first, then the input: a controller that sees our command subscription has
-        # seen the outputs announced too.
-        self.pressure_publisher = self.create_publisher(
-            Float64MultiArray, CHAMBER_PRESSURE, STREAM_QOS
-        )
-        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, STREAM_QOS)
-        self.force_publisher = self.create_publisher(Float64MultiArray, CONTACT_FORCES, STREAM_QOS)
-        self.length_publisher = self.create_publisher(
-            Float64MultiArray, SEGMENT_LENGTHS, STREAM_QOS
-        )
-        self.applied_publisher = self.create_publisher(
-            Float64MultiArray, APPLIED_COMMAND, APPLIED_QOS
-        )
-        self.outputs = (
-            self.pressure_publisher,
-            self.joint_publisher,
-            self.force_publisher,
-            self.length_publisher,
-            self.applied_publisher,
-        )
+        self.published = PlantOutputs(self, values['joint_prefix'], valves=self.valves)
+        self.outputs = self.published.publishers
         # What the first steps apply, before any command: the record starts with the vent.
-        self.applied_publisher.publish(fill(self.applied_message, self.command))
+        self.published.publish_applied(self.command)
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, STREAM_QOS)
         self.command_subscription = self.create_subscription(
             Float64MultiArray, self.command_topic, self.on_command, READER_QOS
@@ -160,26 +120,7 @@ class Plant(GloveNode):
         # After the step's timer (fired together, the report shows that step). With clock sim on
         # the wall clock: a paused plant still reports, whatever its use_sim_time.
         self.create_timer(self.values['diagnostic_period'], self.report, clock=self.report_clock)
-        if self.lockstep and settings.time.lockstep_timeout > 0.0:
-            timeout = f'{settings.time.lockstep_timeout:g} s'
-        else:
-            timeout = 'none'
-        time_source = (
-            f'simulated time (real-time factor {settings.time.real_time_factor:g}, lockstep '
-            f'{"on, answer timeout " + timeout if self.lockstep else "off"})'
-            if self.sim_clock
-            else 'the wall clock'
-        )
-        self.get_logger().info(
-            f'plant running at {values["rate_hz"]:g} Hz on {time_source}, model from '
-            f'{describe_files(values["params_file"])}, '
-            + (
-                f'valves on {VALVE_COMMAND}'
-                if self.valves
-                else f'chamber lag {settings.simulation.pressure_time_constant:g} s'
-            )
-            + f', command timeout {settings.command_timeout:g} s'
-        )
+        self.get_logger().info(start_line(values, settings))
 
     # -- parameters ------------------------------------------------------------------------
 
@@ -283,7 +224,7 @@ class Plant(GloveNode):
         else:
             if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{topic} again: venting stopped')
-        self.applied_publisher.publish(fill(self.applied_message, self.command))
+        self.published.publish_applied(self.command)
         if self.lockstep:
             self.time.on_answer(self)
 
@@ -373,22 +314,8 @@ class Plant(GloveNode):
         return state
 
     def publish_state(self, state: GloveState, stamp) -> None:
-        """Publish the step's chamber_pressure, joint_states, contact_forces, segment_lengths."""
-        message = self.joint_state
-        message.header.stamp = stamp
-        message.position = array('d', state.q_measured)
-        message.velocity = array('d', state.qdot)
-        message.effort = array('d', state.finger_torque)
-        fill(self.pressure_message, state.pressure_measured)
-        fill(self.force_message, state.forces)
-        fill(self.length_message, state.lengths)
-        # Pressure first, then the rest, back to back: the estimator, the live summary and
-        # exodigit plot pair a step's messages by the times they were sent, each with the
-        # chamber_pressure sent before it (exodigit_model.joining).
-        self.pressure_publisher.publish(self.pressure_message)
-        self.joint_publisher.publish(message)
-        self.force_publisher.publish(self.force_message)
-        self.length_publisher.publish(self.length_message)
+        """Publish the step's outputs (:meth:`.PlantOutputs.publish_state`)."""
+        self.published.publish_state(state, stamp)
 
     # -- lockstep (asked by SimulatedTime) ------------------------------------------------
 
@@ -411,25 +338,13 @@ class Plant(GloveNode):
     def lockstep_controllers(self) -> list[str]:
         """Nodes that publish our commands and subscribe our states, both matched with us.
 
-        What a test harness asks (the ``set_paused`` response lists them) before it publishes a
-        state that a controller it has just started must not miss.
+        What the simulated clock says on ``lockstep_controllers`` (:mod:`.sim_services`), which
+        the testing kit waits on before it publishes a state a controller it has just started
+        must not miss.
         """
-        if not (
-            self.readers_matched()
-            and self.command_subscription.get_publisher_count()
-            >= self.count_publishers(self.command_topic)
-        ):
+        if not self.readers_matched():
             return []
-        publishers = self.get_publishers_info_by_topic(self.command_subscription.topic_name)
-        readers = self.get_subscriptions_info_by_topic(self.joint_publisher.topic_name)
-        listening = {(info.node_namespace, info.node_name) for info in readers}
-        return sorted(
-            f'{namespace.rstrip("/")}/{name}'
-            for namespace, name in {
-                (i.node_namespace, i.node_name) for i in publishers if known_node(i)
-            }
-            if (namespace, name) in listening
-        )
+        return controllers_matched(self, self.command_subscription, self.published.joints)
 
     def stamp(self):
         """The stamp of what the plant publishes now: simulated time, or the node clock."""
