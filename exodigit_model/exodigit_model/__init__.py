@@ -52,7 +52,7 @@ EXPORTS = {
 
 They are imported on first use (PEP 562), so that a process that needs only the parameters,
 the joiner or the controllers (a recorder, a runner, ``pressure_command``) never imports numba
-and its compiled kernels: about 0.45 s of CPU and 100 MB per process (README, "Compiled model").
+and its compiled kernels: about 0.45 s of CPU and 100 MB per process (docs/compiled.md).
 """
 
 __all__ = sorted(EXPORTS)

@@ -35,7 +35,7 @@ GLOVE = hand_runner.Command(
                                                       # 60 simulated s, as fast as the CPU allows
 
 ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed to
-every node; see the README, "Networking".""",
+every node; see docs/networking.md.""",
 )
 
 

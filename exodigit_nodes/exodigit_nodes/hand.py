@@ -29,7 +29,7 @@ HAND = hand_runner.Command(
   python -m exodigit_nodes.hand --ros-params fast.yaml  # /**: ros__parameters: rate_hz: 200
 
 ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed on;
-see the README, "Networking".""",
+see docs/networking.md.""",
 )
 
 

@@ -19,7 +19,7 @@ pressure_command's ``output`` valves (docs/spec/ros.md, "Valves").
 Like that runner, the glove is one unit: when any of its nodes exits, launch stops the other two
 and ends; ``ros2 launch`` then exits 1 if that node failed (non-zero code, or killed by a
 signal) and 0 after a clean exit or Ctrl-C. Without a ROS install, ``python -m
-exodigit_nodes.glove`` starts the same three nodes (README, "Running the glove").
+exodigit_nodes.glove`` starts the same three nodes (docs/running.md).
 """
 
 import os

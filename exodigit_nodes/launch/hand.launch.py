@@ -6,7 +6,7 @@
 
 Starts the ``hand_nodes`` executable once, as the venv runner does (``estimator:=false`` leaves
 the estimators out); finger f in ``<namespace>/<f>`` with joint prefix ``f_`` and its model
-``config/hand/<f>.yaml`` (README, "A whole hand"). The launch arguments are the
+``config/hand/<f>.yaml`` (docs/running.md, "A whole hand"). The launch arguments are the
 options of ``hand_nodes --help``, with their choices and defaults, from one table
 (``exodigit_nodes.nodes.hand_config.command_options``) that the venv runner ``python -m
 exodigit_nodes.hand`` reads too. When the process exits the launch ends, and fails (exit 1) if

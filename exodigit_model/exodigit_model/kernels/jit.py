@@ -128,14 +128,14 @@ def kernel(function: Function | None = None, *, counted: bool = True, forceinlin
         return lambda decorated: kernel(decorated, counted=counted, forceinline=forceinline)
     if not JIT:
         return function
-    from ..compiling import announce_compiles  # here: compiling imports this module
+    from ..compiling import announce_compiles  # here: it imports numba, which JIT has
 
-    announce_compiles()  # one log line when the kernels compile (README, "Compiled model")
+    directory = cache_directory()
+    announce_compiles(directory)  # one log line when the kernels compile (docs/compiled.md)
     options = dict(_OPTIONS)
     if not counted:
         options['_nrt'] = False
     options['forceinline'] = forceinline
-    directory = cache_directory()
     if directory is not None:
         compiled = _cached(function, directory, options)
         if compiled is not None:
@@ -251,7 +251,7 @@ def _warn_in_memory(reason: str) -> None:
     warnings.warn(
         f'exodigit_model kernels cannot be cached ({reason}): numba compiles them in memory in '
         'every process, which costs as long as a cold `python -m exodigit_model.kernels.warm` '
-        '(README, "Compiled model"). Set NUMBA_CACHE_DIR to a writable directory to compile '
+        '(docs/compiled.md). Set NUMBA_CACHE_DIR to a writable directory to compile '
         'them once.',
         RuntimeWarning,
         stacklevel=4,  # the kernel's module: _warn_in_memory < cache_directory/_cached < kernel

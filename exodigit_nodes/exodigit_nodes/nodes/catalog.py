@@ -8,9 +8,9 @@ from it (a test checks the committed files against it)::
 
     python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config
 
-The README's parameter blocks are each node's ``--help`` (:meth:`.ParamTable.help`), also checked
-by a test. No rclpy here, so the launch file and the tests read the table without ROS;
-:meth:`NodeEntry.node_class` imports a node's module only when asked.
+Each node's ``--help`` lists the same rows (:meth:`.ParamTable.help`). No rclpy here, so the
+launch file and the tests read the table without ROS; :meth:`NodeEntry.node_class` imports a
+node's module only when asked.
 """
 
 from __future__ import annotations

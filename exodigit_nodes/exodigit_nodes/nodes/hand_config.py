@@ -45,8 +45,8 @@ GLOVE_TIME_OPTIONS = ('real_time_factor', 'lockstep')
 """The time options of the lone glove's command (the hand has every one of TIME_OPTIONS)."""
 DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
 """The finger the plants simulate by default: the glove's shows the estimator identifying a
-patient who is not the finger it assumes (README, "Running the glove"); a hand's fingers are
-their own files' (README, "A whole hand")."""
+patient who is not the finger it assumes (docs/running.md); a hand's fingers are
+their own files' (docs/running.md, "A whole hand")."""
 
 
 def hand_config_dir() -> Path:

@@ -6,7 +6,7 @@ joint names ``<finger>_mcp, ...``: a ``plant`` of the finger's model file
 ``pressure_command`` in ``--mode``, both assuming the finger's nominal model. Every finger keeps
 its own topics, services, parameters and /diagnostics, exactly as a glove started node by node;
 only the processes differ. ``--estimator false`` leaves the estimators out. The hand runner and
-the launch file start a hand as this one process (README, "A whole hand", has its speed).
+the launch file start a hand as this one process (docs/running.md, "A whole hand", has its speed).
 
 Time: with ``--clock wall`` each plant steps on the system clock. With ``--clock sim`` the hand
 has one simulated time (:class:`.sim_time.SimulatedTime`): every finger steps together, ``/clock``

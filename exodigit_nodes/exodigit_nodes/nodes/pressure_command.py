@@ -245,7 +245,7 @@ class PressureCommand(GloveNode):
         """The feed-forward's model, built when a controller first needs it.
 
         Only ``position`` and ``force`` do: a node in another mode never imports numba nor
-        loads a kernel, half its start-up CPU (README, "Compiled model").
+        loads a kernel, half its start-up CPU (docs/compiled.md).
         """
         return exodigit_model.GloveModel(self.params)
 

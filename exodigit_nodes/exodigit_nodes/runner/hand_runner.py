@@ -18,8 +18,8 @@ The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`)
 ``hand_nodes``
     Every node of every finger in one ``hand_nodes`` process, as ``launch/hand.launch.py``
     starts it: the fingers share one simulated time, and on one EventsExecutor five fingers keep
-    their pace on two cores, where fifteen processes do not (README, "A whole hand"). Its stop
-    gives every command node's zero pressure before any node is destroyed
+    their pace on two cores, where fifteen processes do not (docs/running.md, "A whole hand").
+    Its stop gives every command node's zero pressure before any node is destroyed
     (:func:`..nodes.process.serve`).
 
 With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
@@ -301,7 +301,7 @@ def banner(config: RunConfig, session: Session) -> str:
 def main(command: Command, argv: Sequence[str] | None = None) -> int:
     """Run ``command``; the exit code (0 clean stop, 1 a process failed, 2 bad input).
 
-    The discovery settings of the environment (README "Networking") go to every process and to
+    The discovery settings of the environment (docs/networking.md) go to every process and to
     this one's own ROS context. 2, with one line on stderr, for refused options or settings or a
     run directory (``--out``, default a new ``runs/<time>``) that cannot be written.
     """
