@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..checks import check_non_negative, check_number, check_positive
+from ..checks import check_flag, check_non_negative, check_number, check_positive
 from ..control import (
     LOOP_PARAMETERS,
     MODE_DEFAULTS,
@@ -52,12 +52,6 @@ if TYPE_CHECKING:
 
 Check = Callable[[str, Any], Any]
 """check(name, value) -> the value to use, or a ValueError naming the parameter."""
-
-
-def _flag(name: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f'{name} = {value!r}: must be true or false')
-    return value
 
 
 def _pressures(name: str, value: Any) -> tuple[float, ...]:
@@ -124,7 +118,7 @@ COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
         name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else check_number)
         for name, field_name in LIMIT_NAMES.items()
     },
-    'estimate_forces': (False, _flag),
+    'estimate_forces': (False, check_flag),
 }
 """Parameters of every mode: the node's safety limits (SafetyLimits checks them together) and
 ``estimate_forces``: whether the limiter gets the nominal model's robot-side force estimate
