@@ -41,7 +41,9 @@ INSTALL_INPUTS := requirements/ros.txt requirements/dev.txt requirements/docs.tx
 # The kernels' cache is named after their sources (exodigit_model/kernels/jit.py); the modules
 # that call them decide their argument types, hence which signatures the warm-up compiles.
 WARM_INPUTS := $(wildcard exodigit_model/exodigit_model/kernels/*.py \
-	                    exodigit_model/exodigit_model/*.py)
+	                    exodigit_model/exodigit_model/physics/*.py \
+	                    exodigit_model/exodigit_model/stepping/*.py \
+	                    exodigit_model/exodigit_model/tools/warm.py)
 
 # The site is built again when a page, a picture or a docstring changed (like the kernels' cache
 # above); every build starts afresh (-E), so each warning of every page shows, and fails (-W).
@@ -67,7 +69,7 @@ $(VENV)/.installed: $(INSTALL_INPUTS)
 # Compiles every kernel into the cache (or only loads it when nothing changed) and removes the
 # caches of older kernel sources.
 $(VENV)/.warm: $(VENV)/.installed $(WARM_INPUTS)
-	$(BIN)/python -m exodigit_model.kernels.warm
+	$(BIN)/python -m exodigit_model.tools.warm
 	touch $@
 
 run: warm

@@ -9,7 +9,7 @@ estimate of the batch (``Feedback.of_state`` with an estimator, what the force m
 limiter's contact-force check need) and a whole ``BuiltInMode`` step with it, and
 ``PolicyController`` around a policy that costs nothing.
 
-Run ``python -m exodigit_model.kernels.warm`` first (``make bench`` does), then
+Run ``python -m exodigit_model.tools.warm`` first (``make bench`` does), then
 ``.venv/bin/python benchmarks/bench_control.py`` (``--help``: the options). The feedback is a
 batch of gloves on the nominal model after a short staircase (states inside the range of
 motion). Each figure: ``--steps`` calls timed as one loop, ``--repeats`` times, after one
@@ -40,7 +40,7 @@ from exodigit_model.control import (
     Sine,
     Staircase,
 )
-from exodigit_model.gym import GloveEnv, PolicyController
+from exodigit_model.gym.env import GloveEnv, PolicyController
 
 from exodigit_model import GloveModel, GloveSimulation
 

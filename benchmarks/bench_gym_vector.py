@@ -13,7 +13,7 @@ NEXT_STEP autoreset: every sub-environment that stepped, not those being reset. 
 env-steps per CPU second (``process_time``; the machine is a shared VM) and per wall second, the
 median and the range, then a profile of one run with the limiter, where the time goes.
 
-Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
+Run ``python -m exodigit_model.tools.warm`` first, so that no kernel compiles here.
 Run: ``.venv/bin/python benchmarks/bench_gym_vector.py [--envs 1000] [--repeats 5] [--valves]``.
 """
 
@@ -25,8 +25,8 @@ import statistics
 import time
 
 import numpy as np
-from exodigit_model.gym import NODE_SAFETY
-from exodigit_model.gym_vector import GloveVectorEnv
+from exodigit_model.gym.env import NODE_SAFETY
+from exodigit_model.gym.vector import GloveVectorEnv
 
 SUPPLY = 100e3
 """Actions are drawn in [0, this], Pa (the default supply)."""

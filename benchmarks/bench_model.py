@@ -1,6 +1,6 @@
 """Speed of exodigit_model's compiled kernels, printed as figures ("The model at compiled speed").
 
-Run ``python -m exodigit_model.kernels.warm`` first (``make bench`` does), so that no kernel
+Run ``python -m exodigit_model.tools.warm`` first (``make bench`` does), so that no kernel
 compiles inside a figure; then ``.venv/bin/python benchmarks/bench_model.py`` (``--help``: the
 options). Every line ends with its target in brackets. Figures:
 
@@ -540,7 +540,7 @@ def bench(repeats: int, plain_repeats: int, naive_steps: int) -> None:
     if slow:
         print(
             f'note: first calls that took over 1 s: {", ".join(slow)} (kernels compiled during '
-            'the run, untimed; `python -m exodigit_model.kernels.warm` does not cover them, or '
+            'the run, untimed; `python -m exodigit_model.tools.warm` does not cover them, or '
             'was not run first)  [none]'
         )
     print(f'bench_model.py: {time.perf_counter() - began:.0f} s in all  [no target]')
@@ -549,7 +549,7 @@ def bench(repeats: int, plain_repeats: int, naive_steps: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__.splitlines()[0],
-        epilog='Run `python -m exodigit_model.kernels.warm` first. The module docstring says '
+        epilog='Run `python -m exodigit_model.tools.warm` first. The module docstring says '
         'how each figure is measured.',
     )
     parser.add_argument(

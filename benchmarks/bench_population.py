@@ -16,7 +16,7 @@ rest solve of every glove) and the mean Newton iterations per glove-step, which 
 patients' physics from the cost of per-glove parameters. [issue 17: a whole trial, stepper +
 controller + metrics, >= 700,000 glove-steps/s on one core, so the stepper well above that]
 
-Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
+Run ``python -m exodigit_model.tools.warm`` first, so that no kernel compiles here.
 Run: ``.venv/bin/python benchmarks/bench_population.py [--patients 10000] [--steps 300]``.
 """
 

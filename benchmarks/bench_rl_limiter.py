@@ -17,8 +17,8 @@ import statistics
 
 import numpy as np
 from exodigit_model.control import LIMIT_KINDS
-from exodigit_model.gym import DEFAULT_SAFETY, NODE_SAFETY
-from exodigit_model.gym_vector import GloveVectorEnv
+from exodigit_model.gym.env import DEFAULT_SAFETY, NODE_SAFETY
+from exodigit_model.gym.vector import GloveVectorEnv
 
 
 def acted_shares(envs: GloveVectorEnv, steps: int, seed: int) -> np.ndarray:

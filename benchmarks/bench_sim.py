@@ -21,7 +21,7 @@
    step with the plain-Python path of the same source, measured in the same run: the script
    runs itself with ``--plain`` under ``EXODIGIT_JIT=0`` in a subprocess, which times the same
    workloads ``--plain-repeats`` times (the batch with 100 gloves, 20 steps) and prints JSON.
-   Run ``python -m exodigit_model.kernels.warm`` first, so that no kernel compiles here.
+   Run ``python -m exodigit_model.tools.warm`` first, so that no kernel compiles here.
    ``--actuation valves`` times the same workloads behind valves (docs/spec/model.md §14: the
    sine's pressure share of 40 kPa as the inlets' opening, the rest as the outlets'); with
    ``--actuation regulator valves`` both, in the same run, and the ratio of their batch rates.

@@ -7,7 +7,7 @@ the wall and CPU time and the glove-steps per second of each repeat, then splits
 step into its parts (``--profile``): the controller's command, the stepper's step and the
 metrics' update, timed separately over the same steps.
 
-Run ``python -m exodigit_model.kernels.warm`` first (``make bench`` does), then
+Run ``python -m exodigit_model.tools.warm`` first (``make bench`` does), then
 ``.venv/bin/python benchmarks/bench_trial.py`` (the full figure, about two minutes a repeat) or
 ``--patients 1000 --duration 10`` for a quick look. No asserts: figures only (a shared 2-core
 VM: other work runs beside it; compare the CPU time with the wall time).

@@ -9,7 +9,7 @@ sees the measured angles, joint velocities, chamber pressures and the next targe
 three normalized pressures in [−1, 1] (0 to 60 kPa).
 
 PPO (``MlpPolicy``, SB3's defaults but ``n_steps`` and ``batch_size``) trains on ``--envs``
-gloves through the population adapter (:func:`exodigit_model.gym_sb3.sb3_vec_env`) with
+gloves through the population adapter (:func:`exodigit_model.gym.sb3.sb3_vec_env`) with
 ``VecNormalize`` (the pressures are in Pa, the angles in rad). Every
 ``--timesteps``/``--evaluations`` steps the deterministic policy is scored on the same
 ``--patients`` held-out patients (one episode each; their draw does not change), beside four
@@ -29,8 +29,8 @@ import time
 
 import numpy as np
 import torch
-from exodigit_model.gym_sb3 import sb3_vec_env
-from exodigit_model.gym_vector import GloveVectorEnv
+from exodigit_model.gym.sb3 import sb3_vec_env
+from exodigit_model.gym.vector import GloveVectorEnv
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 

@@ -19,7 +19,7 @@ from collections.abc import Callable
 import numpy as np
 from exodigit_model.kernels import jit
 from exodigit_model.kernels.valves import AIR_VOLUME, advance_masses
-from exodigit_model.pneumatics import air_constants, flow_function, mass_flow, rest_masses
+from exodigit_model.physics.pneumatics import air_constants, flow_function, mass_flow, rest_masses
 
 from exodigit_model import (
     GloveModel,

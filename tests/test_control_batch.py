@@ -24,7 +24,7 @@ from exodigit_model.control import (
     Sine,
     Staircase,
 )
-from exodigit_model.gym import GloveEnv, PolicyController, observe
+from exodigit_model.gym.env import GloveEnv, PolicyController, observe
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp

@@ -19,7 +19,7 @@ from exodigit_model.control import (
     ValveLoop,
     ValveLoopSettings,
 )
-from exodigit_model.settings import CLOSED, VENT
+from exodigit_model.stepping.settings import CLOSED, VENT
 
 from exodigit_model import GloveSimulation
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from exodigit_model.gym import GloveEnv
+from exodigit_model.gym.env import GloveEnv
 
 from exodigit_model import GloveModel, params_from_dict
 

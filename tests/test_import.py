@@ -43,7 +43,7 @@ def test_a_process_that_steps_no_glove_imports_no_numba(module):
 
 def test_the_stepping_modules_do_import_numba():
     # The check above can fail: importing the stepper does load numba.
-    assert 'numba' in modules_after('import exodigit_model.simulation', {'numba'})
+    assert 'numba' in modules_after('import exodigit_model.stepping.simulation', {'numba'})
 
 
 def test_every_public_name_resolves_and_is_listed():

@@ -36,8 +36,8 @@ import warnings
 
 import numpy as np
 import pytest
-from exodigit_model.solver import MIN_STRETCH
-from exodigit_model.validity import BEYOND_SUPPLY, OUTSIDE_STRETCH
+from exodigit_model.physics.solver import MIN_STRETCH
+from exodigit_model.physics.validity import BEYOND_SUPPLY, OUTSIDE_STRETCH
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from model_reference import SEGMENT_LENGTH_KEYS
@@ -336,7 +336,7 @@ FIT_DESIGN = np.array(
 
 
 # Drawn gloves and pressures may leave the validated range: scaling holds there too.
-@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 @settings(max_examples=2 * EXAMPLES, **PROPERTY)
 @given(
     layers=layers,

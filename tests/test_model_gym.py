@@ -1,4 +1,4 @@
-"""The Gymnasium environment (exodigit_model.gym): API, seeding, spaces, reward, episodes.
+"""The Gymnasium environment (exodigit_model.gym.env): API, seeding, spaces, reward, episodes.
 
 Expectations are computed without the environment: observations by a plain GloveSimulation
 with the same settings and seed, the default target and reward from their documented formulas
@@ -15,7 +15,7 @@ from dataclasses import replace
 import gymnasium
 import numpy as np
 import pytest
-from exodigit_model.gym import DEFAULT_SAFETY, ENV_ID, NODE_SAFETY, GloveEnv
+from exodigit_model.gym.env import DEFAULT_SAFETY, ENV_ID, NODE_SAFETY, GloveEnv
 from gymnasium.utils.env_checker import check_env
 
 from exodigit_model import (
@@ -80,7 +80,7 @@ def test_check_env_of_physical_actions_only_recommends_normalizing_them():
 
 def test_importing_the_model_does_not_import_gymnasium():
     code = (
-        'import sys, exodigit_model, exodigit_model.simulation; '
+        'import sys, exodigit_model, exodigit_model.stepping.simulation; '
         "sys.exit(1 if 'gymnasium' in sys.modules else 0)"
     )
     result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True)

@@ -18,15 +18,15 @@ import gymnasium
 import numpy as np
 import pytest
 from exodigit_model.control import SafetyLimits
-from exodigit_model.gym import (
+from exodigit_model.gym.env import (
     DEFAULT_SAFETY,
     ENV_ID,
     NODE_SAFETY,
     OPEN_PRESSURE_RATE,
     GloveEnv,
 )
-from exodigit_model.gym_sb3 import PopulationVecEnv, _sb3_class, sb3_vec_env
-from exodigit_model.gym_vector import VECTOR_ENV_ID, GlovePatientEnv, GloveVectorEnv
+from exodigit_model.gym.sb3 import PopulationVecEnv, _sb3_class, sb3_vec_env
+from exodigit_model.gym.vector import VECTOR_ENV_ID, GlovePatientEnv, GloveVectorEnv
 from gymnasium.utils.env_checker import check_env
 from gymnasium.vector import AutoresetMode
 from test_model_gym_vector import failing, glove_env
@@ -229,7 +229,7 @@ def assert_adapter_is_a_plain_loop(venv, actions, seed):
 
 # Random full-range pressures flex some patient past their range of motion, which the limiter's
 # force estimate warns of; the adapter must step through it as the plain loop does.
-@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 def test_the_adapter_steps_as_a_plain_loop_of_glove_envs_through_resets():
     venv = PopulationVecEnv(GloveVectorEnv(3, episode_steps=4, **SAME_STEP))
     ends = assert_adapter_is_a_plain_loop(venv, normalized(11 * 3, seed=5).reshape(11, 3, 3), 1)
@@ -314,7 +314,7 @@ def test_the_adapter_without_sb3_says_how_to_install_it(monkeypatch):
 
 def test_importing_the_adapter_does_not_import_sb3():
     code = (
-        'import sys, exodigit_model.gym_sb3; '
+        'import sys, exodigit_model.gym.sb3; '
         "sys.exit(1 if 'stable_baselines3' in sys.modules else 0)"
     )
     assert subprocess.run([sys.executable, '-c', code]).returncode == 0

@@ -13,8 +13,8 @@ import gymnasium
 import numpy as np
 import pytest
 from exodigit_model.control import SafetyLimits
-from exodigit_model.gym import VALVE_PRESSURE_MARGIN, GloveEnv
-from exodigit_model.pneumatics import ATMOSPHERIC_PRESSURE, GAS_CONSTANT
+from exodigit_model.gym.env import VALVE_PRESSURE_MARGIN, GloveEnv
+from exodigit_model.physics.pneumatics import ATMOSPHERIC_PRESSURE, GAS_CONSTANT
 from gymnasium.utils.env_checker import check_env
 from test_model_pneumatics import iso_flow
 

@@ -1,4 +1,4 @@
-"""GloveVectorEnv (exodigit_model.gym_vector): patients per reset, seeding, autoreset, the API.
+"""GloveVectorEnv (exodigit_model.gym.vector): patients per reset, seeding, autoreset, the API.
 
 The independent answer for every sub-environment is a one-glove GloveEnv on that sub-
 environment's patient, fed the same actions and reset where the vector environment says it
@@ -11,10 +11,10 @@ from dataclasses import replace
 import gymnasium
 import numpy as np
 import pytest
-from exodigit_model.gym import GloveEnv
-from exodigit_model.gym_vector import INFO_KEYS, VECTOR_ENV_ID, GloveVectorEnv
+from exodigit_model.gym.env import GloveEnv
+from exodigit_model.gym.vector import INFO_KEYS, VECTOR_ENV_ID, GloveVectorEnv
+from exodigit_model.physics.populations import PATIENT_FIELDS
 from exodigit_model.trials import load_population
-from exodigit_model.trials.populations import PATIENT_FIELDS
 from gymnasium.utils.passive_env_checker import check_obs, check_space, data_shares_objects
 from gymnasium.vector import AutoresetMode
 

@@ -150,7 +150,7 @@ def test_a_cold_cache_says_once_that_the_kernels_compile_and_where_a_warm_one_is
     code = """
     import numpy as np
     from exodigit_model import load_params
-    from exodigit_model.material import yeoh_stress
+    from exodigit_model.physics.material import yeoh_stress
     from throwaway_kernels import twice_plus_one
     from user_functions import user_function
     material = load_params().material

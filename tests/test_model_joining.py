@@ -1,4 +1,4 @@
-"""exodigit_model.joining: pairing the samples of several streams by the time they were sent.
+"""exodigit_model.stepping.joining: pairing the samples of several streams by their send times.
 
 Every sample's value names the plant step it belongs to, so a group is right exactly when all its
 values are equal; the data are built so that the tempting shortcuts (nearest times, sequence
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.joining import MAX_WAITING, STEP_TOLERANCE
+from exodigit_model.stepping.joining import MAX_WAITING, STEP_TOLERANCE
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

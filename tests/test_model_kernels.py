@@ -17,8 +17,8 @@ import kernel_cases
 import numpy as np
 import pytest
 from exodigit_model.kernels import jit
-from exodigit_model.solver import CONVERGED_STEP, NOT_FINITE
-from exodigit_model.structural import PIECE_WIDTH, PIECES, U_MIN
+from exodigit_model.physics.solver import CONVERGED_STEP, NOT_FINITE
+from exodigit_model.physics.structural import PIECE_WIDTH, PIECES, U_MIN
 from kernel_cases import (
     EFFORT,
     NOISY,
@@ -107,7 +107,7 @@ def compiled():
 # fastmath, the τ_s tables alone already differed in 1277 of 1320 coefficients).
 # Some cases leave the validated model on purpose (a pressure beyond the supply, a stretch
 # beyond the validated range): they compare the two paths, not the model's validity.
-@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 @pytest.mark.parametrize('name', list(kernel_cases.CASES))
 def test_the_compiled_kernels_give_bit_for_bit_what_plain_python_gives(name, plain, compiled):
     assert jit.JIT is True  # a silently disabled JIT would compare plain Python with itself

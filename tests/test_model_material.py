@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from exodigit_model.material import yeoh_energy
-from exodigit_model.material import yeoh_stress as model_stress
+from exodigit_model.physics.material import yeoh_energy
+from exodigit_model.physics.material import yeoh_stress as model_stress
 from model_reference import yeoh_stress
 
 from exodigit_model import Material

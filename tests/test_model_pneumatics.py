@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 from exodigit_model.kernels.valves import AIR_VOLUME, advance_masses
-from exodigit_model.pneumatics import (
+from exodigit_model.physics.pneumatics import (
     ATMOSPHERIC_PRESSURE,
     GAS_CONSTANT,
     REFERENCE_DENSITY,

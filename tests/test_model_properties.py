@@ -19,7 +19,9 @@ EXAMPLES = 50
 
 # Random gloves at up to 60 kPa may stretch a fibre or bend a joint past the validated ranges,
 # which the model warns of; every property here must hold there all the same.
-pytestmark = pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+pytestmark = pytest.mark.filterwarnings(
+    'ignore::exodigit_model.physics.validity.OutsideModelWarning'
+)
 """Examples per property (each builds a model, ~50 ms)."""
 RESIDUAL_BOUND = 1e-10
 """Largest residual norm a converged solve may report, N·m."""

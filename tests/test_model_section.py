@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.section import pressure_moment
+from exodigit_model.physics.section import pressure_moment
 from model_reference import (
     region_first_moment,
     resisting_moment,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from exodigit_model.kernels.newton import CONVERGED_STEP
 from exodigit_model.kernels.stepping import step_one
-from exodigit_model.model import VALID_STRETCH
+from exodigit_model.physics.model import VALID_STRETCH
 from model_reference import coupled_residual
 
 from exodigit_model import (

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.solver import (
+from exodigit_model.physics.solver import (
     CONVERGED,
     CONVERGED_STEP,
     ITERATION_LIMIT,

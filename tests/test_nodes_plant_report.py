@@ -7,7 +7,7 @@ says it (a problem, so WARN, or a note) and only it.
 from dataclasses import replace
 
 import numpy as np
-from exodigit_model.chambers import Saturation
+from exodigit_model.stepping.chambers import Saturation
 from exodigit_nodes.logic.plant_report import StepCounts, plant_report
 from exodigit_nodes.logic.watchdog import Watchdog
 

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
-from exodigit_model.params import patient_file
-from exodigit_model.settings import step_time_ns
+from exodigit_model.physics.params import patient_file
+from exodigit_model.stepping.settings import step_time_ns
 from exodigit_nodes.nodes import sim_services
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand

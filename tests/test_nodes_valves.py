@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_model.control import ValveLoop, ValveLoopSettings
-from exodigit_model.settings import VENT
+from exodigit_model.stepping.settings import VENT
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from reliability_inprocess import InProcessNode, non_finite

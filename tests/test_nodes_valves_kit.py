@@ -21,7 +21,7 @@ from exodigit_model.control import (
     ValveLoop,
     ValveLoopSettings,
 )
-from exodigit_model.settings import VENT
+from exodigit_model.stepping.settings import VENT
 from exodigit_nodes.testing import GloveSim
 from ros_harness import stop_process
 

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from exodigit_model.extras import ToolError
 from exodigit_model.tools import calibration, figures
-from exodigit_model.tools._deps import ToolError
 from exodigit_model.tools.cli import main
 from PIL import Image
 

@@ -10,7 +10,7 @@ air leaves). No number is copied from the implementation.
 import math
 
 import numpy as np
-from exodigit_model.pneumatics import ATMOSPHERIC_PRESSURE, GAS_CONSTANT
+from exodigit_model.physics.pneumatics import ATMOSPHERIC_PRESSURE, GAS_CONSTANT
 from exodigit_model.tools import valves
 from exodigit_model.tools.cli import main
 

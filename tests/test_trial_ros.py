@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from exodigit_model.tools.trial_report import write_report
 from exodigit_model.trials import ControllerSpec, TrialSpec, run_trial
-from exodigit_model.trials.report import write_report
 from exodigit_nodes.testing.trial_engine import KitEngine, PatientError, ros_controller
 
 from exodigit_nodes import trial as trial_command
@@ -62,7 +62,7 @@ def kit_trial(tmp_path_factory):
 
 # The in-process run's position controller warns that a stiff patient's feed-forward is
 # beyond the supply: the trial compares the two engines, beyond the supply included.
-@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 def test_the_node_gives_the_in_process_metrics(kit_trial):
     _, engine, result = kit_trial
     reference = run_trial(trial(ControllerSpec('mode', 'position')))

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 import pytest
-from exodigit_model.gym import FlexExtendTarget
-from exodigit_model.settings import step_time_ns
+from exodigit_model.gym.env import FlexExtendTarget
+from exodigit_model.stepping.settings import step_time_ns
 from exodigit_model.trials import (
     FUNCTIONAL_FLEXION,
     FUNCTIONAL_RANGE,

@@ -212,7 +212,7 @@ def test_without_ray_the_error_names_the_extra():
 
 # The in-process run's position controller warns that a stiff patient's feed-forward is
 # beyond the supply: the trial compares the two engines, beyond the supply included.
-@pytest.mark.filterwarnings('ignore::exodigit_model.validity.OutsideModelWarning')
+@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 def test_a_ros_node_trial_on_a_ray_worker_gives_the_in_process_results(ray):
     # The task runs its shard's glove through the testing kit on the worker's machine
     # (kit_shard). The user's node is pressure_command in position mode, the in-process

@@ -1,10 +1,20 @@
 """exodigit_model: quasi-static model of a soft pneumatic exo-digit strapped to a finger.
 
-A ROS-free package (numpy, scipy, PyYAML, numba) implementing docs/model.md: the kinematics of
-the exo-digit and the finger, the Yeoh material, pressure and structural torques, the coupled
-quasi-static solve and its inverse, the contact-force estimators, the stepper that advances gloves
-in time (behind pressure regulators or valves), and the joiner that pairs the samples of a
-glove's streams by time.
+A ROS-free package (numpy, scipy, PyYAML, numba) implementing docs/spec/model.md, in layers
+that each import only from the ones before them (tests/test_model_layers.py):
+
+- base: :mod:`.checks` (parameter checks), :mod:`.extras` (the optional extras),
+  :mod:`.kernels` and :mod:`.compiling` (the compiled hot paths);
+- :mod:`.physics`: the kinematics of the exo-digit and the finger, the Yeoh material, pressure
+  and structural torques, the coupled quasi-static solve and its inverse, the contact-force
+  estimators, the chambers' air, populations of patients;
+- :mod:`.stepping`: gloves stepped in time behind pressure regulators or valves, and the joiner
+  that pairs the samples of a glove's streams by time;
+- :mod:`.control`: the built-in controllers, the safety limiter, the valve loop;
+- applications: :mod:`.gym` (Gymnasium environments), :mod:`.trials` (virtual-patient trials),
+  :mod:`.tools` (the ``exodigit`` command).
+
+The public names below are importable from ``exodigit_model`` itself.
 
 >>> from exodigit_model import GloveModel, load_params
 >>> model = GloveModel(load_params())
@@ -14,39 +24,39 @@ glove's streams by time.
 import importlib
 
 EXPORTS = {
-    'ACTUATIONS': 'settings',
-    'JOINT_NAMES': 'params',
-    'PATIENT_PRESETS': 'params',
-    'BatchEstimate': 'inverse',
-    'BatchSolution': 'model',
-    'ChamberAir': 'pneumatics',
-    'ChamberSettings': 'chambers',
-    'Estimate': 'inverse',
-    'ExoDigit': 'params',
-    'Finger': 'params',
-    'FingerJoint': 'params',
-    'GloveModel': 'model',
-    'GloveParams': 'params',
-    'GlovePose': 'model',
-    'GloveSimulation': 'simulation',
-    'GloveState': 'simulation',
-    'Hold': 'inverse',
-    'Joined': 'joining',
-    'Joiner': 'joining',
-    'Material': 'params',
-    'OutsideModelWarning': 'validity',
-    'ParameterError': 'params',
-    'Pneumatics': 'pneumatics',
-    'Segment': 'params',
-    'SimulationSettings': 'settings',
-    'Solution': 'model',
-    'StiffnessFit': 'identification',
-    'dump_params': 'params',
-    'fit_stiffness': 'identification',
-    'join_indices': 'joining',
-    'load_params': 'params',
-    'params_from_dict': 'params',
-    'patient_file': 'params',
+    'ACTUATIONS': 'stepping.settings',
+    'JOINT_NAMES': 'physics.params',
+    'PATIENT_PRESETS': 'physics.params',
+    'BatchEstimate': 'physics.inverse',
+    'BatchSolution': 'physics.model',
+    'ChamberAir': 'physics.pneumatics',
+    'ChamberSettings': 'stepping.chambers',
+    'Estimate': 'physics.inverse',
+    'ExoDigit': 'physics.params',
+    'Finger': 'physics.params',
+    'FingerJoint': 'physics.params',
+    'GloveModel': 'physics.model',
+    'GloveParams': 'physics.params',
+    'GlovePose': 'physics.model',
+    'GloveSimulation': 'stepping.simulation',
+    'GloveState': 'stepping.simulation',
+    'Hold': 'physics.inverse',
+    'Joined': 'stepping.joining',
+    'Joiner': 'stepping.joining',
+    'Material': 'physics.params',
+    'OutsideModelWarning': 'physics.validity',
+    'ParameterError': 'physics.params',
+    'Pneumatics': 'physics.pneumatics',
+    'Segment': 'physics.params',
+    'SimulationSettings': 'stepping.settings',
+    'Solution': 'physics.model',
+    'StiffnessFit': 'physics.identification',
+    'dump_params': 'physics.params',
+    'fit_stiffness': 'physics.identification',
+    'join_indices': 'stepping.joining',
+    'load_params': 'physics.params',
+    'params_from_dict': 'physics.params',
+    'patient_file': 'physics.params',
 }
 """The package's public names and the module of each.
 

@@ -74,7 +74,7 @@ class CompileNotice(event.Listener):
             logger.warning(
                 'exodigit_model: numba is compiling the model kernels %s, once: '
                 '%s for all of them (docs/compiled.md; '
-                '`python -m exodigit_model.kernels.warm` compiles them ahead)',
+                '`python -m exodigit_model.tools.warm` compiles them ahead)',
                 where,
                 COLD_COMPILE,
             )

@@ -17,8 +17,8 @@ import functools
 import sys
 
 from exodigit_model.checks import ParameterError
+from exodigit_model.extras import ToolError
 from exodigit_model.tools import trial_command
-from exodigit_model.tools._deps import ToolError
 from exodigit_model.trials import ControllerSpec, run_trial
 from exodigit_model.trials.ray_engine import ShardError
 
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     for line in trial_command.report_lines(result):
         print(line)
     if args.out is not None:
-        from exodigit_model.trials.report import write_report
+        from exodigit_model.tools.trial_report import write_report
 
         worst = kit.records.get(result.worst_patient())
         if worst is None and not args.no_figures:  # a Ray run keeps no records: run it again

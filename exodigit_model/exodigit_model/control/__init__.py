@@ -1,7 +1,7 @@
 """The glove's built-in controllers and its safety limiter, without ROS.
 
 What the ``pressure_command`` node of ``exodigit_nodes`` computes each step (docs/spec/ros.md,
-"Safety behaviour"), for in-process use: :class:`~exodigit_model.gym.GloveEnv` puts the same
+"Safety behaviour"), for in-process use: :class:`~exodigit_model.gym.env.GloveEnv` puts the same
 limiter between an agent and the chambers, and a controller can be tried on a simulated patient
 with no ROS at all. The same classes control one glove (arrays (3,)) or a batch of gloves
 ((N, 3), one row each); :class:`BatchController` is the protocol a virtual-patient trial steps,

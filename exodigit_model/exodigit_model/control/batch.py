@@ -4,7 +4,7 @@ A trial steps N gloves, one per patient, as one batch (``GloveSimulation(count=N
 population) and asks its controller for the N commands at every step. Any object with the two
 methods of :class:`BatchController` can be that controller: a user's own, a built-in mode of
 ``pressure_command`` behind its safety limiter (:class:`BuiltInMode`), or a Gymnasium policy
-(:class:`exodigit_model.gym.PolicyController`).
+(:class:`exodigit_model.gym.env.PolicyController`).
 
 >>> from exodigit_model import GloveSimulation
 >>> from exodigit_model.control import BuiltInMode, SafetyLimits, Sine
@@ -29,8 +29,8 @@ from .controllers import Command, CommandLoop, Controller, Feedback, ForceContro
 from .safety import SafetyLimiter, SafetyLimits
 
 if TYPE_CHECKING:
-    from ..model import GloveModel
-    from ..simulation import GloveState
+    from ..physics.model import GloveModel
+    from ..stepping.simulation import GloveState
 
 
 @runtime_checkable

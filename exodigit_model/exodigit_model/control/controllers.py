@@ -25,8 +25,8 @@ from .safety import SafetyLimiter
 from .shapes import check_shape, glove_shape
 
 if TYPE_CHECKING:
-    from ..model import GloveModel
-    from ..simulation import GloveState
+    from ..physics.model import GloveModel
+    from ..stepping.simulation import GloveState
 
 MODES = {
     'staircase': "steps of staircase_step up to staircase_peak and back, as in the paper's tests",

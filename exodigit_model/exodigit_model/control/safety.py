@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..params import JOINT_NAMES
+from ..physics.params import JOINT_NAMES
 from .shapes import any_joint, check_shape, every_joint, glove_shape
 
 LIMIT_KINDS = ('non-finite', 'back-off', 'ceiling', 'pressure', 'rate')

@@ -1,9 +1,9 @@
 """What the kernels know of one glove: its parameters as flat arrays (SI), built once.
 
 :class:`GloveConstants` is a named tuple of small arrays, the one argument every kernel takes for
-the glove and the finger; :func:`exodigit_model.model.glove_constants` builds it from validated
-parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`, whose columns
-are named by the ``LAW_*`` indices below (docs/spec/model.md §11).
+the glove and the finger; :func:`exodigit_model.physics.model.glove_constants` builds it from
+validated parameters. The patient's joint laws are the rows of :attr:`GloveConstants.laws`, whose
+columns are named by the ``LAW_*`` indices below (docs/spec/model.md §11).
 
 From Python the kernels are called with the same constants packed into one array
 (:func:`pack`), which the entry kernels :func:`unpack` into views: numba takes a named tuple of

@@ -40,7 +40,7 @@ d. With no writable directory, or when numba cannot cache a kernel anyway (``can
    directory), the kernels compile in memory (``cache=False``) and one RuntimeWarning per
    process says so and how to fix it; never an import error (unless warnings are made errors,
    as the test suite does for this package's RuntimeWarnings).
-e. ``python -m exodigit_model.kernels.warm`` compiles every kernel into the cache and removes the
+e. ``python -m exodigit_model.tools.warm`` compiles every kernel into the cache and removes the
    ``exodigit-<digest>`` directories of other digests beside it (:func:`prune`), so that edits do
    not pile up caches; nothing else is ever deleted. Bases that two versions share (a
    ``NUMBA_CACHE_DIR`` used by two checkouts) lose the other version's cache at each warm.
@@ -250,7 +250,7 @@ def _warn_in_memory(reason: str) -> None:
     _warned = True
     warnings.warn(
         f'exodigit_model kernels cannot be cached ({reason}): numba compiles them in memory in '
-        'every process, which costs as long as a cold `python -m exodigit_model.kernels.warm` '
+        'every process, which costs as long as a cold `python -m exodigit_model.tools.warm` '
         '(docs/compiled.md). Set NUMBA_CACHE_DIR to a writable directory to compile '
         'them once.',
         RuntimeWarning,

@@ -16,7 +16,8 @@ Convergence is judged relative to the problem, so that it means the same for a g
 times smaller or larger than the default one: the residual against the size of the terms it is
 made of (``RTOL``), or, where rounding keeps the residual from going lower, a Newton step below
 ``XTOL`` (quadratic convergence puts the root within a tiny fraction of it). Each solve ends
-with a status code (:data:`exodigit_model.solver.STATUS` says each in words), as scipy's do.
+with a status code (:data:`exodigit_model.physics.solver.STATUS` says each in words), as
+scipy's do.
 """
 
 from __future__ import annotations

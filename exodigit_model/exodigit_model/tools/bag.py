@@ -6,7 +6,7 @@ the ``rosbags`` library, whatever the namespace: topics are matched by their las
 ``estimated_contact_forces``). Writes two figures: angles, pressures and forces against time,
 and joint angle against chamber pressure (the ``exodigit curves`` view of a session), where each
 chamber pressure is paired with the joint state of its plant step by the times the bag logged
-them (:mod:`exodigit_model.joining`).
+them (:mod:`exodigit_model.stepping.joining`).
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..joining import join_indices
-from ._deps import ToolError, progress, require
+from ..extras import ToolError, progress, require
+from ..stepping.joining import join_indices
 
 SIGNALS = (
     'joint_states',
@@ -110,10 +110,10 @@ def read_bag(path: Path) -> dict[str, Series]:
 def step_pairs(series: dict[str, Series]) -> tuple[NDArray, NDArray]:
     """Chamber pressures (Pa) and joint angles (rad) of the same plant steps, shape (K, 3) each.
 
-    Paired by log time with :func:`exodigit_model.joining.join_indices`: each pressure with the
-    first joint state logged after it and before the next pressure (the plant publishes a step's
-    pressure first). A sample without its partner (the recorder started or stopped between the
-    two, or lost one) is left out, never paired with a neighbouring step's.
+    Paired by log time with :func:`exodigit_model.stepping.joining.join_indices`: each pressure
+    with the first joint state logged after it and before the next pressure (the plant publishes a
+    step's pressure first). A sample without its partner (the recorder started or stopped between
+    the two, or lost one) is left out, never paired with a neighbouring step's.
     """
     pressure, angles = series['chamber_pressure'], series['joint_states']
     partner = join_indices(pressure.time, angles.time)

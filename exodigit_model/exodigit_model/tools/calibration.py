@@ -37,8 +37,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from .. import JOINT_NAMES, GloveModel, GloveParams, dump_params, load_params, params_from_dict
-from ._deps import ToolError, progress
+from ..extras import ToolError, progress
+from ..physics.model import GloveModel
+from ..physics.params import JOINT_NAMES, GloveParams, dump_params, load_params, params_from_dict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

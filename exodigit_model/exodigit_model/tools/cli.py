@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import PATIENT_PRESETS, GloveModel, ParameterError, load_params, patient_file
+from ..extras import ToolError, progress
+from ..physics.model import GloveModel
+from ..physics.params import PATIENT_PRESETS, ParameterError, load_params, patient_file
 from . import trial_command
-from ._deps import ToolError, progress
 from .calibration import FIT_MODES
 
 EXIT_USAGE = 2
@@ -266,7 +267,7 @@ def run_plot(args: argparse.Namespace) -> None:
 
 def run_valves(args: argparse.Namespace) -> None:
     """``exodigit valves``."""
-    from .. import SimulationSettings
+    from ..stepping.settings import SimulationSettings
     from . import valves
 
     settings = SimulationSettings()

@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import JOINT_NAMES, BatchSolution, GloveModel
-from ..model import VALID_STRETCH
-from ._deps import ToolError
+from ..extras import ToolError
+from ..physics.model import VALID_STRETCH, BatchSolution, GloveModel
+from ..physics.params import JOINT_NAMES
 
 EXPERIMENTS = (*JOINT_NAMES, 'all')
 """One experiment per module (that chamber alone) and one with all chambers."""

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import GloveModel, GlovePose, Solution
-from ._deps import pyplot
+from ..extras import pyplot
+from ..physics.model import GloveModel, GlovePose, Solution
 from .figures import DPI, JOINT_LABELS
 
 FIGURE_SIZE = (8.0, 6.0)

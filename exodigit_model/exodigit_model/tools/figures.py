@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import JOINT_NAMES
-from ._deps import pyplot
+from ..extras import pyplot
+from ..physics.params import JOINT_NAMES
 from .curves import Sweep
 
 if TYPE_CHECKING:

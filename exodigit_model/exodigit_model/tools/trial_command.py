@@ -15,7 +15,8 @@ from typing import Any
 import yaml
 
 from ..control import MODES
-from ..settings import ACTUATIONS
+from ..extras import ToolError
+from ..stepping.settings import ACTUATIONS
 from ..trials import (
     POPULATIONS,
     PROTOCOLS,
@@ -27,7 +28,6 @@ from ..trials import (
     run_trial,
 )
 from ..trials.spec import DEFAULT_SHARD_SIZE
-from ._deps import ToolError
 
 EXAMPLE = (
     'exodigit trial --population stroke_moderate --patients 1000 --protocol grasp '
@@ -266,7 +266,7 @@ def run(args: argparse.Namespace) -> int:
     for line in report_lines(result):
         print(line)
     if args.out is not None:
-        from ..trials.report import write_report
+        from .trial_report import write_report
 
         try:
             written = write_report(result, args.out, figures=not args.no_figures)

@@ -19,8 +19,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import GloveModel, GloveSimulation, SimulationSettings
 from ..control import MODE_DEFAULTS, Staircase, ValveLoop, ValveLoopSettings
+from ..physics.model import GloveModel
+from ..stepping.settings import SimulationSettings
+from ..stepping.simulation import GloveSimulation
 from .figures import JOINT_LABELS, figure_panels, save_figure
 
 if TYPE_CHECKING:

@@ -12,8 +12,17 @@ step over the whole batch, summarized over the patients, and judged by a pass/fa
 (100, 3)
 """
 
+from ..physics.distributions import Distribution, Fixed, LogNormal, Normal, Uniform
+from ..physics.populations import (
+    PATIENT_FIELDS,
+    POPULATIONS,
+    Correlation,
+    Patients,
+    Population,
+    load_population,
+    population_file,
+)
 from .aggregates import DEFAULT_PERCENTILES, DEFAULT_WORST, summarize, worst_patients
-from .distributions import Distribution, Fixed, LogNormal, Normal, Uniform
 from .metrics import (
     DEFAULT_FORCE_LIMIT,
     METRIC_NAMES,
@@ -23,15 +32,6 @@ from .metrics import (
     MetricSettings,
     PatientMetrics,
     column_names,
-)
-from .populations import (
-    PATIENT_FIELDS,
-    POPULATIONS,
-    Correlation,
-    Patients,
-    Population,
-    load_population,
-    population_file,
 )
 from .protocols import (
     FUNCTIONAL_FLEXION,

@@ -9,9 +9,9 @@ Three kinds run in process (docs/trials.md, "Controllers"):
 - ``controller``: a user's :class:`~exodigit_model.control.BatchController`, made by the factory
   ``module:attribute`` as ``factory(protocol=..., model=..., **parameters)``.
 - ``policy``: a Gymnasium policy made by ``factory(env=..., **parameters)`` for a
-  :class:`~exodigit_model.gym.GloveEnv` on the nominal glove whose target is the protocol's,
-  behind the node's limits (:data:`~exodigit_model.gym.NODE_SAFETY`), run by
-  :class:`~exodigit_model.gym.PolicyController` (needs the ``gym`` extra).
+  :class:`~exodigit_model.gym.env.GloveEnv` on the nominal glove whose target is the protocol's,
+  behind the node's limits (:data:`~exodigit_model.gym.env.NODE_SAFETY`), run by
+  :class:`~exodigit_model.gym.env.PolicyController` (needs the ``gym`` extra).
 
 A fourth, ``ros`` (a ROS node's command line), runs through the testing kit of
 ``exodigit_nodes`` (``KitEngine``, docs/trials.md, "A ROS node as the controller");
@@ -42,11 +42,11 @@ from ..control import (
     Staircase,
     ValveLoopSettings,
 )
-from ..model import GloveModel, as_joint_vector
+from ..physics.model import GloveModel, as_joint_vector
 
 if TYPE_CHECKING:
-    from ..settings import SimulationSettings
-    from ..simulation import GloveState
+    from ..stepping.settings import SimulationSettings
+    from ..stepping.simulation import GloveState
     from .protocols import SessionProtocol
     from .spec import ControllerSpec
 
@@ -279,7 +279,7 @@ def build_controller(
             )
         return controller
     try:
-        from ..gym import NODE_SAFETY, GloveEnv, PolicyController
+        from ..gym.env import NODE_SAFETY, GloveEnv, PolicyController
     except ImportError:
         raise ValueError('a policy needs Gymnasium: pip install "./exodigit_model[gym]"') from None
     env = GloveEnv(model, settings=settings, target=protocol.targets, safety=NODE_SAFETY)

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import ParameterError, check_positive, set_field
-from ..params import JOINT_NAMES
+from ..physics.params import JOINT_NAMES
 from .protocols import DEFAULT_RATE, FUNCTIONAL_RANGE
 
 DEFAULT_FORCE_LIMIT = 10.0

@@ -3,9 +3,10 @@
 A protocol is a duration (s), a rate f (Hz; the step Δt = 1/f) and a target posture
 q*(t) = (MCP, PIP, DIP), rad, flexion positive (docs/spec/model.md §1), for every time t >= 0 s
 from the start of the session. The session has ``duration · rate_hz`` steps; step k ends at
-t_k = k·Δt (exactly the simulation's time grid, :func:`~exodigit_model.settings.step_time_ns`),
-and a trial compares the finger there with q*(t_k). Three kinds, listed by name in
-:data:`PROTOCOLS` (docs/trials.md, "Protocols", has their sources):
+t_k = k·Δt (exactly the simulation's time grid,
+:func:`~exodigit_model.stepping.settings.step_time_ns`), and a trial compares the finger there
+with q*(t_k). Three kinds, listed by name in :data:`PROTOCOLS` (docs/trials.md, "Protocols",
+has their sources):
 
 - ``cpm``, :class:`ContinuousPassiveMotion`: a smooth flex-extend cycle between two postures;
 - ``staircase``, :class:`Staircase`: stairs of flexion up to a posture and back, each held;
@@ -30,8 +31,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..checks import ParameterError, check_non_negative, check_positive, set_field
-from ..model import as_joint_vector
-from ..settings import NANOSECONDS, step_time_ns
+from ..control.cycles import flex_extend, rise
+from ..physics.model import as_joint_vector
+from ..stepping.settings import NANOSECONDS, step_time_ns
 
 DEFAULT_DURATION = 60.0
 """Session length, s: the one-minute session of a trial (judgement)."""
@@ -57,41 +59,6 @@ DIP, the range 90 % of 20 activities of daily living need (Bain et al. 2015, doc
 STAIR_DIGITS = 9
 """t/hold is rounded to this many decimals before it is floored, so a time within 1e-9 of a
 hold of a stair's start (float rounding of k·Δt) belongs to that stair."""
-
-
-def rise(t: NDArray[np.float64], period: float) -> NDArray[np.float64]:
-    r"""The smooth cycle's phase s(t) = (1 − cos(2πt/period))/2, in [0, 1].
-
-    s = 0 at t = 0 and t = period, s = 1 at t = period/2, with zero slope at all three: its
-    first half is a smooth rise from 0 to 1 in period/2 (used so by :class:`GraspRelease`).
-    """
-    return 0.5 * (1.0 - np.cos(2.0 * np.pi * t / period))
-
-
-def flex_extend(
-    t: ArrayLike, low: NDArray[np.float64], high: NDArray[np.float64], period: float
-) -> NDArray[np.float64]:
-    r"""The smooth flex-extend cycle q*(t) = low + (high − low)·s(t), s of :func:`rise`.
-
-    Starts at ``low`` at t = 0, reaches ``high`` at t = period/2 and is back at ``low`` at
-    t = period; every point lies on the straight line between the two postures.
-
-    Parameters
-    ----------
-    t : array_like
-        Times, s, any shape.
-    low, high : ndarray, shape (3,)
-        The two postures, rad.
-    period : float
-        Duration of one cycle, s (> 0).
-
-    Returns
-    -------
-    ndarray, shape ``t.shape + (3,)``
-        q*(t), rad.
-    """
-    phase = rise(np.asarray(t, dtype=float), period)
-    return low + (high - low) * phase[..., np.newaxis]
 
 
 def _posture(name: str, value: ArrayLike) -> tuple[float, float, float]:

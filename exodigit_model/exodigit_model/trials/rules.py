@@ -32,7 +32,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..params import JOINT_NAMES
+from ..physics.params import JOINT_NAMES
 from .metrics import METRIC_NAMES, PatientMetrics
 
 COMPARISONS: Mapping[str, Callable] = MappingProxyType(

@@ -25,10 +25,10 @@ from pathlib import Path
 from typing import Any
 
 from ..control import ValveLoopSettings
-from ..params import GloveParams, load_params
-from ..settings import ACTUATIONS, SimulationSettings
+from ..physics.params import GloveParams, load_params
+from ..physics.populations import Population, load_population
+from ..stepping.settings import ACTUATIONS, SimulationSettings
 from .metrics import DEFAULT_FORCE_LIMIT, MetricSettings
-from .populations import Population, load_population
 from .protocols import SessionProtocol, make_protocol
 
 CONTROLLER_KINDS = {
@@ -216,12 +216,12 @@ class TrialSpec:
         Patients stepped as one batch (>= 1); the last shard takes what is left.
     actuation : str
         How the gloves' chambers are driven, one of
-        :data:`~exodigit_model.simulation.ACTUATIONS`: ``regulator`` (default: the controller's
-        pressure commands are the chambers') or ``valves`` (docs/spec/model.md §14: they are
-        the targets of :class:`~exodigit_model.control.ValveLoop`, which opens each glove's six
-        valves on its measured pressures, as ``pressure_command`` with ``output:=valves``; a
-        mode's ``valve_deadband``, ``valve_kp``, ``valve_ki`` set it). In process only: a ``ros``
-        controller is refused.
+        :data:`~exodigit_model.stepping.simulation.ACTUATIONS`: ``regulator`` (default: the
+        controller's pressure commands are the chambers') or ``valves`` (docs/spec/model.md §14:
+        they are the targets of :class:`~exodigit_model.control.ValveLoop`, which opens each
+        glove's six valves on its measured pressures, as ``pressure_command`` with
+        ``output:=valves``; a mode's ``valve_deadband``, ``valve_kp``, ``valve_ki`` set it). In
+        process only: a ``ros`` controller is refused.
 
     Raises
     ------

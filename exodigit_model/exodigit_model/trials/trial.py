@@ -2,10 +2,10 @@
 
 docs/trials.md, "Runner". A trial's N patients are split into shards of ``shard_size``
 (:func:`shard_bounds`). A shard is one batch on the compiled stepper
-(:class:`~exodigit_model.simulation.GloveSimulation` with one finger per patient), the controller
-answering the whole batch at every step and :class:`~.metrics.MetricAccumulator` taking every
-step (:func:`run_shard`). An :class:`Engine` runs the shards (:class:`LocalEngine` one after the
-other in this process; ``exodigit_model.trials.ray_engine.RayEngine`` on a Ray cluster) and
+(:class:`~exodigit_model.stepping.simulation.GloveSimulation` with one finger per patient), the
+controller answering the whole batch at every step and :class:`~.metrics.MetricAccumulator` taking
+every step (:func:`run_shard`). An :class:`Engine` runs the shards (:class:`LocalEngine` one after
+the other in this process; ``exodigit_model.trials.ray_engine.RayEngine`` on a Ray cluster) and
 :func:`run_trial` joins them, summarizes them and judges the rules.
 
 A shard's result depends on the spec and the shard's index only: its patients are rows a:b of
@@ -33,12 +33,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..control import ValveLoop
-from ..model import GloveModel
-from ..simulation import GloveSimulation
+from ..physics.model import GloveModel
+from ..physics.populations import Patients
+from ..stepping.simulation import GloveSimulation
 from .aggregates import summarize
 from .controllers import build_controller, limiter_acted
 from .metrics import MetricAccumulator, PatientMetrics
-from .populations import Patients
 from .rules import Rule, RuleResult
 from .spec import TrialSpec
 
@@ -338,8 +338,8 @@ def _bar(spec: TrialSpec, progress: bool | None) -> Any:
     """A tqdm bar over the patients, or None (not wanted, or tqdm missing)."""
     if progress is False or (progress is None and spec.shards < 2):
         return None
-    from ..tools._deps import ToolError
-    from ..tools._deps import progress as tqdm_bar
+    from ..extras import ToolError
+    from ..extras import progress as tqdm_bar
 
     try:
         return tqdm_bar(total=spec.patients, desc='trial', unit='patient')

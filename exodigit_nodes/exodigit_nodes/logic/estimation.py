@@ -1,8 +1,8 @@
 """The estimator's bookkeeping: pairing, an identification window, estimates outside the model.
 
 Angles (``joint_states``) and pressures (``chamber_pressure``) are paired by the times they were
-sent, with the rule of :mod:`exodigit_model.joining`: each pressure leads, and pairs with the
-first angles sent after it, before the next pressure (the plant publishes a step's pressure
+sent, with the rule of :mod:`exodigit_model.stepping.joining`: each pressure leads, and pairs with
+the first angles sent after it, before the next pressure (the plant publishes a step's pressure
 first, then its angles). Not by sequence numbers (they restart with every publisher: a replayed
 bag, a restarted plant, a recorder that missed the first message of a step), not by arrival order
 or nearest times (a preempted plant sends a step's angles late). A pressure whose angles never
@@ -157,8 +157,8 @@ class ValidityTally:
     """Estimates outside the validated model, for the estimator's /diagnostics.
 
     The robot-side estimate of a state outside the validated fibre stretch or the nominal
-    finger's range of motion (:mod:`exodigit_model.validity`) is still published, but it is an
-    extrapolation: each report since which one came is a WARN that says how many and why.
+    finger's range of motion (:mod:`exodigit_model.physics.validity`) is still published, but it is
+    an extrapolation: each report since which one came is a WARN that says how many and why.
     """
 
     def __init__(self) -> None:

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from exodigit_model.chambers import Saturation
-from exodigit_model.model import state_warnings
+from exodigit_model.physics.model import state_warnings
+from exodigit_model.stepping.chambers import Saturation
 
 from exodigit_model import JOINT_NAMES, GloveState
 

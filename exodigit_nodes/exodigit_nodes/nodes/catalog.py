@@ -19,8 +19,8 @@ import importlib
 from dataclasses import dataclass
 
 from exodigit_model.control import MODE_DEFAULTS, MODES, OUTPUTS, SafetyLimits, ValveLoopSettings
-from exodigit_model.joining import STEP_TOLERANCE
-from exodigit_model.settings import ACTUATIONS
+from exodigit_model.stepping.joining import STEP_TOLERANCE
+from exodigit_model.stepping.settings import ACTUATIONS
 
 from exodigit_model import SimulationSettings
 

@@ -1,8 +1,8 @@
 """``estimator``: robot-side contact forces and the patient's effective spring (docs/spec/ros.md).
 
 Pairs each ``chamber_pressure`` with the ``joint_states`` of the same plant step by the times
-they were sent (DDS source timestamps, :mod:`exodigit_model.joining`; refusing stale or unmatched
-samples) and publishes
+they were sent (DDS source timestamps, :mod:`exodigit_model.stepping.joining`; refusing stale or
+unmatched samples) and publishes
 ``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (docs/spec/model.md §7, needs no
 finger model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
 with), each a sensor_msgs/JointState with the stamp, names and angles of the ``joint_states`` it

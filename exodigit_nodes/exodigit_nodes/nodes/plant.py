@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_model.settings import VENT
+from exodigit_model.stepping.settings import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray

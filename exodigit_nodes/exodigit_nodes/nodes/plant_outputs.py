@@ -76,7 +76,7 @@ class PlantOutputs:
         fill(self.length_message, state.lengths)
         # Pressure first, then the rest, back to back: the estimator, the live summary and
         # exodigit plot pair a step's messages by the times they were sent, each with the
-        # chamber_pressure sent before it (exodigit_model.joining).
+        # chamber_pressure sent before it (exodigit_model.stepping.joining).
         self.pressures.publish(self.pressure_message)
         self.joints.publish(message)
         self.forces.publish(self.force_message)

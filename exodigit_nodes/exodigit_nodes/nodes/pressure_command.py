@@ -55,8 +55,8 @@ from exodigit_model.control import (
     ValveLoop,
     ValveLoopSettings,
 )
-from exodigit_model.joining import STEP_TOLERANCE
-from exodigit_model.settings import VENT
+from exodigit_model.stepping.joining import STEP_TOLERANCE
+from exodigit_model.stepping.settings import VENT
 from rclpy.clock import Clock, ClockType, JumpThreshold, TimeJump
 from rclpy.duration import Duration
 from sensor_msgs.msg import JointState

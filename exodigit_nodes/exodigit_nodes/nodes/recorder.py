@@ -70,7 +70,7 @@ TOPICS = {
 Subscribed in this order, which the executor keeps when several topics have messages waiting:
 ``chamber_pressure`` before ``joint_states``, as the plant publishes a step, so a recorder that
 falls behind still logs a step's pressure before its angles (``exodigit plot`` pairs them by log
-time, :mod:`exodigit_model.joining`)."""
+time, :mod:`exodigit_model.stepping.joining`)."""
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""

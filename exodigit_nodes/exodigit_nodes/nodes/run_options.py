@@ -94,7 +94,7 @@ def namespace_option(default: str, whom: str) -> RunOption:
 
 def patient_option(default: str, whom: str) -> RunOption:
     """``--patient``: the finger the plants simulate, merged over ``whom``'s model files."""
-    from exodigit_model.params import PATIENT_PRESETS
+    from exodigit_model.physics.params import PATIENT_PRESETS
 
     return RunOption(
         'patient',

@@ -11,7 +11,7 @@ from enum import IntEnum
 from typing import TextIO
 
 import numpy as np
-from exodigit_model.joining import Joined, Joiner
+from exodigit_model.stepping.joining import Joined, Joiner
 
 #: Joint labels in topic order (docs/spec/ros.md: always MCP, PIP, DIP).
 JOINT_LABELS = ('MCP', 'PIP', 'DIP')
@@ -68,7 +68,7 @@ COMMAND_SIGNALS = ('pressure_command', 'valve_command')
 #: Openings of a ``valve_command`` (with actuation valves): inlets MCP, PIP, DIP, then outlets.
 VALVE_OPENINGS = 6
 #: The plant topics a `Sample` joins, in the order the plant publishes them in a step
-#: (``Plant.publish_state``): the first leads (`exodigit_model.joining`).
+#: (``Plant.publish_state``): the first leads (`exodigit_model.stepping.joining`).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
 #: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
 STAMPED = ('estimated_contact_forces',)
@@ -131,9 +131,9 @@ class GloveSignals:
     The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in each
     step, on three topics without a common stamp. A `Sample` joins the three messages of one
     step by the times they were sent (DDS source timestamps), with the rule of
-    `exodigit_model.joining`: each step's pressure leads and the angles and forces sent after it,
-    before the next step's pressure, are its own. So it never mixes two steps, however the
-    messages are delivered or delayed, and a step that lost a message is skipped. A step is
+    `exodigit_model.stepping.joining`: each step's pressure leads and the angles and forces sent
+    after it, before the next step's pressure, are its own. So it never mixes two steps, however
+    the messages are delivered or delayed, and a step that lost a message is skipped. A step is
     joined once the next step's pressure has arrived (or at `flush`). The estimate of `STAMPED`
     joins the step whose angles carry its stamp: where an estimator runs (``estimated``; else
     once one has been heard), a joined step waits for its estimate until it, or the estimate of

@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from exodigit_model.params import dump_params
+from exodigit_model.physics.params import dump_params
 from exodigit_model.trials import ControllerSpec, MetricAccumulator, PatientMetrics, TrialSpec
 from exodigit_model.trials.trial import OnDone, PatientRecord, shard_bounds, shard_patients
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .checks import (
+from ..checks import (
     ParameterError,
     check_name,
     check_non_negative,
@@ -28,7 +28,7 @@ from .checks import (
     check_three,
     set_field,
 )
-from .kernels.flow_regions import LAMINAR_RATIO
+from ..kernels.flow_regions import LAMINAR_RATIO
 
 if TYPE_CHECKING:
     from .model import GloveModel
@@ -116,7 +116,7 @@ class Pneumatics:
 
 def flow_function(r: float, critical: float) -> float:
     """ψ(r) of (14.3) for the critical ratio b = ``critical``, 0 ≤ r ≤ 1."""
-    from .kernels.valves import flow_function_of
+    from ..kernels.valves import flow_function_of
 
     return flow_function_of(float(r), float(critical))
 
@@ -133,7 +133,7 @@ def mass_flow(
 
     Antisymmetric: Q(P_d, P_u) = −Q(P_u, P_d).
     """
-    from .kernels.valves import flow_of
+    from ..kernels.valves import flow_of
 
     return flow_of(
         float(conductance),
@@ -181,7 +181,7 @@ def air_constants(model: GloveModel, supply: float) -> NDArray[np.float64]:
 
     ``supply``: the supply's gauge pressure, Pa, where the parameters leave it open (null).
     """
-    from .kernels import valves
+    from ..kernels import valves
 
     pneumatics = model.params.pneumatics
     if pneumatics.supply_pressure is not None:

@@ -21,8 +21,8 @@ import numpy as np
 from numpy.polynomial import chebyshev
 from numpy.typing import NDArray
 
-from .kernels.constants import DEGREE, PIECE_WIDTH, PIECES, U_MIN, GloveConstants
-from .kernels.section import resisting_moments
+from ..kernels.constants import DEGREE, PIECE_WIDTH, PIECES, U_MIN, GloveConstants
+from ..kernels.section import resisting_moments
 
 _NODES = np.cos(np.pi * (np.arange(DEGREE + 1) + 0.5) / (DEGREE + 1))
 

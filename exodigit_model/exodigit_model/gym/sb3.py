@@ -4,12 +4,12 @@ Stable-Baselines3 (the optional ``rl`` extra, ``pip install "./exodigit_model[rl
 vectors of environments of its own ``VecEnv`` class, which resets an ended episode at once and
 keeps the last observation in ``infos[i]['terminal_observation']``; it does not take a
 Gymnasium ``VectorEnv``. :class:`PopulationVecEnv` is a
-:class:`~exodigit_model.gym_vector.GloveVectorEnv` behind that protocol, written without
+:class:`~exodigit_model.gym.vector.GloveVectorEnv` behind that protocol, written without
 Stable-Baselines3; :func:`sb3_vec_env` makes it a subclass of SB3's ``VecEnv`` (importing
 Stable-Baselines3 then, never before), which SB3's algorithms and wrappers (``VecNormalize``,
 ``VecMonitor``) take:
 
->>> from exodigit_model.gym_sb3 import sb3_vec_env
+>>> from exodigit_model.gym.sb3 import sb3_vec_env
 >>> from stable_baselines3 import PPO                                # doctest: +SKIP
 >>> venv = sb3_vec_env(16, population='stroke_moderate')            # doctest: +SKIP
 >>> PPO('MlpPolicy', venv).learn(100_000)                           # doctest: +SKIP
@@ -25,11 +25,11 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from numpy.typing import ArrayLike, NDArray
 
-from .gym_vector import GloveVectorEnv
+from .vector import GloveVectorEnv
 
 
 class PopulationVecEnv:
-    """:class:`~exodigit_model.gym_vector.GloveVectorEnv` with Stable-Baselines3's VecEnv API.
+    """:class:`~exodigit_model.gym.vector.GloveVectorEnv` with Stable-Baselines3's VecEnv API.
 
     ``reset() -> observations``; ``step_async(actions)`` then ``step_wait() -> (observations,
     rewards, dones, infos)`` with ``dones = terminated | truncated`` and ``infos`` a list of
@@ -39,7 +39,7 @@ class PopulationVecEnv:
     ``'terminal_observation'`` (the last observation) and ``'TimeLimit.truncated'``
     (truncated, not terminated), and :attr:`reset_infos` holds the new episode's info.
     Every sub-environment is the vector environment's ``definition`` (a
-    :class:`~exodigit_model.gym.GloveEnv`) on its own patient, so :meth:`get_attr` reads the
+    :class:`~exodigit_model.gym.env.GloveEnv`) on its own patient, so :meth:`get_attr` reads the
     definition; :meth:`set_attr` and :meth:`env_method` are refused, since the
     sub-environments are stepped together as one batch.
 
@@ -172,7 +172,7 @@ def sb3_vec_env(envs: GloveVectorEnv | int, **keywords: Any) -> Any:
         A vector environment made with ``autoreset_mode=AutoresetMode.SAME_STEP``, or the
         number of sub-environments of a new one.
     **keywords
-        :class:`~exodigit_model.gym_vector.GloveVectorEnv`'s keywords for a new one
+        :class:`~exodigit_model.gym.vector.GloveVectorEnv`'s keywords for a new one
         (``population``, ``episode_steps``, ``safety``, ...), not with ``envs`` given.
 
     Raises

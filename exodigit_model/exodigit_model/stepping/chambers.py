@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..physics.validity import SUPPLY_PRESSURE
+
 
 @dataclass(frozen=True)
 class ChamberSettings:
@@ -26,7 +28,7 @@ class ChamberSettings:
     """
 
     time_constant: float = 0.05
-    max_supply_pressure: float = 100e3
+    max_supply_pressure: float = SUPPLY_PRESSURE
 
     def __post_init__(self) -> None:
         """Refuse negative or non-finite values, naming the field."""

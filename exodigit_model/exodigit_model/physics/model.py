@@ -25,20 +25,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .chambers import ChamberSettings
-from .identification import StiffnessFit, fit_stiffness
-from .inverse import BatchEstimate, Estimate, Hold
-from .kernels.constants import DEGREE, PIECES, GloveConstants, pack
-from .kernels.inverse import (
+from ..kernels.constants import DEGREE, PIECES, GloveConstants, pack
+from ..kernels.inverse import (
     contact_torques,
     estimate_one,
     estimate_rows,
     hold,
     robot_contact_torques,
 )
-from .kernels.kinematics import chord_terms, finger_points, frames
-from .kernels.linear import transpose_solve
-from .kernels.solves import (
+from ..kernels.kinematics import chord_terms, finger_points, frames
+from ..kernels.linear import transpose_solve
+from ..kernels.solves import (
     evaluate_state,
     finger_torques,
     jacobians_at,
@@ -46,13 +43,16 @@ from .kernels.solves import (
     solve_state,
     validity_rows,
 )
-from .kernels.structural import structural_torques
+from ..kernels.structural import structural_torques
+from .identification import StiffnessFit, fit_stiffness
+from .inverse import BatchEstimate, Estimate, Hold
 from .params import JOINT_NAMES, GloveParams, load_params
 from .patient import finger_rows
 from .section import SectionQuadrature, pressure_area, pressure_moment
 from .solver import CONVERGED_STEP, STATUS
 from .structural import torque_tables
 from .validity import (
+    SUPPLY_PRESSURE,
     VALID_STRETCH,
     state_warnings,
     validity_message,
@@ -60,11 +60,6 @@ from .validity import (
     warn_outside,
     within_supply,
 )
-
-SUPPLY = ChamberSettings.max_supply_pressure
-"""The supply pressure the inverse checks its pressures against by default, Pa (the chambers'
-default ``max_supply_pressure``, docs/spec/model.md §13)."""
-
 
 _STATIC_LIMITS = (0.0, *VALID_STRETCH)
 """The limits argument of :func:`~.kernels.solves.solve_state` for a static solve (rate 0)."""
@@ -85,7 +80,7 @@ class Solution:
     pressure : ndarray, shape (3,)
         The chamber pressures solved for, Pa.
     status : int
-        Why the iteration stopped: a key of :data:`exodigit_model.solver.STATUS`.
+        Why the iteration stopped: a key of :data:`exodigit_model.physics.solver.STATUS`.
     message : str
         The status in words.
     iterations : int
@@ -609,10 +604,10 @@ class GloveModel:
             If the answer leaves the validated model (a fibre stretch, the range of motion or
             the supply range, :mod:`.validity`); :meth:`hold` says which without warning.
         """
-        _, pressure, _, valid, moving_range, enough = self._held(q, qdot, effort, SUPPLY)
+        _, pressure, _, valid, moving_range, enough = self._held(q, qdot, effort, SUPPLY_PRESSURE)
         if not (valid and moving_range and enough):  # the status only then: a hot path
             status = validity_status(valid, moving_range, enough)
-            warn_outside('pressure_for', status, SUPPLY)
+            warn_outside('pressure_for', status, SUPPLY_PRESSURE)
         return pressure
 
     def hold(
@@ -621,7 +616,7 @@ class GloveModel:
         qdot: ArrayLike | None = None,
         effort: ArrayLike | None = None,
         *,
-        supply: float = SUPPLY,
+        supply: float = SUPPLY_PRESSURE,
     ) -> Hold:
         """The inverse: pressures (Pa) and bottom-face lengths ℓ (m) that hold angles ``q``.
 

@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from ..params import JOINT_NAMES
-from .metrics import column_names
-from .populations import PATIENT_FIELDS
-from .trial import PatientRecord, TrialResult, record_patient
+from ..physics.params import JOINT_NAMES
+from ..physics.populations import PATIENT_FIELDS
+from ..trials.metrics import column_names
+from ..trials.trial import PatientRecord, TrialResult, record_patient
 
 FILES = ('patients.csv', 'summary.json')
 """The report's data files."""
@@ -86,14 +86,14 @@ def write_report(
     if record is not None and record.patient != worst:
         raise ValueError(f'record: patient {record.patient}, but the report shows patient {worst}')
     if figures:
-        from ..tools._deps import pyplot
+        from ..extras import pyplot
 
         pyplot()  # fails before anything is written when matplotlib is missing
     folder.mkdir(parents=True, exist_ok=True)
     written = [write_patients(result, folder / FILES[0]), folder / FILES[1]]
     written[1].write_text(json.dumps(summary_document(result, worst), indent=2) + '\n')
     if figures:
-        from .figures import distribution_figure, rom_figure, time_series_figure
+        from .trial_figures import distribution_figure, rom_figure, time_series_figure
 
         distribution_figure(result, folder / FIGURES[0])
         if record is None:

@@ -15,14 +15,14 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .kernels.constants import (
+from ..kernels.constants import (
     LAW_COLUMNS,
     LAW_LOWER_AT_REST,
     LAW_PARAMETERS,
     LAW_SPASTIC_AT_ZERO,
     LAW_UPPER_AT_REST,
 )
-from .kernels.patient import SPASTICITY_WIDTH, softplus_and_sigmoid
+from ..kernels.patient import SPASTICITY_WIDTH, softplus_and_sigmoid
 from .params import Finger, FingerJoint
 
 

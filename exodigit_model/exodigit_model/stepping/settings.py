@@ -13,8 +13,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..checks import check_integer
 from .chambers import ChamberSettings
-from .checks import check_integer
 
 NANOSECONDS = 10**9
 ACTUATIONS = ('regulator', 'valves')

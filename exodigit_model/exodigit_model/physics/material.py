@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels.material import stress_and_slope
+from ..kernels.material import stress_and_slope
 from .params import Material
 
 

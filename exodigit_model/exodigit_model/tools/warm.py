@@ -1,4 +1,4 @@
-"""Compile every kernel into the cache: ``python -m exodigit_model.kernels.warm``.
+"""Compile every kernel into the cache: ``python -m exodigit_model.tools.warm``.
 
 Each case drives the public API the way the nodes, runners and tests do, with the argument
 types they pass, so numba compiles (and caches, :mod:`.jit`) every signature they will need; a
@@ -22,20 +22,16 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from exodigit_model import (
-    GloveModel,
-    GloveSimulation,
-    load_params,
-    params_from_dict,
-    patient_file,
-)
-from exodigit_model.material import yeoh_stress
-from exodigit_model.pneumatics import ATMOSPHERIC_PRESSURE, flow_function, mass_flow
+from exodigit_model.physics.material import yeoh_stress
+from exodigit_model.physics.pneumatics import ATMOSPHERIC_PRESSURE, flow_function, mass_flow
 
 from .. import compiling
-from . import jit
-from .patient import finger_torque
-from .section import resultants
+from ..kernels import jit
+from ..kernels.patient import finger_torque
+from ..kernels.section import resultants
+from ..physics.model import GloveModel
+from ..physics.params import load_params, params_from_dict, patient_file
+from ..stepping.simulation import GloveSimulation
 
 #: Chamber pressures (Pa) of the cases: a point, and rows of a batch.
 PRESSURE = np.array([40e3, 55e3, 30e3])

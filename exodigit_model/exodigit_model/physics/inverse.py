@@ -1,12 +1,13 @@
 """Results of the inverse and of the robot-side estimator, with where they lie (scipy style).
 
-:meth:`GloveModel.hold <exodigit_model.model.GloveModel.hold>` answers with a :class:`Hold`,
-:meth:`~exodigit_model.model.GloveModel.estimate` with an :class:`Estimate` and
-:meth:`~exodigit_model.model.GloveModel.estimate_batch` with a :class:`BatchEstimate`. Each
-says whether its answer lies inside the validated model as the forward solve's
-:class:`~exodigit_model.model.Solution` does (``in_valid_range``, ``in_range_of_motion``), and
-with a ``status`` and ``message`` of :mod:`exodigit_model.validity` (0 and 'inside the
-validated model' when it does). Where no answer exists (no bottom-face strain balances the
+:meth:`GloveModel.hold <exodigit_model.physics.model.GloveModel.hold>` answers with a
+:class:`Hold`, :meth:`~exodigit_model.physics.model.GloveModel.estimate` with an
+:class:`Estimate` and :meth:`~exodigit_model.physics.model.GloveModel.estimate_batch` with a
+:class:`BatchEstimate`. Each says whether its answer lies inside the validated model as the
+forward solve's :class:`~exodigit_model.physics.model.Solution` does (``in_valid_range``,
+``in_range_of_motion``), and with a ``status`` and ``message`` of
+:mod:`exodigit_model.physics.validity` (0 and 'inside the validated model' when it does). Where
+no answer exists (no bottom-face strain balances the
 segments) the methods raise instead: these results are always balances found.
 """
 
@@ -34,8 +35,8 @@ class Hold:
     lengths : ndarray, shape (3,)
         ℓ_i, the bottom-face arc lengths at that balance, m.
     status : int
-        :data:`~exodigit_model.validity.INSIDE` (0), or the sum of the codes of
-        :mod:`exodigit_model.validity` of each way the answer leaves the model.
+        :data:`~exodigit_model.physics.validity.INSIDE` (0), or the sum of the codes of
+        :mod:`exodigit_model.physics.validity` of each way the answer leaves the model.
     message : str
         The status in words.
     in_valid_range : bool

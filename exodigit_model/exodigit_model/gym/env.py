@@ -2,15 +2,15 @@
 
 The optional ``gym`` extra (``pip install "./exodigit_model[gym]"``) provides Gymnasium; only this
 module imports it, never the core package. :class:`GloveEnv` steps one glove in-process (no
-ROS, no DDS) with the same :class:`~exodigit_model.simulation.GloveSimulation` as the ROS plant,
-behind the same safety limiter as the ROS graph's ``pressure_command``
+ROS, no DDS) with the same :class:`~exodigit_model.stepping.simulation.GloveSimulation` as the ROS
+plant, behind the same safety limiter as the ROS graph's ``pressure_command``
 (:mod:`exodigit_model.control`), so an agent trained here meets the same physics and the same
 limits on the ROS graph.
 
 Importing the module registers the environment as ``exodigit/Glove-v0``:
 
 >>> import gymnasium
->>> import exodigit_model.gym
+>>> import exodigit_model.gym.env
 >>> env = gymnasium.make('exodigit/Glove-v0', episode_steps=100)
 >>> observation, info = env.reset(seed=1)
 >>> observation.shape, env.action_space.low.tolist(), env.action_space.high.tolist()
@@ -35,13 +35,13 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from .control import Feedback, Limited, SafetyLimiter, SafetyLimits
-from .control.shapes import check_shape
-from .model import GloveModel, as_joint_rows, as_joint_vector
-from .params import GloveParams, load_params
-from .settings import ACTUATIONS, NANOSECONDS, OPENINGS, SimulationSettings, step_time_ns
-from .simulation import GloveSimulation, GloveState
-from .trials.protocols import flex_extend
+from ..control import Feedback, Limited, SafetyLimiter, SafetyLimits
+from ..control.cycles import flex_extend
+from ..control.shapes import check_shape
+from ..physics.model import GloveModel, as_joint_rows, as_joint_vector
+from ..physics.params import GloveParams, load_params
+from ..stepping.settings import ACTUATIONS, NANOSECONDS, OPENINGS, SimulationSettings, step_time_ns
+from ..stepping.simulation import GloveSimulation, GloveState
 
 ENV_ID = 'exodigit/Glove-v0'
 """The id under which importing this module registers :class:`GloveEnv` with Gymnasium."""
@@ -106,7 +106,7 @@ class FlexExtendTarget:
     r"""A slow flex-extend: q*(t) = peak · (1 − cos(2πt / period)) / 2, rad.
 
     The continuous passive motion of the trials from the straight finger
-    (:func:`exodigit_model.trials.protocols.flex_extend` with low = 0, high = ``peak``).
+    (:func:`exodigit_model.control.cycles.flex_extend` with low = 0, high = ``peak``).
 
     Starts at rest (q* = 0 at t = 0), reaches ``peak`` at t = period/2 and returns to rest at
     t = period. Every point lies on the straight line from 0 to ``peak``; for the default
@@ -167,7 +167,7 @@ def tracking_reward(
     ``q`` is the true joint angle after the step (``state.q``, not the noisy measurement: the
     reward scores the finger, not the sensor), q* the target at the same time ``state.t``. The
     action is not used; a reward with an effort or a rate term can use it. Over a batch
-    (``state.q`` of shape (N, 3), as :class:`~exodigit_model.gym_vector.GloveVectorEnv` calls
+    (``state.q`` of shape (N, 3), as :class:`~exodigit_model.gym.vector.GloveVectorEnv` calls
     it) it returns the N rewards, each summed in the order MCP, PIP, DIP as for one glove, so
     a glove's reward is the same bit for bit either way.
     """
@@ -220,8 +220,8 @@ class GloveEnv(gymnasium.Env):
         sends the action to the chambers unlimited. Behind valves the default means None and
         other limits are refused (see Notes).
     actuation : str, optional
-        One of :data:`~exodigit_model.simulation.ACTUATIONS`: ``'regulator'`` (default; the
-        action is three chamber pressures) or ``'valves'`` (six valve openings,
+        One of :data:`~exodigit_model.stepping.simulation.ACTUATIONS`: ``'regulator'`` (default;
+        the action is three chamber pressures) or ``'valves'`` (six valve openings,
         docs/spec/model.md §14).
     action_scale : str, optional
         One of :data:`ACTION_SCALES`: ``'normalized'`` (default; Box(−1, 1) per chamber, what
@@ -500,7 +500,7 @@ class GloveEnv(gymnasium.Env):
     def target_of_step(self, step: int) -> NDArray[np.float64]:
         """q*(t_k), rad, (3,): the target at the time of step k of an episode.
 
-        t_k as the stepper reports it (:func:`~exodigit_model.settings.step_time_ns`).
+        t_k as the stepper reports it (:func:`~exodigit_model.stepping.settings.step_time_ns`).
 
         Raises
         ------
@@ -657,4 +657,4 @@ def _model(model: GloveModel | None, params: str | os.PathLike | GloveParams | N
 
 
 if ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=ENV_ID, entry_point='exodigit_model.gym:GloveEnv')
+    gymnasium.register(id=ENV_ID, entry_point='exodigit_model.gym.env:GloveEnv')

@@ -1,10 +1,10 @@
 """Many simulated patients at once: :class:`GloveVectorEnv`, a Gymnasium ``VectorEnv``.
 
-Each of ``num_envs`` sub-environments is a :class:`~exodigit_model.gym.GloveEnv` whose finger is
-a patient drawn from a population (:mod:`exodigit_model.trials.populations`) at every reset:
+Each of ``num_envs`` sub-environments is a :class:`~exodigit_model.gym.env.GloveEnv` whose finger
+is a patient drawn from a population (:mod:`exodigit_model.physics.populations`) at every reset:
 domain randomisation over patients. The sub-environments step together on the batch stepper
 (``GloveSimulation(model, settings, fingers=...)``, docs/spec/model.md §13), one glove per
-patient, with ``GloveEnv``'s observation (:func:`~exodigit_model.gym.observe`), target, reward
+patient, with ``GloveEnv``'s observation (:func:`~exodigit_model.gym.env.observe`), target, reward
 and safety limiter.
 
 Importing the module registers ``exodigit/GlovePatients-v0``: ``gymnasium.make_vec`` makes a
@@ -12,7 +12,7 @@ Importing the module registers ``exodigit/GlovePatients-v0``: ``gymnasium.make_v
 glove on a new patient at every reset, :class:`GlovePatientEnv`:
 
 >>> import gymnasium
->>> import exodigit_model.gym_vector
+>>> import exodigit_model.gym.vector
 >>> envs = gymnasium.make_vec('exodigit/GlovePatients-v0', num_envs=8, episode_steps=50)
 >>> observations, infos = envs.reset(seed=1)
 >>> observations.shape, observations.dtype, envs.metadata['autoreset_mode'].name
@@ -35,9 +35,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
-from .control import LIMIT_KINDS, Feedback, SafetyLimiter, SafetyLimits
-from .control.shapes import check_shape
-from .gym import (
+from ..control import LIMIT_KINDS, Feedback, SafetyLimiter, SafetyLimits
+from ..control.shapes import check_shape
+from ..physics.model import GloveModel, as_joint_rows
+from ..physics.params import Finger, GloveParams
+from ..physics.populations import Population, load_population
+from ..stepping.settings import SimulationSettings
+from ..stepping.simulation import GloveSimulation
+from .env import (
     DEFAULT_EPISODE_STEPS,
     DEFAULT_SAFETY,
     SEED_BOUND,
@@ -48,11 +53,6 @@ from .gym import (
     as_actions,
     observe,
 )
-from .model import GloveModel, as_joint_rows
-from .params import Finger, GloveParams
-from .settings import SimulationSettings
-from .simulation import GloveSimulation
-from .trials.populations import Population, load_population
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 """The autoreset modes :class:`GloveVectorEnv` offers (not ``DISABLED``'s masked resets)."""
@@ -75,13 +75,13 @@ INFO_KEYS = (
     'observation_clipped',
 )
 """The keys of every ``infos`` (each with its Gymnasium mask ``'_' + key``, all True); behind
-valves also :data:`~exodigit_model.gym.VALVE_INFO_KEYS`."""
+valves also :data:`~exodigit_model.gym.env.VALVE_INFO_KEYS`."""
 
 
 class GloveVectorEnv(VectorEnv):
     r"""``num_envs`` gloves, each on a patient drawn from a population at every reset.
 
-    Sub-environment i is a :class:`~exodigit_model.gym.GloveEnv` (same action and observation
+    Sub-environment i is a :class:`~exodigit_model.gym.env.GloveEnv` (same action and observation
     spaces, target, reward, safety limiter, episode length and termination) whose finger is a
     patient of ``population``, drawn anew whenever the sub-environment resets; the glove (the
     exo-digit) is ``model``'s for every patient. The force estimate the limiter checks uses
@@ -95,10 +95,10 @@ class GloveVectorEnv(VectorEnv):
     population : str, PathLike or Population, optional
         Where patients come from: a shipped population (``healthy``, ``stroke_mild``,
         ``stroke_moderate``, ``stroke_severe``), a population file (docs/populations.md) or a
-        :class:`~exodigit_model.trials.populations.Population`; default
+        :class:`~exodigit_model.physics.populations.Population`; default
         :data:`DEFAULT_POPULATION`. Patients keep the link lengths of ``model``'s finger.
     model, params, settings, episode_steps, target, observe_target, safety, actuation, action_scale
-        As :class:`~exodigit_model.gym.GloveEnv`'s, shared by every sub-environment: the target
+        As :class:`~exodigit_model.gym.env.GloveEnv`'s, shared by every sub-environment: the target
         is a function of the time since the sub-environment's reset; behind valves
         (``actuation='valves'``) the actions are (num_envs, 6) openings and there is no
         limiter; actions are in [−1, 1] unless ``action_scale='physical'``.
@@ -106,7 +106,7 @@ class GloveVectorEnv(VectorEnv):
         ``reward(state, target, actions) -> (n,)`` over a batch: the :class:`GloveState` of n
         gloves after the step (arrays (n, 3)), the target at ``state.t`` (rad, (3,)) and the
         physical actions (Pa, (n, 3), or openings (n, 6)). Default:
-        :func:`~exodigit_model.gym.tracking_reward`, which takes one glove or a batch.
+        :func:`~exodigit_model.gym.env.tracking_reward`, which takes one glove or a batch.
     autoreset_mode : AutoresetMode, optional
         ``AutoresetMode.NEXT_STEP`` (default) or ``AutoresetMode.SAME_STEP`` (see Notes).
 
@@ -117,7 +117,7 @@ class GloveVectorEnv(VectorEnv):
     ``truncated``) returns its last observation; the next step ignores that sub-environment's
     action, draws a new patient, and returns the first observation of the new episode with
     reward 0 and both flags False. With ``AutoresetMode.SAME_STEP`` (as Stable-Baselines3
-    steps, :mod:`exodigit_model.gym_sb3`) the step that ends an episode draws the new patient
+    steps, :mod:`exodigit_model.gym.sb3`) the step that ends an episode draws the new patient
     at once and returns the new episode's first observation, with the step's reward and
     flags; ``infos['final_obs']`` (an object array, None where no episode ended, mask
     ``'_final_obs'``) holds the last observation and ``infos['final_info']`` the last infos,
@@ -485,7 +485,7 @@ class GlovePatientEnv(gymnasium.Env):
     def step(
         self, action: ArrayLike
     ) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
-        """Apply ``action``, as :meth:`GloveEnv.step <exodigit_model.gym.GloveEnv.step>`."""
+        """Apply ``action``, as :meth:`GloveEnv.step <exodigit_model.gym.env.GloveEnv.step>`."""
         try:
             actions = np.asarray(action, dtype=float)[None]
         except (TypeError, ValueError):
@@ -512,6 +512,6 @@ class GlovePatientEnv(gymnasium.Env):
 if VECTOR_ENV_ID not in gymnasium.registry:
     gymnasium.register(
         id=VECTOR_ENV_ID,
-        entry_point='exodigit_model.gym_vector:GlovePatientEnv',
-        vector_entry_point='exodigit_model.gym_vector:GloveVectorEnv',
+        entry_point='exodigit_model.gym.vector:GlovePatientEnv',
+        vector_entry_point='exodigit_model.gym.vector:GloveVectorEnv',
     )

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import JOINT_NAMES
-from ..tools.figures import figure_panels, save_figure
-from .trial import PatientRecord, TrialResult
+from ..physics.params import JOINT_NAMES
+from ..trials.trial import PatientRecord, TrialResult
+from .figures import figure_panels, save_figure
 
 JOINT_LABELS = tuple(name.upper() for name in JOINT_NAMES)
 DEGREES = math.degrees(1.0)

@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from .checks import (
+from ..checks import (
     ParameterError,
     build_checked,
     check_keys,
@@ -311,7 +311,7 @@ def _params(merged: Mapping[str, Any]) -> GloveParams:
 
 
 def _default_dict() -> dict[str, Any]:
-    text = resources.files(__package__).joinpath('default_params.yaml').read_text('utf-8')
+    text = resources.files('exodigit_model').joinpath('default_params.yaml').read_text('utf-8')
     return read_yaml(text, 'default_params.yaml')
 
 
@@ -331,7 +331,7 @@ def patient_file(name: str) -> Path:
         raise ParameterError(
             f'patient {name!r}: unknown preset (known: {", ".join(PATIENT_PRESETS)})'
         )
-    return Path(str(resources.files(__package__).joinpath('patients', f'{name}.yaml')))
+    return Path(str(resources.files('exodigit_model').joinpath('patients', f'{name}.yaml')))
 
 
 ParamsFiles = str | Path | Sequence[str | Path] | None

@@ -4,13 +4,13 @@ The model is validated for fibre stretches 0.95 ≤ λ ≤ 1.5 (:data:`VALID_STR
 docs/spec/model.md §12) and joints inside the finger's range of motion [rom_min, rom_max]
 (§11); a pressure it asks for is one the supply can give only in [0, ``max_supply_pressure``]
 (§13). Outside, everything still computes: the forward solve says so on its
-:class:`~exodigit_model.model.Solution`, the inverse and the robot-side estimator on the results
+:class:`~exodigit_model.physics.model.Solution`, the inverse and the robot-side estimator on the results
 here, with a ``status`` and a ``message`` in scipy's manner. The status is :data:`INSIDE` (0), or
 the sum of the code of every way the answer leaves the model (:data:`OUTSIDE_STRETCH`,
 :data:`OUTSIDE_RANGE_OF_MOTION`, :data:`BEYOND_SUPPLY`); the message says each in words, the
 sentences :func:`state_warnings` gives for a forward solve.
 
->>> from exodigit_model.validity import INSIDE, OUTSIDE_STRETCH, BEYOND_SUPPLY, validity_message
+>>> from exodigit_model.physics.validity import INSIDE, OUTSIDE_STRETCH, BEYOND_SUPPLY, validity_message
 >>> validity_message(INSIDE)
 'inside the validated model'
 >>> validity_message(OUTSIDE_STRETCH + BEYOND_SUPPLY, supply=100e3)
@@ -25,6 +25,9 @@ import warnings
 import numpy as np
 from numpy.typing import NDArray
 
+SUPPLY_PRESSURE = 100e3
+"""The default supply's highest pressure, Pa (docs/spec/model.md §13): what the inverse checks
+the pressures it asks for against, and the chambers' default ``max_supply_pressure``."""
 VALID_STRETCH = (0.95, 1.5)
 """Fibre stretches the model is validated for (paper §2.1.3; docs/spec/model.md §12: a bottom face
 slightly compressed by the finger, λ ≥ 0.95, is harmless)."""
@@ -47,8 +50,10 @@ inverse of a state at rest gives ±rounding, not suction)."""
 class OutsideModelWarning(UserWarning):
     """An answer of the model lies outside its validated range.
 
-    The array-returning shortcuts :meth:`~exodigit_model.model.GloveModel.pressure_for` and
-    :meth:`~exodigit_model.model.GloveModel.estimate_forces` warn it; the results say which way.
+    The array-returning shortcuts
+    :meth:`~exodigit_model.physics.model.GloveModel.pressure_for` and
+    :meth:`~exodigit_model.physics.model.GloveModel.estimate_forces` warn it; the results say
+    which way.
     """
 
 

@@ -40,10 +40,9 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .chambers import Chambers, Saturation
-from .kernels.solves import rest_rows
-from .kernels.stepping import run_glove, step_gloves, step_one
-from .kernels.valves import (
+from ..kernels.solves import rest_rows
+from ..kernels.stepping import run_glove, step_gloves, step_one
+from ..kernels.valves import (
     AIR_GAS,
     AIR_VOLUME,
     AIR_VOLUME_PER_ANGLE,
@@ -51,10 +50,12 @@ from .kernels.valves import (
     GAS_MASS,
     GAS_VOLUME,
 )
-from .model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
-from .params import Finger
-from .patient import finger_rows
-from .pneumatics import ATMOSPHERIC_PRESSURE, air_constants
+from ..physics.model import VALID_STRETCH, GloveModel, as_joint_rows, as_joint_vector
+from ..physics.params import Finger
+from ..physics.patient import finger_rows
+from ..physics.pneumatics import ATMOSPHERIC_PRESSURE, air_constants
+from ..physics.solver import CONVERGED_STEP
+from .chambers import Chambers, Saturation
 from .settings import (
     ACTUATIONS,
     FIXED_SETTINGS,
@@ -63,7 +64,6 @@ from .settings import (
     SimulationSettings,
     step_time_ns,
 )
-from .solver import CONVERGED_STEP
 
 
 class GloveState(NamedTuple):
@@ -172,8 +172,8 @@ class GloveSimulation:
     ------
     ValueError
         For a ``count`` that is not a positive integer, ``fingers`` that is not a non-empty
-        sequence of :class:`~exodigit_model.params.Finger`, both that disagree, or an unknown
-        ``actuation``.
+        sequence of :class:`~exodigit_model.physics.params.Finger`, both that disagree, or an
+        unknown ``actuation``.
 
     Notes
     -----
@@ -583,7 +583,7 @@ def _population(fingers: Iterable[Finger], count: int | None) -> tuple[Finger, .
     for index, finger in enumerate(population):
         if not isinstance(finger, Finger):
             raise ValueError(
-                f'fingers[{index}] = {finger!r}: must be a Finger (exodigit_model.params.Finger)'
+                f'fingers[{index}] = {finger!r}: must be a Finger (exodigit_model.Finger)'
             )
     if count is not None and count != len(population):
         raise ValueError(

@@ -7,7 +7,7 @@ Every forward solve ends with one of these codes, as scipy's solvers do; codes b
 
 from __future__ import annotations
 
-from .kernels.newton import (
+from ..kernels.newton import (
     ARMIJO,
     CONVERGED,
     CONVERGED_STEP,

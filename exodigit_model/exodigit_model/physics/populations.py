@@ -3,8 +3,8 @@
 A population gives each patient parameter of each joint (the fields of :data:`PATIENT_FIELDS`) a
 distribution (:mod:`.distributions`) and says how the parameters vary together
 (:class:`Correlation`). :meth:`Population.sample` draws patients reproducibly from a seed, as
-parameter arrays for a batch and as :class:`~exodigit_model.params.Finger` objects for one
-:class:`~exodigit_model.model.GloveModel` each. Populations are YAML files; one per patient
+parameter arrays for a batch and as :class:`~exodigit_model.physics.params.Finger` objects for one
+:class:`~exodigit_model.physics.model.GloveModel` each. Populations are YAML files; one per patient
 preset ships with the package, centred on it (docs/patients.md). The format, the shipped
 populations and their sources: docs/populations.md.
 
@@ -38,8 +38,8 @@ from ..checks import (
     read_yaml,
     set_field,
 )
-from ..params import PATIENT_PRESETS, Finger, FingerJoint, params_from_dict
 from .distributions import KINDS, Distribution, Fixed
+from .params import PATIENT_PRESETS, Finger, FingerJoint, params_from_dict
 
 ANATOMY = ('name', 'link_half_length')
 """Fields of a FingerJoint that describe the hand, not the patient: taken from a base finger."""
