@@ -152,14 +152,17 @@ def report(node):
 
 
 def test_targets_outside_the_range_of_motion_are_refused(in_process):
-    # The controller keeps its targets, and its diagnostics count the refusal.
+    # The controller keeps its targets, and its diagnostics count the refusal; a target is
+    # taken at the node's next command.
     node = in_process()
     node.deliver('joint_targets', Float64MultiArray(data=[0.35, 3.0, 0.2]))
+    node.node.tick()
     np.testing.assert_array_equal(node.node.loop.controller.targets, TARGETS)
     status, values = report(node)
     assert values['rejected joint_targets: out of range'] == '1'
     assert status.level == DiagnosticStatus.WARN
     node.deliver('joint_targets', Float64MultiArray(data=[0.35, 0.3, 0.2]))  # inside: taken
+    node.node.tick()
     np.testing.assert_array_equal(node.node.loop.controller.targets, [0.35, 0.3, 0.2])
 
 
