@@ -32,7 +32,7 @@ MODES = {
     'staircase': "steps of staircase_step up to staircase_peak and back, as in the paper's tests",
     'sine': 'continuous passive motion between sine_low and sine_high',
     'hold': 'constant hold_pressure',
-    'position': 'joint_targets by model feed-forward plus PI on joint_states',
+    'position': 'joint_targets or joint_trajectory by model feed-forward plus PI on joint_states',
     'force': 'force_targets, contact forces, by feed-forward plus PI on estimated_contact_forces',
 }
 """The sessions of ``pressure_command`` (its ``mode`` parameter), each with what it commands."""
