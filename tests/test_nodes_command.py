@@ -12,6 +12,7 @@ a plant stopped under a running position controller (processes) in
 tests/test_reliability_faults.py.
 """
 
+import functools
 import itertools
 import os
 import time
@@ -20,9 +21,7 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_nodes.nodes.pressure_command import PressureCommand
 from rclpy.parameter import Parameter
-from reliability_inprocess import InProcessNode
 from ros_harness import wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -123,18 +122,9 @@ def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
 
 
 @pytest.fixture
-def in_process(probe):
+def in_process(command_nodes):
     """Builds PressureCommand nodes in process (position mode at `TARGETS`); closes them."""
-    made = []
-
-    def build(**overrides):
-        parameters = {'mode': 'position', 'joint_targets': str(TARGETS), **overrides}
-        made.append(InProcessNode(PressureCommand, parameters, probe))
-        return made[-1]
-
-    yield build
-    for node in made:
-        node.close()
+    return functools.partial(command_nodes, TARGETS)
 
 
 def joint_states(q, t):

@@ -10,6 +10,7 @@ against the same controller code stepped in this process on ``GloveSimulation``,
 in a first session and in a second one after ``reset_simulation``.
 """
 
+import functools
 import math
 import sys
 
@@ -29,9 +30,7 @@ from exodigit_model.control import (
 from exodigit_model.control import trajectory as trajectory_module
 from exodigit_model.settings import step_time_ns
 from exodigit_nodes.nodes.messages import trajectory_message
-from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing.target_run import TargetGloveSim
-from reliability_inprocess import InProcessNode
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -52,18 +51,9 @@ PATH = Trajectory(
 
 
 @pytest.fixture
-def in_process(probe):
+def in_process(command_nodes):
     """Builds PressureCommand nodes in process (position mode at `HELD`); closes them."""
-    made = []
-
-    def build(**overrides):
-        parameters = {'mode': 'position', 'joint_targets': str(HELD), **overrides}
-        made.append(InProcessNode(PressureCommand, parameters, probe))
-        return made[-1]
-
-    yield build
-    for node in made:
-        node.close()
+    return functools.partial(command_nodes, HELD)
 
 
 def stamp(t_ns: int) -> Time:

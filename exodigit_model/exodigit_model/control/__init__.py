@@ -27,6 +27,7 @@ from .controllers import (
     PositionController,
     Sine,
     Staircase,
+    mode_controller,
 )
 from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
 from .trajectory import Setpoint, Trajectory, TrajectoryError
@@ -59,4 +60,5 @@ __all__ = [
     'TrajectoryError',
     'ValveLoop',
     'ValveLoopSettings',
+    'mode_controller',
 ]

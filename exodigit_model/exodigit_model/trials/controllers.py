@@ -34,13 +34,10 @@ from ..control import (
     MODE_DEFAULTS,
     BatchController,
     BuiltInMode,
-    ForceController,
-    Hold,
     PositionController,
     SafetyLimits,
-    Sine,
-    Staircase,
     ValveLoopSettings,
+    mode_controller,
 )
 from ..model import GloveModel, as_joint_vector
 from ..settings import step_time_ns
@@ -222,22 +219,10 @@ def built_in_mode(
     settings: ModeSettings, *, protocol: SessionProtocol, model: GloveModel
 ) -> BuiltInMode:
     """The built-in mode of ``settings`` behind its limiter, on the nominal ``model``."""
-    v = settings.values
-    controllers = {
-        'staircase': lambda: Staircase(
-            v['staircase_step'], v['staircase_peak'], v['step_duration']
-        ),
-        'sine': lambda: Sine(v['sine_low'], v['sine_high'], v['sine_period']),
-        'hold': lambda: Hold(np.array(v['hold_pressure'])),
-        'position': lambda: PositionController(
-            model, protocol.targets(0.0), v['position_kp'], v['position_ki']
-        ),
-        'force': lambda: ForceController(model, v['force_targets'], v['force_kp'], v['force_ki']),
-    }
-    controller, estimator = (
-        controllers[settings.mode](),
-        model if settings.estimate_forces else None,
+    controller = mode_controller(
+        settings.mode, settings.values, lambda: model, protocol.targets(0.0)
     )
+    estimator = model if settings.estimate_forces else None
     if settings.mode == 'position':
         return ProtocolPosition(
             controller, settings.limits, estimator=estimator, protocol=protocol

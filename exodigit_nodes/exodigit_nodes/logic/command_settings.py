@@ -1,31 +1,18 @@
-"""What ``pressure_command``'s parameters mean: checked settings, safety limits and controller.
+"""What ``pressure_command``'s parameters mean: checked settings, safety limits, valve loop.
 
 Its parameter values (the node table, ``nodes/catalog.py``) checked together into
-:class:`CommandSettings`, and the controller of its ``mode``
-(:mod:`exodigit_model.control`, the controllers of in-process trials too).
+:class:`CommandSettings`: the values, the safety limits and the valve loop's settings. The
+controller of its ``mode`` is :func:`exodigit_model.control.mode_controller`, the controllers of
+in-process trials too.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
-from exodigit_model.control import (
-    LOOP_PARAMETERS,
-    Controller,
-    ForceController,
-    Hold,
-    PositionController,
-    SafetyLimits,
-    Sine,
-    Staircase,
-    ValveLoopSettings,
-)
-
-if TYPE_CHECKING:
-    from exodigit_model import GloveModel
+from exodigit_model.control import LOOP_PARAMETERS, SafetyLimits, ValveLoopSettings
 
 LIMIT_NAMES = frozenset(
     {
@@ -83,23 +70,3 @@ def command_settings(values: dict[str, Any]) -> CommandSettings:
         )
     valve_loop = ValveLoopSettings(**{name: values[name] for name in VALVE_NAMES})
     return CommandSettings(values, limits, valve_loop)
-
-
-def make_controller(
-    values: dict[str, Any], model: Callable[[], GloveModel], targets: np.ndarray
-) -> Controller:
-    """The controller of ``values['mode']``; ``model()`` gives the feed-forward's model.
-
-    ``targets``: the joint angles (rad) the position mode starts at.
-    """
-    v = values
-    mode = v['mode']
-    if mode == 'staircase':
-        return Staircase(v['staircase_step'], v['staircase_peak'], v['step_duration'])
-    if mode == 'sine':
-        return Sine(v['sine_low'], v['sine_high'], v['sine_period'])
-    if mode == 'hold':
-        return Hold(np.array(v['hold_pressure']))
-    if mode == 'position':
-        return PositionController(model(), targets, v['position_kp'], v['position_ki'])
-    return ForceController(model(), v['force_targets'], v['force_kp'], v['force_ki'])

@@ -50,6 +50,7 @@ from exodigit_model.control import (
     SafetyLimiter,
     Setpoint,
     ValveLoop,
+    mode_controller,
 )
 from exodigit_model.settings import VENT
 from rclpy.clock import JumpThreshold, TimeJump
@@ -64,7 +65,6 @@ from ..logic.command_settings import (
     VALVE_NAMES,
     CommandSettings,
     command_settings,
-    make_controller,
 )
 from ..logic.inputs import (
     NANOSECONDS,
@@ -173,7 +173,8 @@ class PressureCommand(GloveNode):
 
     def make_controller(self) -> Controller:
         """The controller of the current mode (the position mode at the latest target)."""
-        return make_controller(self.values, lambda: self.model, self.joint_target)
+        values = self.values
+        return mode_controller(values['mode'], values, lambda: self.model, self.joint_target)
 
     # -- sessions --------------------------------------------------------------------------
 
