@@ -1,7 +1,9 @@
 """Speed of a virtual patient trial of a ROS node controller through the testing kit.
 
-Issue 17's figure, issue 24's target: a ROS-node controller trial of 20 patients × 10 s (100 Hz,
-1,000 steps each) through the kit, wall time printed. The controller is the built-in
+Issue 17's figure, issues 24's and 37's targets (37: at most 30 s one glove at a time, 20 s two
+at once): a ROS-node controller trial of 20 patients × 10 s (100 Hz, 1,000 steps each) through
+the kit, wall time printed. Each patient's targets go to the node as one ``joint_trajectory``
+before its session, which then runs in lockstep as ``GloveSim.run``. The controller is the built-in
 ``pressure_command`` node in ``position`` mode with ``lockstep:=true`` on the ``cpm`` protocol
 (``KitEngine``, docs/trials.md, "A ROS node as the controller"). Each glove and its node serve
 patient after patient, a new session of the plant each (``reset_simulation``), on which the node

@@ -42,3 +42,25 @@ def ros_context(ros_domain):
     rclpy.init(context=context, domain_id=ros_domain)
     yield context
     rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture
+def command_nodes(probe):
+    """Builds pressure_command nodes in process, in position mode at given targets; closes them.
+
+    ``build(targets, **overrides)``: an ``InProcessNode`` (reliability_inprocess) with those
+    ``joint_targets`` (rad) and the parameter overrides (``-p`` strings).
+    """
+    from exodigit_nodes.nodes.pressure_command import PressureCommand
+    from reliability_inprocess import InProcessNode
+
+    made = []
+
+    def build(targets, **overrides):
+        parameters = {'mode': 'position', 'joint_targets': str(list(targets)), **overrides}
+        made.append(InProcessNode(PressureCommand, parameters, probe))
+        return made[-1]
+
+    yield build
+    for node in made:
+        node.close()

@@ -1,6 +1,7 @@
 """Hostile input messages for the glove's subscriptions, and what a node may publish in reply.
 
-`hostile_vectors` and `hostile_joint_states` cycle through the cases of issue 4 (wrong lengths 0,
+`hostile_vectors`, `hostile_joint_states` and `hostile_trajectories` cycle through the cases of
+issue 4 (wrong lengths 0,
 1, 2, 4, 1000; NaN, ±Inf, ±1e308, subnormals, negative and huge values; empty, duplicated and
 reordered joint names; position/velocity/effort of different lengths; stamps of zero, in the
 future, far in the past and before 1970), mixed with a few well-formed messages so that the valid
@@ -14,13 +15,14 @@ node, so stamps do not enter that flag.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-from builtin_interfaces.msg import Time
+from builtin_interfaces.msg import Duration, Time
 from reliability_session import (
     MAX_PRESSURE,
     MAX_SUPPLY,
@@ -32,6 +34,7 @@ from reliability_session import (
 from ros_harness import wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 #: Hostile numbers: non-finite, extreme, subnormal, negative and huge.
 HOSTILE_NUMBERS = (
@@ -161,6 +164,39 @@ def hostile_joint_states(
         yield message, malformed
 
 
+def hostile_trajectories(count: int, now_ns: int, seed: int = 0) -> Iterator[tuple[object, bool]]:
+    """``count`` JointTrajectory messages (names, points, times, stamps of the cases above).
+
+    Malformed: names that are not mcp, pip, dip once each, no points, a point whose positions
+    are not three finite values, or times that do not increase from 0.
+    """
+    rng = np.random.default_rng(seed)
+    for case in range(count):
+        names = ['mcp', 'pip', 'dip']
+        if case % 3 == 0:
+            names = list(HOSTILE_NAMES[(case // 3) % len(HOSTILE_NAMES)])
+        points, times, malformed = [], [], False
+        for k in range(int(rng.integers(0, 4))):
+            positions = _vector(rng, case + k, 1.0)
+            t_ns = int(rng.integers(-(10**9), 5 * 10**9))
+            velocities = (rng.standard_normal(int(rng.choice([0, 3, 3, 5])))).tolist()
+            malformed |= not _is_valid_vector(positions) or len(velocities) == 5
+            times.append(t_ns)
+            points.append(
+                JointTrajectoryPoint(
+                    positions=positions,
+                    velocities=velocities,
+                    time_from_start=Duration(sec=t_ns // 10**9, nanosec=t_ns % 10**9),
+                )
+            )
+        increasing = all(b > a for a, b in itertools.pairwise(times))
+        malformed |= sorted(names) != ['dip', 'mcp', 'pip'] or not points or not increasing
+        malformed |= bool(times) and times[0] < 0
+        message = JointTrajectory(joint_names=names, points=points)
+        message.header.stamp = _stamp(rng, case, now_ns)
+        yield message, malformed
+
+
 @dataclass
 class OutputCheck:
     """Every value a node published, checked against bounds.
@@ -243,6 +279,7 @@ TARGETS = (
     FuzzTarget('chamber_pressure', ('estimator',), 5e4),
     FuzzTarget('estimated_contact_forces', ('pressure_command',), 1.0, 'force'),
     FuzzTarget('joint_targets', ('pressure_command',), 1.0, 'position'),
+    FuzzTarget('joint_trajectory', ('pressure_command',), 1.0, 'position'),
 )
 
 
@@ -306,7 +343,8 @@ class GloveUnderFuzz(GloveSession):
     def publisher(self, topic: str):
         """The probe's publisher on ``topic`` (kept: destroying one races its executor)."""
         if topic not in self.publishers:
-            kind = TOPICS.get(topic, Float64MultiArray)
+            kind = JointTrajectory if topic == 'joint_trajectory' else TOPICS.get(topic)
+            kind = kind or Float64MultiArray
             self.publishers[topic] = self.probe.publisher(f'{self.namespace}/{topic}', kind)
         return self.publishers[topic]
 
@@ -339,6 +377,8 @@ class GloveUnderFuzz(GloveSession):
         before = {name: self.rejections(name, target.topic, -1.0) or 0 for name in NODES}
         if target.topic == 'joint_states':
             messages = hostile_joint_states(count, '', time.time_ns(), seed)
+        elif target.topic == 'joint_trajectory':
+            messages = hostile_trajectories(count, time.time_ns(), seed)
         elif TOPICS.get(target.topic) is JointState:  # an estimate: its values are its effort
             vectors = hostile_vectors(count, target.scale, seed)
             messages = ((JointState(effort=m.data), bad) for m, bad in vectors)

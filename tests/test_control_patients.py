@@ -19,8 +19,8 @@ from exodigit_model.control import (
     PositionController,
     SafetyLimiter,
 )
+from exodigit_nodes.logic.command_settings import safety_limits
 from exodigit_nodes.nodes.catalog import PRESSURE_COMMAND_NODE
-from exodigit_nodes.nodes.pressure_command import safety_limits
 
 from exodigit_model import (
     PATIENT_PRESETS,

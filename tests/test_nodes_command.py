@@ -12,6 +12,7 @@ a plant stopped under a running position controller (processes) in
 tests/test_reliability_faults.py.
 """
 
+import functools
 import itertools
 import os
 import time
@@ -20,9 +21,7 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_nodes.nodes.pressure_command import PressureCommand
 from rclpy.parameter import Parameter
-from reliability_inprocess import InProcessNode
 from ros_harness import wait_until
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -123,18 +122,9 @@ def test_force_mode_reaches_the_target_contact_forces(loop, probe, model):
 
 
 @pytest.fixture
-def in_process(probe):
+def in_process(command_nodes):
     """Builds PressureCommand nodes in process (position mode at `TARGETS`); closes them."""
-    made = []
-
-    def build(**overrides):
-        parameters = {'mode': 'position', 'joint_targets': str(TARGETS), **overrides}
-        made.append(InProcessNode(PressureCommand, parameters, probe))
-        return made[-1]
-
-    yield build
-    for node in made:
-        node.close()
+    return functools.partial(command_nodes, TARGETS)
 
 
 def joint_states(q, t):
@@ -152,14 +142,17 @@ def report(node):
 
 
 def test_targets_outside_the_range_of_motion_are_refused(in_process):
-    # The controller keeps its targets, and its diagnostics count the refusal.
+    # The controller keeps its targets, and its diagnostics count the refusal; a target is
+    # taken at the node's next command.
     node = in_process()
     node.deliver('joint_targets', Float64MultiArray(data=[0.35, 3.0, 0.2]))
+    node.node.tick()
     np.testing.assert_array_equal(node.node.loop.controller.targets, TARGETS)
     status, values = report(node)
     assert values['rejected joint_targets: out of range'] == '1'
     assert status.level == DiagnosticStatus.WARN
     node.deliver('joint_targets', Float64MultiArray(data=[0.35, 0.3, 0.2]))  # inside: taken
+    node.node.tick()
     np.testing.assert_array_equal(node.node.loop.controller.targets, [0.35, 0.3, 0.2])
 
 

@@ -52,6 +52,7 @@ TYPES = {
     'estimated_contact_forces': 'sensor_msgs/msg/JointState',
     'estimated_finger_stiffness': 'std_msgs/msg/Float64MultiArray',
     'joint_targets': 'std_msgs/msg/Float64MultiArray',
+    'joint_trajectory': 'trajectory_msgs/msg/JointTrajectory',
 }
 VECTOR_TOPICS = [t for t, kind in TYPES.items() if kind.endswith('Float64MultiArray')]
 

@@ -291,12 +291,12 @@ def test_a_lockstep_force_controller_answers_states_only_once_it_hears_an_estima
         PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, probe
     )
     try:
-        node.node.listen_once_estimated()
+        node.node.inputs.listen_once_estimated()
         assert 'joint_states' not in node.subscriptions()
         estimator = node.node.create_publisher(JointState, 'estimated_contact_forces', 10)
         deadline = time.monotonic() + 10.0
         while 'joint_states' not in node.subscriptions() and time.monotonic() < deadline:
-            node.node.listen_once_estimated()
+            node.node.inputs.listen_once_estimated()
             time.sleep(0.01)
         assert 'joint_states' in node.subscriptions()
         assert estimator.get_subscription_count() == 1
@@ -310,7 +310,7 @@ def test_a_lockstep_force_controller_answers_with_the_estimate_stamped_with_the_
         PressureCommand, {'lockstep': 'true', 'mode': 'force', 'use_sim_time': 'true'}, probe
     )
     try:
-        made.node.listen_to_states()  # as once an estimator is matched
+        made.node.inputs.listen_to_states()  # as once an estimator is matched
 
         def stamped(step, **values):
             header = Header(stamp=Time(sec=1, nanosec=step * 10_000_000))

@@ -34,10 +34,9 @@ STEPS = 100
 """Steps of the run (1 s at the plant's 100 Hz)."""
 
 
-def stamp_seconds(time_ns):
-    """A state's time as ``pressure_command`` reads its stamp: sec + nanosec·1e-9."""
-    sec, nanosec = divmod(time_ns, 10**9)
-    return sec + nanosec * 1e-9
+NANOSECONDS = 10**9
+"""pressure_command counts time in the stamps' whole nanoseconds: session time and step are
+differences of them, divided by 10⁹ only then."""
 
 
 @pytest.fixture(scope='module')
@@ -98,11 +97,12 @@ def test_pressure_command_answers_each_state_with_the_in_process_loop_s_openings
     _, record = run
     loop = CommandLoop(Sine(*SINE.values()), SafetyLimiter(SafetyLimits()))
     valves = ValveLoop(ValveLoopSettings())
-    times = [stamp_seconds(round(t * 1e9)) for t in record.t]
+    times = [round(t * NANOSECONDS) for t in record.t]
     dt = 1.0 / 100.0  # its first answer's step: pressure_command's period (rate_hz)
     for k in range(STEPS):
         if k > 0:
-            dt = max(times[k] - times[k - 1], 0.0)
-        target = loop.command(times[k] - times[0], dt, Feedback(record.q[k], None)).pressure
+            dt = (times[k] - times[k - 1]) / NANOSECONDS
+        t = (times[k] - times[0]) / NANOSECONDS
+        target = loop.command(t, dt, Feedback(record.q[k], None)).pressure
         openings = valves.openings(target, record.pressure[k], dt)
         np.testing.assert_array_equal(record.command[k], openings, err_msg=f'step {k}')

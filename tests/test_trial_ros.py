@@ -1,11 +1,13 @@
 """Virtual patient trials of a ROS node controller through the testing kit (docs/trials.md).
 
 The "user's" node is the built-in ``pressure_command`` in ``position`` mode with
-``lockstep:=true``; the in-process trial's ``position`` mode is the same controller code
-(exodigit_model.control), so the two trials must agree on every metric a ROS node can report.
-They are not bit for bit the same: the node's time step is the difference of two plant stamps,
-which differs from the in-process 1/rate_hz in the last bits (its rate-limited first commands
-came out 2e-13 Pa apart, the metrics 1e-16 rad and 5e-15 N), hence ROUNDING.
+``lockstep:=true``, following the protocol's trajectory; the in-process trial's ``position``
+mode is the same controller code (exodigit_model.control) sampling the same trajectory, so the
+two trials must agree on every metric a ROS node can report. They are not bit for bit the same:
+the trial steps its patients as one batch of fingers, the plant one glove, and the two solves
+end a few ulps apart (the same commands gave angles 3e-16 rad apart from the first step, the
+commands then 7e-12 Pa apart, the metrics 2e-16), hence ROUNDING. Given the same states, the
+node's commands are the in-process controller's bit for bit (tests/test_nodes_trajectory.py).
 
 The module's trial runs on one glove: patient 1 on the glove and node that ran patient 0, a new
 session of the plant on which the node starts over. A glove and node started for patient 1 alone

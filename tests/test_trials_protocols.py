@@ -129,9 +129,13 @@ def test_targets_are_vectorised_over_any_shape_of_times():
     np.testing.assert_array_equal(cpm.targets([[1.0, 2.0]])[0, 1], cpm.targets(2.0))
 
 
+#: What a protocol needs beyond its defaults: a trajectory its points.
+REQUIRED = {'trajectory': {'point_times': (0.0, 2.0), 'positions': (LOW, HIGH)}}
+
+
 @pytest.mark.parametrize('name', list(PROTOCOLS))
 def test_a_session_is_its_duration_times_its_rate_on_the_simulations_time_grid(name):
-    protocol = make_protocol(name, duration=3.0, rate_hz=50.0)
+    protocol = make_protocol(name, duration=3.0, rate_hz=50.0, **REQUIRED.get(name, {}))
     assert protocol.steps == 150
     times = protocol.times()
     expected = [step_time_ns(k, 50.0) / 1e9 for k in range(1, 151)]  # as GloveState.t
@@ -155,10 +159,10 @@ def test_the_defaults_are_the_cited_postures_and_a_one_minute_session():
 
 
 def test_the_registry_lists_each_protocol_with_a_summary():
-    assert list(PROTOCOLS) == ['cpm', 'staircase', 'grasp']
+    assert list(PROTOCOLS) == ['cpm', 'staircase', 'grasp', 'trajectory']
     for name, kind in PROTOCOLS.items():
         assert kind.summary, name
-        assert isinstance(make_protocol(name), kind)
+        assert isinstance(make_protocol(name, **REQUIRED.get(name, {})), kind)
 
 
 def test_the_gym_target_is_the_cpm_cycle_from_the_straight_finger():
@@ -199,7 +203,18 @@ def test_the_gym_target_is_the_cpm_cycle_from_the_straight_finger():
         ('grasp', {'rest_time': math.inf}, 'rest_time = inf: must be finite'),
         ('grasp', {'rest': (0.0, 0.0, math.nan)}, 'rest must be finite'),
         ('grasp', {'perod': 1.0}, "unknown parameter 'perod' \\(known: duration, rate_hz, "),
-        ('sine', {}, "protocol 'sine': unknown \\(known: cpm, staircase, grasp\\)"),
+        ('sine', {}, "protocol 'sine': unknown \\(known: cpm, staircase, grasp, trajectory\\)"),
+        ('trajectory', {'point_times': (0.0,)}, "protocol 'trajectory': parameter 'positions'"),
+        (
+            'trajectory',
+            {'point_times': (0.0, 0.0), 'positions': (LOW, HIGH)},
+            r'\(point_times, positions\): times: point 1 at 0.0 s is not after point 0',
+        ),
+        (
+            'trajectory',
+            {'point_times': (0.0, 1.0), 'positions': (LOW, HIGH), 'velocities': (LOW,)},
+            r'velocities: shape \(1, 3\), must be \(2, 3\)',
+        ),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(name, parameters, message):

@@ -39,12 +39,13 @@ EPILOG = f"""examples:
 the controller: the kit starts CMD in each glove's domain and namespace, with --ros-args -r
 __ns:=<namespace> -p use_sim_time:=true and every --param appended. It must answer each
 joint_states with one pressure_command (the lockstep protocol; pressure_command does with
-lockstep=true) and may follow the protocol's targets on joint_targets (rad), each delivered
-before the state it is for. A glove and its node serve patient after patient: each patient is a
+lockstep=true) and may follow the protocol's targets, one point a step, sent as one
+joint_trajectory (trajectory_msgs/JointTrajectory, stamped with the session's first state)
+before the session starts. A glove and its node serve patient after patient: each patient is a
 new session, in which simulated time starts again from zero (/clock and the stamps go back), and
 the node must then start over (clear its integrators, filters and the like; keep the latest
-target), as pressure_command does. --fresh-nodes starts the node (and its glove) for every
-patient instead: a few seconds more a patient. Slower than an in-process trial: 1.5-2 ms a
+trajectory), as pressure_command does. --fresh-nodes starts the node (and its glove) for every
+patient instead: a few seconds more a patient. Slower than an in-process trial: about 1 ms a
 step.
 
 exit status: 0 every rule passed, 1 a rule failed, 2 bad input or a patient's run failed (one
@@ -77,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     groups['controller'].add_argument(
         '--no-targets',
         action='store_true',
-        help='the node does not subscribe joint_targets (open loop): do not wait for it',
+        help='the node does not subscribe joint_trajectory (open loop): do not wait for it',
     )
     groups['controller'].add_argument(
         '--fresh-nodes',

@@ -7,7 +7,9 @@ with no ROS at all. The same classes control one glove (arrays (3,)) or a batch 
 ((N, 3), one row each); :class:`BatchController` is the protocol a virtual-patient trial steps,
 and :class:`BuiltInMode` runs a built-in mode behind the limiter as one. Behind valves
 (docs/spec/model.md §14) :class:`ValveLoop` turns the pressures a mode and the limiter give into
-the six valve openings, as ``pressure_command`` does with ``output:=valves``.
+the six valve openings, as ``pressure_command`` does with ``output:=valves``. A
+:class:`Trajectory` is the position mode's timed targets, sampled by the node and in process
+alike, and a :class:`Setpoint` the node's targets over time (:mod:`.trajectory`).
 """
 
 from .batch import BatchController, BuiltInMode
@@ -25,8 +27,10 @@ from .controllers import (
     PositionController,
     Sine,
     Staircase,
+    mode_controller,
 )
 from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
+from .trajectory import Setpoint, Trajectory, TrajectoryError
 from .valve_loop import LOOP_PARAMETERS, OUTPUTS, ValveLoop, ValveLoopSettings
 
 __all__ = [
@@ -49,8 +53,12 @@ __all__ = [
     'PositionController',
     'SafetyLimiter',
     'SafetyLimits',
+    'Setpoint',
     'Sine',
     'Staircase',
+    'Trajectory',
+    'TrajectoryError',
     'ValveLoop',
     'ValveLoopSettings',
+    'mode_controller',
 ]

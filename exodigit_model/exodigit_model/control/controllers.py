@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .safety import SafetyLimiter
 from .shapes import check_shape, glove_shape
@@ -32,7 +33,7 @@ MODES = {
     'staircase': "steps of staircase_step up to staircase_peak and back, as in the paper's tests",
     'sine': 'continuous passive motion between sine_low and sine_high',
     'hold': 'constant hold_pressure',
-    'position': 'joint_targets by model feed-forward plus PI on joint_states',
+    'position': 'joint_targets or joint_trajectory by model feed-forward plus PI on joint_states',
     'force': 'force_targets, contact forces, by feed-forward plus PI on estimated_contact_forces',
 }
 """The sessions of ``pressure_command`` (its ``mode`` parameter), each with what it commands."""
@@ -279,6 +280,27 @@ class ForceController(PIController):
 
 
 Controller = OpenLoop | PositionController | ForceController
+
+
+def mode_controller(
+    mode: str, values: Mapping[str, Any], model: Callable[[], GloveModel], targets: ArrayLike
+) -> Controller:
+    """The controller of a ``pressure_command`` mode (:data:`MODES`) from its parameters.
+
+    ``values`` holds the mode's parameters by the node's names (:data:`MODE_DEFAULTS`);
+    ``model()`` gives the feed-forward's model, asked for only by ``position`` and ``force``;
+    ``targets`` are the angles (rad) ``position`` starts at. The node's modes and a trial's.
+    """
+    v = values
+    if mode == 'staircase':
+        return Staircase(v['staircase_step'], v['staircase_peak'], v['step_duration'])
+    if mode == 'sine':
+        return Sine(v['sine_low'], v['sine_high'], v['sine_period'])
+    if mode == 'hold':
+        return Hold(np.array(v['hold_pressure']))
+    if mode == 'position':
+        return PositionController(model(), targets, v['position_kp'], v['position_ki'])
+    return ForceController(model(), v['force_targets'], v['force_kp'], v['force_ki'])
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from ..control import Feedback, Limited, SafetyLimiter, SafetyLimits
+from ..control import Feedback, Limited, SafetyLimiter, SafetyLimits, Trajectory
 from ..control.cycles import flex_extend
 from ..control.shapes import check_shape
 from ..physics.model import GloveModel, as_joint_rows, as_joint_vector
@@ -94,8 +94,8 @@ gloves under random openings)."""
 VALVE_INFO_KEYS = ('mass', 'volume')
 """The info keys only behind valves: the chambers' air masses (kg) and volumes (m³), (3,)."""
 
-Target = Callable[[float], ArrayLike]
-"""target(t) -> desired joint angles (MCP, PIP, DIP) at time t (s), rad."""
+Target = Callable[[float], ArrayLike] | Trajectory
+"""target(t) -> desired joint angles (MCP, PIP, DIP) at time t (s), rad; or a trajectory."""
 
 Reward = Callable[[GloveState, NDArray[np.float64], NDArray[np.float64]], float]
 """reward(state, target, action) -> float; ``state`` after the step, ``target`` at ``state.t``."""
@@ -199,8 +199,10 @@ class GloveEnv(gymnasium.Env):
         seed follows :meth:`reset`'s ``seed``.
     episode_steps : int, optional
         Steps per episode (≥ 1); the step that completes them returns ``truncated=True``.
-    target : callable, optional
-        ``target(t) -> (3,)``: desired joint angles at time t (s, from the reset), rad. Default:
+    target : callable or Trajectory, optional
+        ``target(t) -> (3,)``: desired joint angles at time t (s, from the reset), rad; or a
+        :class:`~exodigit_model.control.Trajectory` from the reset, sampled at each step's time
+        as ``pressure_command`` samples a ``joint_trajectory`` (the same targets). Default:
         :meth:`FlexExtendTarget.for_model` at ``DEFAULT_PEAK_FRACTION`` of the supply, period
         4 s (peak ≈ 28.9, 26.0, 17.1° with the default model and supply).
     reward : callable, optional
@@ -500,14 +502,18 @@ class GloveEnv(gymnasium.Env):
     def target_of_step(self, step: int) -> NDArray[np.float64]:
         """q*(t_k), rad, (3,): the target at the time of step k of an episode.
 
-        t_k as the stepper reports it (:func:`~exodigit_model.stepping.settings.step_time_ns`).
+        t_k as the stepper reports it (:func:`~exodigit_model.stepping.settings.step_time_ns`); a
+        :class:`~exodigit_model.control.Trajectory` is sampled at its whole nanoseconds.
 
         Raises
         ------
         ValueError
             If ``target`` does not return three finite angles.
         """
-        t = step_time_ns(step, self.settings.rate_hz) / NANOSECONDS
+        time_ns = step_time_ns(step, self.settings.rate_hz)
+        if isinstance(self.target, Trajectory):
+            return self.target.at_ns(time_ns)
+        t = time_ns / NANOSECONDS
         return as_joint_vector(f'target({t})', self.target(t))
 
     def _observe(self, state: GloveState) -> tuple[NDArray[np.float32], bool]:

@@ -5,7 +5,7 @@ Three kinds run in process (docs/trials.md, "Controllers"):
 - ``mode``: a built-in mode of ``pressure_command`` behind its safety limiter
   (:class:`~exodigit_model.control.BuiltInMode`), with the node's parameter names and defaults
   (:data:`MODE_PARAMETERS`, :data:`COMMON_PARAMETERS`). The ``position`` mode tracks the
-  protocol's targets, as the node tracks its ``joint_targets`` topic.
+  protocol's targets, as the node tracks a ``joint_trajectory`` (:class:`ProtocolPosition`).
 - ``controller``: a user's :class:`~exodigit_model.control.BatchController`, made by the factory
   ``module:attribute`` as ``factory(protocol=..., model=..., **parameters)``.
 - ``policy``: a Gymnasium policy made by ``factory(env=..., **parameters)`` for a
@@ -34,15 +34,13 @@ from ..control import (
     MODE_DEFAULTS,
     BatchController,
     BuiltInMode,
-    ForceController,
-    Hold,
     PositionController,
     SafetyLimits,
-    Sine,
-    Staircase,
     ValveLoopSettings,
+    mode_controller,
 )
 from ..physics.model import GloveModel, as_joint_vector
+from ..stepping.settings import step_time_ns
 
 if TYPE_CHECKING:
     from ..stepping.settings import SimulationSettings
@@ -184,10 +182,12 @@ def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
 
 
 class ProtocolPosition(BuiltInMode):
-    """The ``position`` mode tracking the protocol: its targets are q*(t + Δt) at every step.
+    """The ``position`` mode tracking the protocol: answering step k it targets q*(t_k+1).
 
-    Before each command the targets become the protocol's at the end of the coming step, as
-    the node's targets follow its ``joint_targets`` topic (the feed-forward is recomputed).
+    Before each command the targets become the protocol's trajectory
+    (:meth:`~.protocols.SessionProtocol.trajectory`) sampled at the end of the coming step, as
+    ``pressure_command`` samples the ``joint_trajectory`` the testing kit sends it (the one
+    interpolation of :mod:`exodigit_model.control.trajectory`); the feed-forward is recomputed.
     """
 
     def __init__(
@@ -200,10 +200,12 @@ class ProtocolPosition(BuiltInMode):
     ) -> None:
         super().__init__(controller, limits, estimator=estimator)
         self.protocol = protocol
+        self.trajectory = protocol.trajectory()
 
     def command(self, t: float, dt: float, state: GloveState) -> NDArray[np.float64]:
-        """Track q*(t + dt), then :meth:`BuiltInMode.command`."""
-        self.loop.controller.set_targets(self.protocol.targets(t + dt))
+        """Track q*(t_k+1) (``state.step`` = k), then :meth:`BuiltInMode.command`."""
+        end = step_time_ns(state.step + 1, self.protocol.rate_hz)
+        self.loop.controller.set_targets(self.trajectory.at_ns(end))
         return super().command(t, dt, state)
 
 
@@ -211,22 +213,10 @@ def built_in_mode(
     settings: ModeSettings, *, protocol: SessionProtocol, model: GloveModel
 ) -> BuiltInMode:
     """The built-in mode of ``settings`` behind its limiter, on the nominal ``model``."""
-    v = settings.values
-    controllers = {
-        'staircase': lambda: Staircase(
-            v['staircase_step'], v['staircase_peak'], v['step_duration']
-        ),
-        'sine': lambda: Sine(v['sine_low'], v['sine_high'], v['sine_period']),
-        'hold': lambda: Hold(np.array(v['hold_pressure'])),
-        'position': lambda: PositionController(
-            model, protocol.targets(0.0), v['position_kp'], v['position_ki']
-        ),
-        'force': lambda: ForceController(model, v['force_targets'], v['force_kp'], v['force_ki']),
-    }
-    controller, estimator = (
-        controllers[settings.mode](),
-        model if settings.estimate_forces else None,
+    controller = mode_controller(
+        settings.mode, settings.values, lambda: model, protocol.targets(0.0)
     )
+    estimator = model if settings.estimate_forces else None
     if settings.mode == 'position':
         return ProtocolPosition(
             controller, settings.limits, estimator=estimator, protocol=protocol

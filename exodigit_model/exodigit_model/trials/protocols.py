@@ -5,12 +5,17 @@ q*(t) = (MCP, PIP, DIP), rad, flexion positive (docs/spec/model.md §1), for eve
 from the start of the session. The session has ``duration · rate_hz`` steps; step k ends at
 t_k = k·Δt (exactly the simulation's time grid,
 :func:`~exodigit_model.stepping.settings.step_time_ns`), and a trial compares the finger there
-with q*(t_k). Three kinds, listed by name in :data:`PROTOCOLS` (docs/trials.md, "Protocols",
+with q*(t_k). Four kinds, listed by name in :data:`PROTOCOLS` (docs/trials.md, "Protocols",
 has their sources):
 
 - ``cpm``, :class:`ContinuousPassiveMotion`: a smooth flex-extend cycle between two postures;
 - ``staircase``, :class:`Staircase`: stairs of flexion up to a posture and back, each held;
-- ``grasp``, :class:`GraspRelease`: close to a grasp posture, hold, open, rest, repeated.
+- ``grasp``, :class:`GraspRelease`: close to a grasp posture, hold, open, rest, repeated;
+- ``trajectory``, :class:`TrajectoryProtocol`: timed points, interpolated as ``pressure_command``
+  interpolates a ``joint_trajectory`` (:class:`~exodigit_model.control.Trajectory`).
+
+Every protocol is also a trajectory of one point a step (:meth:`SessionProtocol.trajectory`):
+what the ``position`` mode tracks in process and what the testing kit sends a ROS node.
 
 >>> from exodigit_model.trials import make_protocol
 >>> protocol = make_protocol('cpm', duration=20.0)
@@ -23,7 +28,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, dataclass, field, fields
 from types import MappingProxyType
 from typing import ClassVar
 
@@ -32,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..checks import ParameterError, check_non_negative, check_positive, set_field
 from ..control.cycles import flex_extend, rise
+from ..control.trajectory import Trajectory
 from ..physics.model import as_joint_vector
 from ..stepping.settings import NANOSECONDS, step_time_ns
 
@@ -124,6 +130,15 @@ class SessionProtocol(ABC):
         if times is None or not np.all(np.isfinite(times)) or np.any(times < 0.0):
             raise ValueError(f't = {t!r}: must be finite times >= 0 s')
         return self._targets(times)
+
+    def trajectory(self) -> Trajectory:
+        """The session's targets as a trajectory: q*(t_k) at t_k, one point a step (k >= 1).
+
+        Sampled at t_k it gives q*(t_k) exactly; the ``position`` mode tracks it, in process
+        and as a ROS node (the testing kit sends it on ``joint_trajectory``).
+        """
+        times = self.times()
+        return Trajectory(times, self.targets(times))
 
     @abstractmethod
     def _targets(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -254,11 +269,56 @@ class GraspRelease(SessionProtocol):
         return rest + (grasp - rest) * grip[..., np.newaxis]
 
 
+@dataclass(frozen=True, kw_only=True)
+class TrajectoryProtocol(SessionProtocol):
+    """Timed joint targets: a :class:`~exodigit_model.control.Trajectory` from the session's start.
+
+    Between points linear, or cubic where both points have velocities; before the first point
+    its posture, after the last one the last (as ``pressure_command`` samples a
+    ``joint_trajectory``: docs/spec/ros.md, "Trajectories").
+
+    Attributes
+    ----------
+    point_times : tuple of float
+        Time of each point from the session's start, s (increasing, from 0).
+    positions : tuple of tuple of float
+        Joint angles of each point, MCP, PIP, DIP, rad.
+    velocities : tuple of tuple of float
+        Joint speeds of each point, rad/s; empty: positions only.
+    """
+
+    summary: ClassVar[str] = 'timed points, interpolated as pressure_command takes a trajectory'
+
+    point_times: tuple[float, ...]
+    positions: tuple[tuple[float, float, float], ...]
+    velocities: tuple[tuple[float, float, float], ...] = ()
+    _path: Trajectory = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        """Refuse points that do not make a trajectory (the field and the rule named)."""
+        super().__post_init__()
+        try:
+            path = Trajectory(self.point_times, self.positions, self.velocities or None)
+        except ValueError as error:
+            raise ParameterError(
+                f'protocol trajectory (point_times, positions): {error}'
+            ) from None
+        set_field(self, 'point_times', tuple(path.times.tolist()))
+        set_field(self, 'positions', tuple(map(tuple, path.positions.tolist())))
+        rows = () if path.velocities is None else path.velocities.tolist()
+        set_field(self, 'velocities', tuple(map(tuple, rows)))
+        set_field(self, '_path', path)
+
+    def _targets(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self._path.at(t)
+
+
 PROTOCOLS: Mapping[str, type[SessionProtocol]] = MappingProxyType(
     {
         'cpm': ContinuousPassiveMotion,
         'staircase': Staircase,
         'grasp': GraspRelease,
+        'trajectory': TrajectoryProtocol,
     }
 )
 """The protocols by name; each class's ``summary`` says what it does."""
@@ -276,10 +336,14 @@ def make_protocol(name: str, **parameters: object) -> SessionProtocol:
     if name not in PROTOCOLS:
         raise ValueError(f'protocol {name!r}: unknown (known: {", ".join(PROTOCOLS)})')
     kind = PROTOCOLS[name]
-    known = [item.name for item in fields(kind)]
+    known = [item.name for item in fields(kind) if item.init]
     unknown = sorted(set(parameters) - set(known))
     if unknown:
         raise ValueError(
             f'protocol {name!r}: unknown parameter {unknown[0]!r} (known: {", ".join(known)})'
         )
+    required = [item.name for item in fields(kind) if item.init and item.default is MISSING]
+    missing = [key for key in required if key not in parameters]
+    if missing:
+        raise ValueError(f'protocol {name!r}: parameter {missing[0]!r} is required')
     return kind(**parameters)

@@ -11,6 +11,7 @@ from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
+from exodigit_model.control import Trajectory, TrajectoryError
 from numpy.typing import NDArray
 
 from exodigit_model import JOINT_NAMES
@@ -31,6 +32,7 @@ OPENINGS = 'inlet MCP, inlet PIP, inlet DIP, outlet MCP, outlet PIP, outlet DIP'
 MAX_PRESSURE_READING = 10e6
 """Largest |chamber pressure| accepted as a measurement, Pa."""
 MAX_ANGLE = math.pi
+NANOSECONDS = 10**9
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
 
 
@@ -108,19 +110,17 @@ def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
     return values
 
 
-def joint_order(names: Sequence[str]) -> tuple[int, int, int]:
+def joint_order(names: Sequence[str], what: str = 'joint_states') -> tuple[int, int, int]:
     """Index of MCP, PIP and DIP in ``names`` (each named ``<any prefix>mcp`` etc.)."""
     if len(names) != 3:
-        raise InvalidInputError(
-            'joint names', f'joint_states needs 3 joint names, got {len(names)}'
-        )
+        raise InvalidInputError('joint names', f'{what} needs 3 joint names, got {len(names)}')
     order = []
     for joint in JOINT_NAMES:
         found = [i for i, name in enumerate(names) if name.endswith(joint)]
         if len(found) != 1:
             raise InvalidInputError(
                 'joint names',
-                f'joint_states names {list(names)} must end in mcp, pip and dip once each',
+                f'{what} names {list(names)} must end in mcp, pip and dip once each',
             )
         order.append(found[0])
     return order[0], order[1], order[2]
@@ -150,6 +150,74 @@ def joint_positions(message) -> NDArray[np.float64]:
                 'lengths', f'joint_states has 3 names but {len(values)} {field} values'
             )
     return joint_vector([position[i] for i in order], 'joint_states position', MAX_ANGLE)
+
+
+def joint_targets(data: Sequence[float], lower, upper) -> Trajectory:
+    """A ``joint_targets``' data (rad) as what it is: a one-point trajectory, inside the range.
+
+    Raises
+    ------
+    InvalidInputError
+        Not three finite angles, or outside ``lower`` .. ``upper`` (rad).
+    """
+    targets = joint_vector(data, 'joint_targets')
+    if ((targets < lower) | (targets > upper)).any():
+        raise InvalidInputError(
+            'out of range',
+            f'joint_targets {targets.tolist()} rad outside the range of motion {list(lower)} .. '
+            f'{list(upper)} rad',
+        )
+    return Trajectory.hold(targets)
+
+
+def joint_trajectory(message, lower, upper) -> tuple[Trajectory, int | None]:
+    """A trajectory_msgs/JointTrajectory as a :class:`Trajectory` (MCP, PIP, DIP) and its start.
+
+    The joints named as ``joint_states`` names them (``<any prefix>mcp`` ...), in any order;
+    each point with three positions, optionally three velocities (every point or none), no
+    accelerations or efforts (not interpolated here); the positions inside ``lower`` ..
+    ``upper`` (rad). The start is the header stamp in ns, None for a zero stamp (on receipt).
+
+    Raises
+    ------
+    InvalidInputError
+        Naming the rule broken (the whole trajectory is refused).
+    """
+    what = 'joint_trajectory'
+    order = joint_order(message.joint_names, what)
+    points = message.points
+    positions, velocities, times = [], [], []
+    for k, point in enumerate(points):
+        if len(point.positions) != 3 or len(point.velocities) not in (0, 3):
+            raise InvalidInputError(
+                'lengths',
+                f'{what} point {k}: {len(point.positions)} positions and '
+                f'{len(point.velocities)} velocities, must be 3 and 3 or none',
+            )
+        if len(point.accelerations) or len(point.effort):
+            raise InvalidInputError(
+                'unsupported',
+                f'{what} point {k} has accelerations or efforts: only positions and '
+                'velocities are followed',
+            )
+        positions.append([point.positions[i] for i in order])
+        if len(point.velocities):
+            velocities.append([point.velocities[i] for i in order])
+        times.append(stamp_nanoseconds(point.time_from_start) / NANOSECONDS)
+    if len(velocities) not in (0, len(points)):
+        raise InvalidInputError('lengths', f'{what}: velocities for some points, not all')
+    try:
+        trajectory = Trajectory(times, positions, velocities or None)
+        trajectory.check_range(lower, upper)
+    except TrajectoryError as error:
+        raise InvalidInputError(error.rule, f'{what} refused: {error}') from None
+    start = stamp_nanoseconds(message.header.stamp)
+    return trajectory, start or None
+
+
+def stamp_nanoseconds(stamp) -> int:
+    """A builtin_interfaces/Time or Duration as whole nanoseconds."""
+    return stamp.sec * NANOSECONDS + stamp.nanosec
 
 
 def stamp_seconds(stamp) -> float:

@@ -368,7 +368,7 @@ PRESSURE_COMMAND_NODE = NodeEntry(
             ParamSpec(
                 'joint_targets',
                 (0.3, 0.3, 0.2),
-                'position: desired joint angles, rad (the joint_targets topic overrides)',
+                'position: desired joint angles, rad (until a joint_targets or joint_trajectory)',
                 low=-3.14,
                 high=3.14,
             ),

@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 from array import array
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
+from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+if TYPE_CHECKING:
+    from exodigit_model.control import Trajectory
 
 PRESSURE_COMMAND = 'pressure_command'
 VALVE_COMMAND = 'valve_command'
@@ -23,6 +30,7 @@ ESTIMATED_FINGER_TORQUE = 'estimated_finger_torque'
 ESTIMATED_REST_ANGLE = 'estimated_rest_angle'
 PATIENT_EFFORT = 'patient_effort'
 JOINT_TARGETS = 'joint_targets'
+JOINT_TRAJECTORY = 'joint_trajectory'
 MARKERS = 'markers'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
@@ -71,6 +79,30 @@ def fill(message: Float64MultiArray, values) -> Float64MultiArray:
     """Put the floats into a message from :func:`vector_message`; returns it."""
     message.data = array('d', values)
     return message
+
+
+def trajectory_message(
+    trajectory: Trajectory, start_ns: int, names: Sequence[str]
+) -> JointTrajectory:
+    """``trajectory`` as a ``joint_trajectory`` message starting at ``start_ns`` (0: on receipt).
+
+    ``names``: the joints' names, MCP, PIP, DIP. Each point's ``time_from_start`` is its whole
+    nanoseconds (what the node samples).
+    """
+    seconds, nanoseconds = divmod(start_ns, 10**9)
+    velocities = trajectory.velocities
+    return JointTrajectory(
+        header=Header(stamp=Time(sec=seconds, nanosec=nanoseconds)),
+        joint_names=list(names),
+        points=[
+            JointTrajectoryPoint(
+                positions=array('d', trajectory.positions[k]),
+                velocities=array('d', () if velocities is None else velocities[k]),
+                time_from_start=Duration(sec=t // 10**9, nanosec=t % 10**9),
+            )
+            for k, t in enumerate(trajectory.times_ns)
+        ],
+    )
 
 
 def estimate_message(state: JointState, effort) -> JointState:

@@ -53,13 +53,8 @@ HANDED_OVER_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
-"""Profile of a latched state (a node's ``~/ready``) and of a publisher that sends its next
-sample only once every reader has acknowledged the last (the testing kit's ``joint_targets``, one
-target a step): keep-last 1 loses nothing then, and Fast DDS sends a heartbeat with every sample
-of a full history, which the reader answers at once (the kit's profile), so the acknowledgement
-comes back in one round trip. With 1,000 kept it waited for the periodic heartbeat: 1.2 ms a
-step against 0.03 ms (500 lockstep steps here). Transient-local, so a reader that matched after
-the state was said still gets it."""
+"""Profile of a latched state (a node's ``~/ready``): keep-last 1, transient-local, so a reader
+that matched after the state was said still gets it."""
 
 READER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,

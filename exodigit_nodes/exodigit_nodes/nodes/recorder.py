@@ -10,7 +10,7 @@ for a whole hand), to every glove topic of docs/spec/ros.md (``chamber_pressure`
 ``joint_states``, ``pressure_command``, ``applied_command``, ``contact_forces``,
 ``segment_lengths``, ``patient_effort``, ``estimated_contact_forces``,
 ``estimated_finger_stiffness``, ``estimated_finger_torque``, ``estimated_rest_angle``,
-``joint_targets``, ``markers``) and to
+``joint_targets``, ``joint_trajectory``, ``markers``) and to
 ``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive to the
 bag folder ``DIR`` with the ``rosbags`` library, each stamped with the time it was sent (its DDS
 source timestamp, the system clock) or, under ``use_sim_time``, with the node clock (simulated
@@ -38,6 +38,7 @@ from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from . import messages
@@ -61,6 +62,7 @@ TOPICS = {
     messages.ESTIMATED_FINGER_TORQUE: JointState,
     messages.ESTIMATED_REST_ANGLE: Float64MultiArray,
     messages.JOINT_TARGETS: Float64MultiArray,
+    messages.JOINT_TRAJECTORY: JointTrajectory,
     messages.MARKERS: MarkerArray,
     messages.DIAGNOSTICS: DiagnosticArray,
     messages.CLOCK: Clock,

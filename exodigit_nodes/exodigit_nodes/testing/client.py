@@ -24,12 +24,12 @@ import itertools
 import math
 import os
 import tempfile
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from exodigit_model.physics.params import JOINT_NAMES
 from numpy.typing import ArrayLike
 
 from ..logic.inputs import InvalidInputError, valve_openings
@@ -37,14 +37,10 @@ from ..logic.pacing import TimeSettings
 from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
 from ..nodes.dds import use_profile
 from ..nodes.run_options import time_parameters
+from .driving import DEFAULT_TIMEOUT, GloveSimError, PlantDriver
 from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
 from .records import SimRecord, SimState, state_arrays
 
-DEFAULT_TIMEOUT = 60.0
-"""Longest wall-clock wait for the glove (start-up, a step, a run) before an error, s."""
-POLL = 0.05
-"""Longest single wait of the client's executor, and how often a wait checks that the glove's
-processes still run, s."""
 PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
 """Plant parameters the kit changes from the node's defaults: no chamber lag, no markers."""
 KIT_TIME = TimeSettings(
@@ -80,11 +76,7 @@ def patient_parameters(
     return {**(plant or {}), 'params_file': path}
 
 
-class GloveSimError(RuntimeError):
-    """The simulated glove did not answer as the lockstep protocol says; the text says what."""
-
-
-class GloveSim:
+class GloveSim(PlantDriver):
     """A plant in lockstep simulated time, and the client that drives it.
 
     Parameters
@@ -163,6 +155,8 @@ class GloveSim:
             **FIXED_PLANT,
         }
         self.rate_hz = float(parameters.get('rate_hz', 100.0))
+        self.joint_names = [parameters.get('joint_prefix', '') + name for name in JOINT_NAMES]
+        """The names on ``joint_states`` (the plant's ``joint_prefix``), MCP, PIP, DIP."""
         self._processes: list[NodeProcess] = []
         self._node = None
         try:
@@ -365,143 +359,16 @@ class GloveSim:
         if not self._external_synced:
             self._wait_matched(controllers)
         end_ns = self._node.time_ns(self.state.t) + round(steps * 1e9 / self.rate_hz)
-        self._call(
-            self._node.parameter_client,
-            self._node.pause_at_request(end_ns * 1e-9),
-            'set pause_at',
-        )
         states = []
         self._node.clear_commands()
         if not self._external_synced:
             self._call(self._node.step_client, self._node.trigger(), 'step')
             states.append(self._next_state(with_estimate=False))
-        # The plant runs a few steps ahead of the states received, no more (see .horizon).
-        horizon = self._node.horizon
-        horizon.start(end_ns * 1e-9)
-        received = states[-1].t if states else self.state.t
-        self._wait(lambda: horizon.ready(received), 'the plant to take run_until')
-        self._set_paused(False)
-
-        def next_state():  # raises run_until also while waiting (its answer may come late)
-            horizon.follow(states[-1].t if states else received)
-            return self._node.take_state(with_estimate=False)
-
-        try:
-            while len(states) < steps:
-                states.append(self._wait(next_state, 'the next state'))
-            self._wait(lambda: self._node.command_count() >= steps, f'{steps} answers')
-        except GloveSimError as error:
-            error.add_note(
-                f'{len(states)} of {steps} states and {self._node.command_count()} answers '
-                f'heard; {self._node.command_publishers()}'
-            )
-            self._release_run_until(error)
-            raise
-        self._release_run_until()
+        self._lockstep(end_ns, states, steps, answers=steps)
         commands = self._node.take_commands(steps)
         self._external_synced = True
-        self._paused = True  # pause_at stopped the plant at the last state
         self.state = states[-1]
         return SimRecord(
             **state_arrays(states),
             command=np.array(commands),
         )
-
-    # -- helpers ---------------------------------------------------------------------------
-
-    _paused = True
-    _external_synced = False
-
-    def _set_paused(self, paused: bool) -> None:
-        if paused != self._paused:
-            self._call(self._node.pause_client, self._node.pause_request(paused), 'set_paused')
-            self._paused = paused
-
-    def _wait_matched(self, controllers: list[str]) -> None:
-        """Wait until the plant has matched ``controllers``, before the state each is to answer.
-
-        We count their answers as the plant took them (``applied_command``), so our own reader
-        need not match them.
-        """
-        names = ', '.join(controllers)
-        self._wait(
-            lambda: set(controllers) <= self._node.lockstep_controllers,
-            f'the plant to match {names}',
-        )
-
-    def _next_state(self, *, with_estimate: bool = True) -> SimState:
-        return self._wait(
-            lambda: self._node.take_state(with_estimate=with_estimate), 'the next state'
-        )
-
-    def _release_run_until(self, failure: GloveSimError | None = None) -> None:
-        """Let the plant step freely again after a :meth:`run` (also one that ``failure`` ended).
-
-        After a ``failure`` the plant may or may not have reached the run's ``pause_at`` (the
-        answers may be what is missing): ``pause_at`` is cleared, else it would pause the plant
-        at that time in a later :meth:`step` (which then waits in vain), and the plant is paused
-        so that the next :meth:`step` resumes it, whichever it was. A failure to do any of it
-        after a ``failure`` becomes a note on it, not a new error.
-        """
-        try:
-            self._answered(self._node.horizon.release().answer, 'reset run_until')
-            if failure is not None:
-                self._call(
-                    self._node.parameter_client,
-                    self._node.pause_at_request(0.0),
-                    'reset pause_at',
-                )
-                self._call(self._node.pause_client, self._node.pause_request(True), 'set_paused')
-                self._paused = True
-        except GloveSimError as error:
-            if failure is None:
-                raise
-            failure.add_note(f'and run_until, pause_at or the pause stays set: {error}')
-
-    def _call(self, client, request, what: str):
-        future = client.call_async(request)
-        return self._answered(lambda: future.result() if future.done() else None, what)
-
-    def _answered(self, answer, what: str):
-        """The plant's response once ``answer()`` gives it; GloveSimError if it refused."""
-        response = self._wait(answer, what)
-        if hasattr(response, 'results'):
-            ok = all(result.successful for result in response.results)
-            reason = '; '.join(result.reason for result in response.results)
-        else:
-            ok, reason = response.success, response.message
-        if not ok:
-            raise GloveSimError(f'{what} refused by the plant: {reason}')
-        return response
-
-    def _wait(self, condition, what: str):
-        started = time.monotonic()
-        deadline, next_check = started + self.timeout, started + POLL
-        while True:
-            value = condition()
-            if value:
-                return value
-            now = time.monotonic()
-            if now >= next_check or now > deadline:  # not each poll: a step takes under 1 ms
-                self._check_alive(what)
-                next_check = now + POLL
-            if now > deadline:
-                error = GloveSimError(
-                    f'waited {self.timeout:g} s for {what} in {self.namespace}; node logs in '
-                    f'{self.log_dir}'
-                )
-                # The logs' ends too: a test harness may delete the directory before anyone
-                # reads it (pytest keeps its last three runs).
-                for process in self._processes:
-                    tail = process.stderr().strip().splitlines()[-5:]
-                    error.add_note(f'{process.module}: ' + (' | '.join(tail) or '(no output)'))
-                raise error
-            self._executor.spin_once(timeout_sec=POLL)
-
-    def _check_alive(self, what: str) -> None:
-        for process in self._processes:
-            if (exit_ := process.exit()) is not None:
-                tail = process.stderr().strip().splitlines()[-5:]
-                raise GloveSimError(
-                    f'{exit_.describe()} while waiting for {what}: ' + ' | '.join(tail)
-                )

@@ -1,42 +1,30 @@
-"""A user's controller node that tracks targets: the kit starts it and steps it target by target.
+"""A user's controller node that tracks targets: the kit starts it and runs it on a trajectory.
 
 :class:`TargetGloveSim` is a :class:`~.client.GloveSim` that also starts your controller's
 command in the glove's domain and namespace (:meth:`~TargetGloveSim.start_controller`) and runs
-it against a sequence of joint targets (:meth:`~TargetGloveSim.run_targets`), one per step,
-published on the glove's ``joint_targets`` topic (std_msgs/Float64MultiArray, rad), which the
+it on a trajectory of joint targets (:meth:`~TargetGloveSim.run_trajectory`, or one target a
+step with :meth:`~TargetGloveSim.run_targets`), sent whole as one ``joint_trajectory``
+(trajectory_msgs/JointTrajectory, docs/spec/ros.md "Trajectories"), which the
 ``pressure_command`` node's ``position`` mode follows. The virtual patient trials of a ROS node
 controller (:mod:`.trial_engine`) run every patient this way.
 
-What the kit guarantees (docs/trials.md, "A ROS node as the controller"). Before the run: your
-node answers a ``get_parameters`` request (so its executor spins) and, unless ``follows`` is
-False, its ``joint_targets`` subscription is matched. Then, step k:
-
-1. the plant has taken your answer to state k − 1 (its ``applied_command``: you are done with
-   target k − 1);
-2. the kit publishes target k and waits until every matched ``joint_targets`` subscriber has
-   acknowledged it (reliable QoS: it is in your node's reader);
-3. only then does the kit have the plant take the step (its ``step`` service; the plant stays
-   paused) and publish state k, which your node answers.
-
-So target k is in your node before state k is even computed. A node that handles its messages
-in the order they arrived (rclpy's ``EventsExecutor``, as ``pressure_command``) therefore always
-answers state k holding target k. With rclpy's ``SingleThreadedExecutor`` the same holds unless
-the node is still busy (descheduled) when state k arrives too: that executor then takes the
-messages waiting together in the order the node created its subscriptions, so create the
-``joint_targets`` subscription before the ``joint_states`` one. The kit cannot see what your
-node did with a target; it records what it sent. Every step waits for the kit, so a run is
-slower than :meth:`~.client.GloveSim.run` (about 2 ms a step on the development VM: the
-acknowledged target, a ``step`` call to the plant, the state and your answer).
-
-A run is a session of its own: it starts with the plant's ``reset_simulation`` (the patient of
-its parameters, at rest, simulated time back to zero), so a run on a glove that ran before gives
-what a fresh glove gives, provided your node starts over when time goes back (docs/spec/ros.md,
-"When time goes back"). Target 0 is delivered before that reset: keep the latest target across
-it.
+A run is a session of its own. What the kit guarantees (docs/trials.md, "A ROS node as the
+controller"): your node answers a ``get_parameters`` request (so its executor spins) and,
+unless ``follows`` is False, its ``joint_trajectory`` subscription is matched; then the kit
+publishes the trajectory, stamped with the time of the session's first state, and waits until
+every matched subscriber has acknowledged it (reliable QoS: it is in your node's reader); only
+then does it start the session with the plant's ``reset_simulation`` (the patient of its
+parameters, at rest, simulated time back to zero), whose first state your node answers, and let
+the plant step in lockstep with your node (as :meth:`~.client.GloveSim.run`) for the run's
+steps. So the whole trajectory is in your node before the first state exists, and a node that
+starts over when time goes back (docs/spec/ros.md, "When time goes back") keeps a trajectory
+stamped in the new session's time, as ``pressure_command`` does. The kit cannot see what your
+node did with the trajectory; the record holds its targets at each step's time.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import shlex
 from collections.abc import Mapping, Sequence
@@ -45,18 +33,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from exodigit_model.control import Trajectory
+from exodigit_model.stepping.settings import NANOSECONDS, step_time_ns
 from numpy.typing import ArrayLike, NDArray
 from rclpy.duration import Duration
-from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
 
 from ..logic.lifetime import exit_status
 from ..logic.ros_env import ros_args
 from ..nodes.dds import PROFILE, PROFILE_VARIABLE
 from ..nodes.handshake import Handshake, matched_every_listed
-from ..nodes.messages import JOINT_TARGETS, fill, joint_vector_message
-from ..nodes.qos import HANDED_OVER_QOS
+from ..nodes.messages import JOINT_TRAJECTORY, trajectory_message
+from ..nodes.qos import STREAM_QOS
 from ..runner.supervisor import Child
-from .client import POLL, GloveSim, GloveSimError
+from .client import GloveSim
+from .driving import POLL, GloveSimError
 from .records import SimState, StateHistory, state_arrays
 
 KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
@@ -90,8 +81,8 @@ class TargetRecord(StateHistory):
         The state the run started from (the rest state after the plant's
         ``reset_simulation``, at the first step's time), which your controller answered first.
     target : ndarray, shape (n, 3)
-        The target the kit had delivered when your controller answered the state before (the
-        target of the step), rad.
+        The trajectory's target at the time of each step, from the session's first state: what
+        your controller, answering the state before, aims at, rad.
     """
 
     command: NDArray[np.float64]
@@ -149,7 +140,7 @@ class TargetGloveSim(GloveSim):
     """
 
     _controller: ControllerProcess | None = None
-    _targets = None
+    _trajectories = None
 
     def start_controller(
         self, command: Sequence[str], parameters: Mapping[str, Any] | None = None
@@ -200,88 +191,97 @@ class TargetGloveSim(GloveSim):
             raise self._controller.failure(what)
 
     def run_targets(self, targets: ArrayLike, *, follows: bool = True) -> TargetRecord:
-        """A new session of the glove, stepped once per row of ``targets`` with your controller.
+        """A session of ``len(targets)`` steps, row k (rad) the target of step k + 1.
 
-        Row k (rad, MCP/PIP/DIP) is delivered on ``joint_targets`` before the state your
-        controller answers with the command that drives step k + 1 (see the module's text for
-        what is guaranteed). Your controller must publish ``pressure_command`` (start it with
-        :meth:`start_controller`; this waits for it) and answer every ``joint_states`` with
-        one command. With ``follows`` (default) the run also waits until its ``joint_targets``
-        subscription is matched; ``follows=False`` for a controller that does not subscribe
-        (an open-loop one): the targets are still sent and recorded.
-
-        Returns
-        -------
-        TargetRecord
-            The ``len(targets)`` steps.
+        :meth:`run_trajectory` of the trajectory with row k at the time of step k + 1 from the
+        session's start, which your controller answering the state before step k + 1 aims at.
 
         Raises
         ------
         ValueError
             If ``targets`` is not an (n, 3) array of finite angles, n >= 1.
-        GloveSimError
-            If your controller exits, or it or the plant does not go on within ``timeout``.
         """
         targets = np.array(targets, dtype=float)
         if targets.ndim != 2 or targets.shape[1:] != (3,) or len(targets) < 1:
             raise ValueError(f'targets: shape {targets.shape}, expected (n, 3) with n >= 1')
-        if not np.isfinite(targets).all():
-            raise ValueError('targets: must be finite angles, rad')
+        steps = len(targets)
+        times = [step_time_ns(k, self.rate_hz) / NANOSECONDS for k in range(1, steps + 1)]
+        return self.run_trajectory(
+            Trajectory(times, targets), steps / self.rate_hz, follows=follows
+        )
+
+    def run_trajectory(
+        self, trajectory: Trajectory, seconds: float, *, follows: bool = True
+    ) -> TargetRecord:
+        """A new session of the glove, ``seconds`` long, with your controller on ``trajectory``.
+
+        ``trajectory``'s times count from the session's first state (the rest state after the
+        plant's ``reset_simulation``), which your controller answers first (module text). Your
+        controller must publish ``pressure_command`` (start it with :meth:`start_controller`;
+        this waits for it) and answer every ``joint_states`` with one command. With ``follows``
+        (default) the run also waits until its ``joint_trajectory`` subscription is matched;
+        ``follows=False`` for a controller that does not subscribe (an open-loop one): the
+        trajectory is still sent and its targets recorded.
+
+        Returns
+        -------
+        TargetRecord
+            The ``round(seconds · rate_hz)`` steps, each with the trajectory's target at its
+            time.
+
+        Raises
+        ------
+        ValueError
+            If ``seconds`` gives no step.
+        GloveSimError
+            If your controller exits, or it or the plant does not go on within ``timeout``.
+        """
+        steps = round(seconds * self.rate_hz)
+        if not (math.isfinite(seconds) and steps >= 1):
+            raise ValueError(f'seconds = {seconds!r}: must give at least one step')
         node = self._node
         controllers = self._wait(node.other_controllers, 'your controller to publish')
         self._set_paused(True)
         self._wait_matched(controllers)
         # A node publishes (and its reader acknowledges) before its executor spins; an
-        # executor that starts with a target and a state waiting may take the state first (a
-        # run here answered state 0 with the node's default target). A node that answers the
-        # session protocol's handshake spins (and has matched our readers).
+        # executor that starts with a trajectory and a state waiting may take the state first.
+        # A node that answers the session protocol's handshake spins (and has matched our
+        # readers).
         handshake = Handshake(node, controllers)
         self._wait(lambda: not handshake.silent(), f'{", ".join(controllers)} to spin')
         handshake.destroy()
-        if self._targets is None:
-            self._targets = node.create_publisher(
-                Float64MultiArray, JOINT_TARGETS, HANDED_OVER_QOS
+        if self._trajectories is None:
+            self._trajectories = node.create_publisher(
+                JointTrajectory, JOINT_TRAJECTORY, STREAM_QOS
             )
-        publisher, message = self._targets, joint_vector_message()
+        publisher = self._trajectories
         # Seeing the controller's publisher says nothing of its subscriptions: DDS announces
         # readers and writers on separate streams (a run here found the graph without the
-        # joint_targets reader, and target 0 unheard). So a controller that follows targets
-        # must be matched, and every other subscriber the graph shows too.
-        wanted = f'your controller to subscribe {JOINT_TARGETS}' + (
+        # targets' reader, and the first target unheard). So a controller that follows the
+        # trajectory must be matched, and every other subscriber the graph shows too.
+        wanted = f'your controller to subscribe {JOINT_TRAJECTORY}' + (
             ' (follows=False for a controller that does not)' if follows else ''
         )
+        self._wait(lambda: matched_every_listed(node, publisher, least=int(follows)), wanted)
+        start = step_time_ns(1, self.rate_hz)  # the new session's first state
+        publisher.publish(trajectory_message(trajectory, start, self.joint_names))
         self._wait(
-            lambda: matched_every_listed(node, publisher, least=int(follows)),
-            wanted,
+            lambda: publisher.wait_for_all_acked(Duration(seconds=POLL)),
+            'your controller to acknowledge the trajectory',
         )
-
-        def deliver(k: int) -> None:
-            publisher.publish(fill(message, targets[k]))
-            self._wait(
-                lambda: publisher.wait_for_all_acked(Duration(seconds=POLL)),
-                f'your controller to acknowledge target {k}',
-            )
-
-        deliver(0)
-        initial = self.reset_simulation()  # the rest state, answered with target 0
+        initial = self.reset_simulation()  # the rest state, which your controller answers
         states: list[SimState] = []
-        # The plant stays paused; its `step` takes each step with the answer the kit has heard
-        # from the plant itself (applied_command: the plant has taken it).
-        for k in range(len(targets)):
-            self._wait(lambda k=k: node.command_count() > k, f'your answer to step {k}')
-            if k + 1 < len(targets):
-                deliver(k + 1)
-            self._call(node.step_client, node.trigger(), 'step')
-            states.append(self._next_state(with_estimate=False))
-        # the last answer too: none of this session's may be counted in the next
-        self._wait(lambda: node.command_count() > len(targets), 'your last answer')
-        commands = node.take_commands(len(targets))
+        end = node.time_ns(initial.t) + round(steps * NANOSECONDS / self.rate_hz)
+        # every answer, the last one's too: none of this session's may count in the next
+        self._lockstep(end, states, steps, answers=steps + 1)
+        commands = node.take_commands(steps)
         node.clear_commands()
         self.state = states[-1]
         self._external_synced = True
+        origin = node.time_ns(initial.t)
         return TargetRecord(
             initial=initial,
             **state_arrays(states),
             command=np.array(commands),
-            target=targets,
+            target=np.array([trajectory.at_ns(node.time_ns(s.t) - origin) for s in states]),
         )

@@ -7,9 +7,11 @@ controller is a ROS node (``ControllerSpec('ros', command_line, ros_parameters)`
 plant in lockstep simulated time, in a private domain and namespace) whose plant simulates that
 patient (the trial's glove with the patient's finger, the trial's chamber and sensor settings,
 at the protocol's rate), with the controller's command started there with ``use_sim_time``; the
-kit delivers the protocol's targets on ``joint_targets`` step by step, and the recorded states go
-into the same :class:`~exodigit_model.trials.MetricAccumulator` as an in-process trial's. So the
-metrics, summary, rules and report are the same; what a ROS node cannot report is stated in
+kit sends the protocol's targets as one ``joint_trajectory`` (one point a step,
+:meth:`~exodigit_model.trials.SessionProtocol.trajectory`) and lets the plant step in lockstep
+with the node, and the recorded states go into the same
+:class:`~exodigit_model.trials.MetricAccumulator` as an in-process trial's. So the metrics,
+summary, rules and report are the same; what a ROS node cannot report is stated in
 :func:`patient_metrics`.
 
 Up to ``parallel`` gloves run at once, each in its own ROS domain and driven by a worker process
@@ -184,7 +186,7 @@ class KitEngine:
     timeout : float
         Longest wall-clock wait for any answer of a glove or the controller, s.
     follows_targets : bool
-        Whether the controller subscribes ``joint_targets`` (the protocol's targets): each
+        Whether the controller subscribes ``joint_trajectory`` (the protocol's targets): each
         glove then waits for that subscription before the session. False for one that does not
         (open loop); the targets are sent and scored all the same.
     fresh_nodes : bool
@@ -348,7 +350,7 @@ class KitEngine:
         start = shard_bounds(spec)[index][0]
         glove = spec.glove_params()
         protocol = spec.session()
-        targets = protocol.targets(protocol.times())
+        trajectory = protocol.trajectory()
         command = tuple(spec.controller.command())
         parameters = dict(spec.controller.parameters)
         jobs = []
@@ -365,7 +367,8 @@ class KitEngine:
                     plant_parameters(spec, patient),
                     command,
                     parameters,
-                    targets,
+                    trajectory,
+                    protocol.duration,
                     self.follows_targets,
                     self.timeout,
                     str(folder),

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from exodigit_model.control import Trajectory
 
 from ..runner.supervisor import Child
 from .client import GloveSimError
@@ -37,8 +37,9 @@ WORKER_STOP = 10.0
 class PatientJob:
     """What a worker needs to run one patient's glove (picklable).
 
-    ``fresh``: start a glove and the controller for this patient and stop them after it (for a
-    node that does not start over when simulated time goes back), instead of the worker's glove.
+    ``trajectory``: the protocol's targets, one point a step, run for ``seconds``. ``fresh``:
+    start a glove and the controller for this patient and stop them after it (for a node that
+    does not start over when simulated time goes back), instead of the worker's glove.
     ``log_dir`` is where a glove started for this patient writes its nodes' output.
     """
 
@@ -47,7 +48,8 @@ class PatientJob:
     plant: Mapping[str, Any]
     command: tuple[str, ...]
     parameters: Mapping[str, Any]
-    targets: np.ndarray
+    trajectory: Trajectory
+    seconds: float
     follows: bool
     timeout: float
     log_dir: str
@@ -102,7 +104,8 @@ class WorkerGlove:
         """``job``'s session; never raises for a failing controller or glove (``status`` 1)."""
         started = time.monotonic()
         try:
-            record = self._glove(job).run_targets(job.targets, follows=job.follows)
+            glove = self._glove(job)
+            record = glove.run_trajectory(job.trajectory, job.seconds, follows=job.follows)
         except (GloveSimError, ValueError) as error:
             self.close()
             wall = time.monotonic() - started

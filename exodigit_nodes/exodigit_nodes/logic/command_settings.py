@@ -1,0 +1,72 @@
+"""What ``pressure_command``'s parameters mean: checked settings, safety limits, valve loop.
+
+Its parameter values (the node table, ``nodes/catalog.py``) checked together into
+:class:`CommandSettings`: the values, the safety limits and the valve loop's settings. The
+controller of its ``mode`` is :func:`exodigit_model.control.mode_controller`, the controllers of
+in-process trials too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from exodigit_model.control import LOOP_PARAMETERS, SafetyLimits, ValveLoopSettings
+
+LIMIT_NAMES = frozenset(
+    {
+        'max_pressure',
+        'max_pressure_rate',
+        'joint_lower_limits',
+        'joint_upper_limits',
+        'max_contact_force',
+        'feedback_timeout',
+    }
+)
+"""The parameters that change limits only: a new value keeps the controller and its session."""
+VALVE_NAMES = frozenset(LOOP_PARAMETERS)
+"""The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
+
+
+def safety_limits(values: dict[str, Any]) -> SafetyLimits:
+    """The safety limits of a set of pressure_command parameter values."""
+    return SafetyLimits(
+        max_pressure=values['max_pressure'],
+        max_pressure_rate=values['max_pressure_rate'],
+        joint_lower=values['joint_lower_limits'],
+        joint_upper=values['joint_upper_limits'],
+        max_contact_force=values['max_contact_force'],
+    )
+
+
+@dataclass(frozen=True)
+class CommandSettings:
+    """The command node's settings: its parameter values, the safety limits and valve loop."""
+
+    values: dict[str, Any]
+    limits: SafetyLimits
+    valve_loop: ValveLoopSettings
+
+
+def command_settings(values: dict[str, Any]) -> CommandSettings:
+    """Check the parameters together (ValueError naming the parameter)."""
+    if values['sine_low'] > values['sine_high']:
+        raise ValueError(
+            f'sine_low ({values["sine_low"]:g} Pa) must not exceed sine_high '
+            f'({values["sine_high"]:g} Pa)'
+        )
+    if values['staircase_peak'] < values['staircase_step']:
+        raise ValueError(
+            f'staircase_peak ({values["staircase_peak"]:g} Pa) must be at least '
+            f'staircase_step ({values["staircase_step"]:g} Pa)'
+        )
+    limits = safety_limits(values)
+    targets = np.array(values['joint_targets'])
+    if ((targets < limits.joint_lower) | (targets > limits.joint_upper)).any():
+        raise ValueError(
+            f'joint_targets {list(values["joint_targets"])} rad must lie inside '
+            'joint_lower_limits .. joint_upper_limits'
+        )
+    valve_loop = ValveLoopSettings(**{name: values[name] for name in VALVE_NAMES})
+    return CommandSettings(values, limits, valve_loop)

@@ -1,0 +1,200 @@
+"""What ``pressure_command`` hears: joint states, contact-force estimates, chamber pressures.
+
+The node (:mod:`.pressure_command`) commands; :class:`CommandInputs` makes its feedback
+subscriptions, keeps the latest valid sample of each with its arrival time (node clock, s), and
+in lockstep hands the node each state to answer once it is complete: in ``force`` mode with the
+estimate stamped with the state's stamp (an estimate of an earlier state is dropped), with valves
+with the ``chamber_pressure`` of the same step (paired by the times they were sent, as the
+estimator pairs them; a refused state keeps its place in the pairing and is not answered).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from exodigit_model.stepping.joining import STEP_TOLERANCE
+from rclpy.clock import Clock, ClockType
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from ..logic.estimation import Pair, SamplePairer
+from ..logic.inputs import (
+    NANOSECONDS,
+    InvalidInputError,
+    joint_positions,
+    joint_vector,
+    sent_seconds,
+    stamp_age,
+    stamp_nanoseconds,
+)
+from .message_info import WithInfo
+from .messages import CHAMBER_PRESSURE, ESTIMATED_CONTACT_FORCES, JOINT_STATES
+from .qos import READER_QOS
+
+if TYPE_CHECKING:
+    from .node_base import GloveNode
+
+MAX_FORCE_READING = 1e3
+"""Largest |estimated contact force| accepted as a measurement, N."""
+ESTIMATOR_POLL = 0.05
+"""Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
+
+Answer = Callable[[int, np.ndarray, np.ndarray | None, np.ndarray | None], None]
+"""answer(stamp (ns), angles (rad), forces (N) or None, chamber pressures (Pa) or None)."""
+Sample = tuple[float, np.ndarray]
+"""A value and when it arrived (node clock, s)."""
+
+
+class CommandInputs:
+    """The feedback subscriptions of ``node`` (``pressure_command``) and their latest samples.
+
+    Parameters
+    ----------
+    node : GloveNode
+        Makes the subscriptions, logs, counts rejected messages; its parameter values
+        (``mode``, ``output``, ``lockstep``, ``feedback_timeout``) are read when needed.
+    answer : callable
+        In lockstep, called once per complete state (:data:`Answer`).
+    """
+
+    def __init__(self, node: GloveNode, answer: Answer) -> None:
+        self.node, self.answer = node, answer
+        self.lockstep = node.values['lockstep']
+        self.valves = node.values['output'] == 'valves'
+        self.angles: Sample | None = None
+        self.forces: Sample | None = None
+        self.pressure: Sample | None = None
+        self.pairer = SamplePairer(STEP_TOLERANCE) if self.valves and self.lockstep else None
+        """Lockstep valves: pairs each state with its step's chamber_pressure."""
+        self.pending: dict[str, Any] = {'angles': None, 'forces': None, 'pressure': None}
+        if self.valves:
+            node.create_subscription(
+                Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), READER_QOS
+            )
+        self.forces_subscription = node.create_subscription(
+            JointState, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
+        )
+        self.estimator_timer = None
+        if self.lockstep and node.values['mode'] == 'force':
+            # An answer needs the estimate of the state: listen for states (and so count as a
+            # lockstep controller of the plant) once the estimator's publisher is matched, or
+            # the estimate of the first state could be sent before we can hear it.
+            self.estimator_timer = node.create_timer(
+                ESTIMATOR_POLL,
+                self.listen_once_estimated,
+                clock=Clock(clock_type=ClockType.STEADY_TIME),
+            )
+            node.get_logger().info(
+                f'lockstep force mode: answering {JOINT_STATES} once an estimator on '
+                f'{ESTIMATED_CONTACT_FORCES} is matched'
+            )
+        else:
+            self.listen_to_states()
+
+    def forget(self) -> None:
+        """A new session: forget a state waiting for its estimate or pressure.
+
+        An estimate waiting is kept: it may be the new session's, come before its state (an
+        older one never pairs with a state of the new session: pairing is by stamp).
+        """
+        self.pending['angles'] = self.pending['pressure'] = None
+
+    def fresh(self, sample: Sample | None, now: float) -> np.ndarray | None:
+        """The sample's value if it is younger than feedback_timeout at ``now`` (s), else None."""
+        if sample is None or now - sample[0] > self.node.values['feedback_timeout']:
+            return None
+        return sample[1]
+
+    def listen_to_states(self) -> None:
+        """Subscribe ``joint_states`` (the state each command answers in lockstep)."""
+        self.node.create_subscription(
+            JointState, JOINT_STATES, WithInfo(self.on_joint_states), READER_QOS
+        )
+
+    def listen_once_estimated(self) -> None:
+        """Lockstep force mode: subscribe states once every estimator publisher is matched."""
+        matched = self.forces_subscription.get_publisher_count()
+        listed = self.node.count_publishers(self.forces_subscription.topic_name)
+        if matched == 0 or matched < listed:
+            return
+        self.node.destroy_timer(self.estimator_timer)
+        self.estimator_timer = None
+        self.listen_to_states()
+        self.node.get_logger().info(f'estimator matched: answering {JOINT_STATES}')
+
+    def on_joint_states(self, message: JointState, info: dict) -> None:
+        """Keep valid, recently stamped joint angles (rad) with their arrival time.
+
+        In lockstep the state's stamp is the time itself (a node that has just started has not
+        heard ``/clock`` yet), so it is not compared with the node clock.
+        """
+        stamp = stamp_nanoseconds(message.header.stamp)
+        try:
+            angles = joint_positions(message)
+            if not self.lockstep:
+                now, timeout = self.node.now_seconds(), self.node.values['feedback_timeout']
+                stamp_age(stamp / NANOSECONDS, now, timeout, JOINT_STATES)
+        except InvalidInputError as error:
+            self.node.reject(JOINT_STATES, error)
+            angles = None
+        if self.pairer is not None:
+            number = info['publication_sequence_number']
+            self.take_pairs(self.pairer.add_angles(angles, sent_seconds(info), number, stamp))
+        elif angles is not None:
+            self.take_state(stamp, angles, None)
+
+    def on_pressure(self, message: Float64MultiArray, info: dict) -> None:
+        """Valves: keep a valid measured chamber pressure (Pa) with its arrival time."""
+        pressure = self.node.pressure_reading(message.data)
+        if pressure is not None:
+            self.pressure = (self.node.now_seconds(), pressure)
+        if self.pairer is not None:
+            self.take_pairs(self.pairer.add_pressure(pressure, sent_seconds(info)))
+
+    def take_pairs(self, pairs: list[Pair]) -> None:
+        """Lockstep valves: take each state paired with its pressure (``Pair.state``: stamp)."""
+        for pair in pairs:
+            self.take_state(pair.state, pair.angles, pair.pressure)
+
+    def take_state(self, stamp: int, angles: np.ndarray, pressure: np.ndarray | None) -> None:
+        """Take a valid state stamped ``stamp`` (ns); in lockstep, answer it once complete.
+
+        ``angles`` in rad; ``pressure`` (lockstep valves) the chamber pressures of its step, Pa.
+        """
+        self.angles = (self.node.now_seconds(), angles)
+        if self.lockstep:
+            self.pending['angles'] = (stamp, angles)
+            self.pending['pressure'] = pressure
+            self.complete()
+
+    def on_forces(self, message: JointState) -> None:
+        """Keep valid estimated contact forces (N, ``effort``) with their arrival time.
+
+        In lockstep also with the stamp of the state they estimate, which pairs them with it.
+        """
+        try:
+            forces = joint_vector(message.effort, ESTIMATED_CONTACT_FORCES, MAX_FORCE_READING)
+            stamp = stamp_nanoseconds(message.header.stamp)
+        except InvalidInputError as error:
+            self.node.reject(ESTIMATED_CONTACT_FORCES, error)
+            return
+        self.forces = (self.node.now_seconds(), forces)
+        if self.lockstep:
+            self.pending['forces'] = (stamp, forces)
+            self.complete()
+
+    def complete(self) -> None:
+        """Lockstep: hand the pending state to :attr:`answer` once it is complete (module text)."""
+        state, forces = self.pending['angles'], self.pending['forces']
+        if self.node.values['mode'] == 'force':
+            if state is not None and forces is not None and forces[0] < state[0]:
+                self.pending['forces'] = forces = None
+            if state is None or forces is None or forces[0] != state[0]:
+                return
+        elif state is None:
+            return
+        pressure = self.pending['pressure']
+        self.pending = {'angles': None, 'forces': None, 'pressure': None}
+        self.answer(*state, None if forces is None else forces[1], pressure)
