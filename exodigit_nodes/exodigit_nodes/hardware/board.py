@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from .framing import FrameDecoder, encode_frame
 from .messages import (
+    BOARD_TIME_MODULO,
     CHAMBERS,
     DUTY_FULL,
     PROTOCOL_VERSION,
-    BOARD_TIME_MODULO,
     SEQUENCE_MODULO,
     Capabilities,
     Heartbeat,
@@ -64,12 +64,12 @@ class BoardProtocol:
         self.last_valid: float | None = None
         self.refused = False
         self.over_pressure = (False,) * CHAMBERS
-        self._tripped = True
+        self._tripped = False
         self._bad_frames = 0
 
     @property
     def watchdog_tripped(self) -> bool:
-        """Whether no valid frame came within the watchdog time (always False before a Hello)."""
+        """Whether the watchdog vents (no valid frame in time, and no Openings since)."""
         return self.streaming and self._tripped
 
     def receive(self, data: bytes, now: float) -> bytes:
@@ -101,6 +101,7 @@ class BoardProtocol:
             self.applied_sequence = 0
             self.sequence = 0
             self.refused = False
+            self._tripped = False
             self.last_valid = now
             return encode_frame(encode(self.capabilities))
         if isinstance(message, Openings | Heartbeat) and not self.streaming:
@@ -116,6 +117,7 @@ class BoardProtocol:
                 self.refused = True
                 return encode_frame(encode(Notice(NoticeCode.BAD_OPENINGS, over[0])))
             self.refused = False
+            self._tripped = False
             self.commanded = message.duties
             self.applied_sequence = message.sequence
             return b''
@@ -126,12 +128,12 @@ class BoardProtocol:
     def duties(self, now: float) -> tuple[int, ...]:
         """The openings the valves get at ``now``: the command, or a vent where the rules say.
 
-        Every chamber vents before a Hello and while the watchdog has tripped; a chamber whose
-        latest pressure (given to :meth:`sample`) is at or above the vent pressure vents.
+        Every chamber vents before a Hello, and from the moment no valid frame came for the
+        watchdog time until the next valid Openings; a chamber whose latest pressure (given to
+        :meth:`sample`) is at or above the vent pressure vents.
         """
-        self._tripped = self.last_valid is None or (
-            now - self.last_valid > self.capabilities.watchdog_ms * 1e-3
-        )
+        if self.streaming and now - self.last_valid > self.capabilities.watchdog_ms * 1e-3:
+            self._tripped = True
         if not self.streaming or self._tripped:
             return VENT_DUTIES
         duties = list(self.commanded)

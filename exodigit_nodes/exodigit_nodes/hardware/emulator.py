@@ -39,7 +39,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .board import BoardProtocol, default_capabilities
-from .messages import ANGLE_UNIT, CHAMBERS, DUTY_FULL, PROTOCOL_VERSION, openings_of
+from .messages import ANGLE_UNIT, CHAMBERS, PROTOCOL_VERSION, openings_of
 
 FIRMWARE = (1, 0, 0)
 """The emulator's firmware version, in its Capabilities."""
@@ -489,7 +489,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--drop-probability', type=float, default=defaults.drop_probability,
                         help='per byte, each way')  # fmt: skip
     parser.add_argument('--corrupt-probability', type=float,
-                        default=defaults.corrupt_probability, help='per byte, each way')  # fmt: skip
+                        default=defaults.corrupt_probability,
+                        help='per byte, each way')  # fmt: skip
     parser.add_argument('--watchdog', type=float, default=defaults.watchdog, help='s')
     parser.add_argument('--vent-pressure', type=float, default=defaults.vent_pressure, help='Pa')
     parser.add_argument('--supply-pressure', type=float, default=defaults.supply_pressure,

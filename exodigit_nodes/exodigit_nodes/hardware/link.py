@@ -48,7 +48,7 @@ class LinkState(Enum):
     """The samples stopped for ``sample_timeout``: saying Hello again until the board answers."""
 
 
-class IncompatibleBoard(Exception):
+class IncompatibleBoardError(Exception):
     """The board speaks another protocol version, or is no glove board (one line)."""
 
 
@@ -139,20 +139,20 @@ Event = Connected | SampleReceived | LinkLost | NoticeReceived
 
 
 def check_capabilities(capabilities: Capabilities) -> None:
-    """An :class:`IncompatibleBoard` unless the board speaks our version to a glove of 3."""
+    """An :class:`IncompatibleBoardError` unless the board speaks our version to a glove of 3."""
     if capabilities.version != PROTOCOL_VERSION:
-        raise IncompatibleBoard(
+        raise IncompatibleBoardError(
             f'the board speaks protocol version {capabilities.version}, this bridge version '
             f'{PROTOCOL_VERSION} (docs/spec/hardware.md): update the firmware or the bridge'
         )
     if capabilities.chambers != CHAMBERS or capabilities.bend_sensors not in (0, CHAMBERS):
-        raise IncompatibleBoard(
+        raise IncompatibleBoardError(
             f'the board drives {capabilities.chambers} chambers with '
             f'{capabilities.bend_sensors} bend sensors: a glove board has {CHAMBERS} chambers '
             f'and 0 or {CHAMBERS} bend sensors'
         )
     if capabilities.sample_rate_hz == 0 or capabilities.watchdog_ms == 0:
-        raise IncompatibleBoard('the board reports a sample rate or watchdog time of 0')
+        raise IncompatibleBoardError('the board reports a sample rate or watchdog time of 0')
 
 
 class HostLink:
@@ -216,13 +216,13 @@ class HostLink:
 
         Raises
         ------
-        IncompatibleBoard
+        IncompatibleBoardError
             When a board answers with another protocol version or shape (the port is closed).
         """
         events: list[Event] = []
+        if self.port is None and now >= self._next_open:
+            self._open(now)
         if self.port is None:
-            if now >= self._next_open:
-                self._open(now, events)
             return events
         try:
             data = self.port.read()
@@ -262,7 +262,7 @@ class HostLink:
 
     # -- inside ----------------------------------------------------------------------------
 
-    def _open(self, now: float, events: list[Event]) -> None:
+    def _open(self, now: float) -> None:
         try:
             self.port = self.opener(self.settings.port, self.settings.baud_rate)
             self.port.discard_input()
@@ -295,7 +295,7 @@ class HostLink:
             if self.state in (LinkState.HANDSHAKE, LinkState.SILENT):
                 try:
                     check_capabilities(message)
-                except IncompatibleBoard:
+                except IncompatibleBoardError:
                     self.close()
                     raise
                 self.capabilities = message
@@ -357,8 +357,6 @@ class HostLink:
 
     def _backoff(self, now: float, reason: str) -> None:
         self.last_error = reason
-        wait = min(
-            self.settings.reconnect_min * 2.0**self.failures, self.settings.reconnect_max
-        )
+        wait = min(self.settings.reconnect_min * 2.0**self.failures, self.settings.reconnect_max)
         self.failures += 1
         self._next_open = now + wait

@@ -6,6 +6,8 @@ Every failure of the port (absent, unplugged, refused) is a :class:`PortError` w
 
 from __future__ import annotations
 
+import contextlib
+
 import serial
 
 READ_CHUNK = 4096
@@ -73,10 +75,8 @@ class SerialPort:
 
     def close(self) -> None:
         """Close the port (never raises)."""
-        try:
+        with contextlib.suppress(serial.SerialException, OSError):
             self._serial.close()
-        except (serial.SerialException, OSError):
-            pass
 
 
 def _reason(error: Exception) -> str:
