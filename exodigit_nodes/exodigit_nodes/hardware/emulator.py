@@ -31,6 +31,7 @@ import heapq
 import math
 import os
 import select
+import signal
 import sys
 import time
 import tty
@@ -405,10 +406,10 @@ class Emulator:
         self._replug_at = math.inf
 
     def run(self, duration: float = math.inf, commands=None) -> None:
-        """Serve until ``duration`` s have passed, ``quit`` comes, or ``commands`` ends... never.
+        """Serve until ``duration`` s have passed or ``quit`` comes on ``commands``.
 
-        ``commands``: a readable text file (standard input) of fault commands, one a line; at
-        its end the board runs on.
+        ``commands``: a readable text file (standard input, a pipe) of fault commands, one a
+        line; at its end the board runs on.
         """
         next_tick = self.now() + self.period
         end = self.now() + duration
@@ -527,6 +528,8 @@ def main(argv: list[str] | None = None) -> int:
     if os.path.exists(options.link) and not os.path.islink(options.link):
         parser.error(f'--link {options.link}: exists and is no symbolic link (not replaced)')
     emulator = Emulator(settings, options.link)
+    # SIGTERM (a runner stopping it) ends it as Ctrl-C does: the link is removed.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     print(
         f'mcu_emulator: board (protocol {settings.version}, {settings.rate_hz:g} Hz) on '
         f'{options.link} -> {os.readlink(options.link)}',
