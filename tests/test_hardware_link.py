@@ -316,6 +316,18 @@ def test_the_board_clock_takes_the_least_delayed_sample_and_follows_wraps():
     assert stamp == pytest.approx(read + 0.04 + 0.001, abs=1e-5)
 
 
+def test_stamps_never_go_back_and_catch_up_with_a_lower_offset():
+    clock = BoardClock()
+    # samples 10 ms apart on the board; the host, busy, reads the first five at once at 50 ms,
+    # then each 1 ms after it was taken
+    arrivals = [0.050] * 5 + [0.010 * k + 0.001 for k in range(5, 30)]
+    stamps = [clock.host_time(10_000 * k, arrivals[k]) for k in range(30)]
+    assert all(b >= a for a, b in itertools.pairwise(stamps))
+    assert all(b > a for a, b in itertools.pairwise(stamps[5:]))
+    assert all(stamp <= arrival for stamp, arrival in zip(stamps, arrivals, strict=True))
+    assert stamps[-1] == pytest.approx(0.29 + 0.001, abs=1e-5)  # on the least delay again
+
+
 # -- fuzz --------------------------------------------------------------------------------------
 
 

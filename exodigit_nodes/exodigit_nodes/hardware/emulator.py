@@ -18,6 +18,7 @@ probability, both ways. Board faults, typed on standard input while it runs (one
                       back
 ``stick VALVE OPENING`` valve 0-5 (inlets MCP, PIP, DIP, then outlets) stays at OPENING in [0, 1]
                       whatever is commanded; ``unstick`` frees them
+``status``            print one line: streaming or silent, the openings applied, the watchdog
 ``quit``              stop
 
 Run: ``python -m exodigit_nodes.hardware.emulator --link /tmp/glove_board`` (``--help``).
@@ -399,6 +400,13 @@ class Emulator:
         if command == 'unstick' and not arguments:
             self.board.stuck.clear()
             return 'valves free'
+        if command == 'status' and not arguments:
+            protocol = self.board.protocol
+            return (
+                f'status {"streaming" if protocol.streaming else "silent"}, openings '
+                + ' '.join(f'{value:g}' for value in self.board.openings)
+                + f', watchdog {"tripped" if protocol.watchdog_tripped else "fed"}'
+            )
         raise ValueError(f'unknown command {line.strip()!r}: see --help')
 
     def _plug(self) -> None:
@@ -471,7 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='mcu_emulator',
         description=__doc__.split('\n\n')[0] + '. Fault commands on standard input: '
-        'unplug [SECONDS], plug, supply off|on, stick VALVE OPENING, unstick, quit.',
+        'unplug [SECONDS], plug, supply off|on, stick VALVE OPENING, unstick, status, quit.',
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     parser.add_argument('--link', required=True, help='path of the symbolic link to the pty')

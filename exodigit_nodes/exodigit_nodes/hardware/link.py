@@ -240,8 +240,12 @@ class HostLink:
         return events
 
     def send_openings(self, duties: tuple[int, ...], now: float) -> int | None:
-        """Send Openings (duties 0-10,000) when streaming; their sequence, or None if not sent."""
-        if self.state is not LinkState.STREAMING:
+        """Send Openings (duties 0-10,000); their sequence, or None if not sent.
+
+        Sent while streaming, and while silent (a board that still hears the host takes a
+        vent); not while the port is closed or the handshake is on.
+        """
+        if self.state not in (LinkState.STREAMING, LinkState.SILENT):
             return None
         self._sequence = self._sequence % (SEQUENCE_MODULO - 1) + 1  # 1 .. 65535: 0 is none
         if not self._send(Openings(self._sequence, tuple(duties)), now):

@@ -3,7 +3,11 @@
 :class:`BoardClock` maps a sample's board time (u32 µs, wrapping) to the host clock: the offset
 host − board is the smallest seen over the samples (the one that waited least in buffers),
 allowed to creep up by :data:`DRIFT` per second so that a board crystal slower than the host's
-is followed. :class:`RoundTrip` measures, for each Openings sent, the time until the first
+is followed. When the offset drops (a sample that waited less than every one before), the
+stamps do not jump back: they advance at half the board's pace until they meet the new
+offset. So stamps never decrease, and never lie after the sample's arrival (samples that
+arrive together before the clock knows better may share their arrival as stamp).
+:class:`RoundTrip` measures, for each Openings sent, the time until the first
 sample that says the board applies them.
 """
 
@@ -16,6 +20,8 @@ from .messages import BOARD_TIME_MODULO, SEQUENCE_MODULO
 
 DRIFT = 200e-6
 """Largest clock rate difference followed, s/s (crystals: ±100 ppm each side)."""
+CATCH_UP = 0.5
+"""Least advance of a stamp per board second while the stamps catch up with a lower offset."""
 PENDING = 256
 """Openings remembered until a sample echoes them (older ones are forgotten)."""
 
@@ -32,11 +38,14 @@ class BoardClock:
         self._last_board: int | None = None
         self._wraps = 0
         self._last_host = 0.0
+        self._last_stamp = -math.inf
+        self._last_time = 0.0
 
     def host_time(self, board_time_us: int, received: float) -> float:
         """The host time (s) at which the board read a sample stamped ``board_time_us``.
 
-        ``received`` is the host time the sample arrived; the result is never later.
+        ``received`` is the host time the sample arrived; the result is never later, and never
+        earlier than the previous one.
         """
         if self._last_board is not None and board_time_us < self._last_board:
             self._wraps += 1
@@ -46,7 +55,9 @@ class BoardClock:
             self._offset += DRIFT * max(0.0, received - self._last_host)
         self._last_host = received
         self._offset = min(self._offset, received - board)
-        return board + self._offset
+        stamp = max(board + self._offset, self._last_stamp + CATCH_UP * (board - self._last_time))
+        self._last_stamp, self._last_time = min(stamp, received), board
+        return self._last_stamp
 
 
 class RoundTrip:

@@ -1,0 +1,264 @@
+"""The ``hardware`` bridge node against ``mcu_emulator`` over a real pseudo-terminal, both as the
+processes a user runs: its topics, and each fault of docs/spec/hardware.md §7 with the
+behaviour it names."""
+
+import itertools
+import queue
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from exodigit_nodes.nodes.qos import RECORD_QOS
+from exodigit_nodes.testing.processes import ros_environment
+from ros_harness import wait_until
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+VENT = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0]
+FILL = [0.6, 0.3, 1.0, 0.0, 0.0, 0.0]
+START = 30.0
+"""Longest wait for a process to be up (the emulator loads the model's kernels), s."""
+
+
+class EmulatorProcess:
+    """``python -m exodigit_nodes.hardware.emulator`` with its stdin for fault commands."""
+
+    def __init__(self, directory, domain_id, *arguments: str) -> None:
+        self.link = str(directory / f'board-{time.monotonic_ns()}')
+        self.process = subprocess.Popen(
+            [sys.executable, '-m', 'exodigit_nodes.hardware.emulator', '--link', self.link,
+             *arguments],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            env=ros_environment(domain_id),
+        )  # fmt: skip
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+        assert self.answer('mcu_emulator: board', START), 'the emulator did not start'
+
+    def _read(self) -> None:
+        for line in self.process.stdout:
+            self.lines.put(line.rstrip('\n'))
+
+    def answer(self, start: str, timeout: float = 5.0) -> str | None:
+        """The next line that starts with ``start`` (None after ``timeout`` s)."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            try:
+                line = self.lines.get(timeout=max(0.0, end - time.monotonic()))
+            except queue.Empty:
+                return None
+            if line.startswith(start):
+                return line
+        return None
+
+    def command(self, line: str) -> None:
+        self.process.stdin.write(line + '\n')
+        self.process.stdin.flush()
+
+    def status(self) -> str:
+        self.command('status')
+        return self.answer('status ')
+
+    def stop(self) -> None:
+        if self.process.poll() is None:
+            self.command('quit')
+            try:
+                self.process.wait(10.0)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+
+
+@pytest.fixture
+def emulator(request, tmp_path, ros_domain):
+    board = EmulatorProcess(tmp_path, ros_domain, *getattr(request, 'param', ()))
+    yield board
+    board.stop()
+
+
+class Glove:
+    """The bridge's topics under one namespace, recorded by the probe."""
+
+    def __init__(self, probe, namespace: str) -> None:
+        self.pressure = probe.subscribe(f'{namespace}/chamber_pressure', Float64MultiArray)
+        self.applied = probe.subscribe(f'{namespace}/applied_command', Float64MultiArray)
+        self.joints = probe.subscribe(f'{namespace}/joint_states', JointState)
+        self.diagnostics = probe.subscribe('/diagnostics', DiagnosticArray, qos=RECORD_QOS)
+        self.namespace = namespace
+        self.command = probe.publisher(f'{namespace}/valve_command', Float64MultiArray, 0)
+
+    def send(self, openings) -> None:
+        self.command.publish(Float64MultiArray(data=list(map(float, openings))))
+
+    def status(self, predicate, timeout: float = 10.0, since: float = -1.0):
+        """The first status of our bridge (after ``since``) that satisfies ``predicate``."""
+
+        def ours(array):
+            return any(
+                s.name.endswith(f'{self.namespace}/hardware') and predicate(s)
+                for s in array.status
+            )
+
+        array = self.diagnostics.wait_for(ours, timeout, since)
+        if array is None:
+            return None
+        return next(s for s in array.status if s.name.endswith(f'{self.namespace}/hardware'))
+
+
+def values(status) -> dict:
+    return {item.key: item.value for item in status.values}
+
+
+def start_bridge(launcher, probe, emulator, namespace, **parameters):
+    bridge = launcher.start(
+        'hardware',
+        {'port': emulator.link, 'diagnostic_period': 0.2, **parameters},
+        namespace=namespace,
+    )
+    glove = Glove(probe, namespace)
+    assert glove.pressure.wait_count(5, START), bridge.stderr()
+    assert wait_until(lambda: glove.command.get_subscription_count() >= 1, START)
+    return bridge, glove
+
+
+def test_a_session_through_the_bridge_applies_every_command_and_reports_the_board(
+    launcher, probe, emulator
+):
+    # no pressure limit here (the supply's 100 kPa is below it): every answer is the command
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_session', max_pressure=200e3)
+    sent = []
+    for k in range(30):
+        openings = FILL if k < 20 else [0.0, 0.0, 0.0, 0.0, 0.5, 0.0]
+        openings = [round(value * (1.0 - 0.01 * (k % 3)), 4) for value in openings]
+        glove.send(openings)
+        sent.append(openings)
+        time.sleep(0.02)
+    assert wait_until(
+        lambda: [list(m.data) for m in glove.applied.messages()][-len(sent) :] == sent, 5.0
+    ), 'applied_command does not answer each command with it'
+    time.sleep(0.2)
+    pressures = np.array([m.data for m in glove.pressure.messages()])
+    assert np.all(np.isfinite(pressures))
+    assert np.all(pressures % 50.0 == 0.0)  # the emulator's sensor quantum
+    assert pressures[:, 2].max() > 20e3  # DIP filled
+    joints = glove.joints.messages()
+    assert joints and all(len(m.position) == 3 and m.name[0] == 'mcp' for m in joints)
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in joints]
+    assert all(b >= a for a, b in itertools.pairwise(stamps))  # never back
+    assert len(set(stamps)) > 0.9 * len(stamps)  # shared only by samples read in one burst
+    assert abs(stamps[-1] - time.time()) < 5.0  # on the host's clock
+    status = glove.status(lambda s: s.level == DiagnosticStatus.OK)
+    assert status is not None
+    report = values(status)
+    assert report['link'] == 'streaming' and report['bend_sensors'] == '3'
+    assert report['frames_bad'] == '0' and int(report['samples']) > 20
+    assert bridge.stop() == 0
+
+
+@pytest.mark.parametrize('emulator', [('--no-bend-sensors',)], indirect=True)
+def test_a_board_without_bend_sensors_gets_no_joint_states(launcher, probe, emulator):
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_no_bend')
+    status = glove.status(lambda s: values(s).get('bend_sensors') == '0')
+    assert status is not None
+    assert probe.node.count_publishers('/hw_no_bend/joint_states') == 0
+    assert glove.joints.count() == 0
+    assert bridge.stop() == 0
+
+
+@pytest.mark.parametrize('emulator', [('--watchdog', '30')], indirect=True)
+def test_the_bridge_vents_when_the_controller_stops_and_when_it_exits(launcher, probe, emulator):
+    # The board's watchdog is 30 s here: every vent seen is the bridge's own.
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_vent', command_timeout=0.3)
+    glove.send(FILL)
+    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    # no more commands: within the command timeout and a few samples, the vent
+    assert glove.applied.wait_for(lambda m: list(m.data) == VENT, 3.0) is not None
+    assert wait_until(lambda: 'openings 0 0 0 1 1 1' in (emulator.status() or ''), 3.0)
+    glove.send(FILL)
+    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    assert bridge.stop() == 0
+    assert 'openings 0 0 0 1 1 1, watchdog fed' in emulator.status()
+    assert 'vented and closed the port' in bridge.stderr()
+
+
+def test_a_pressure_limit_closes_the_inlet_of_a_chamber_at_it(launcher, probe, emulator):
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_limit', max_pressure=20e3)
+    for _ in range(60):
+        glove.send([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+        time.sleep(0.02)
+    limited = glove.applied.wait_for(lambda m: m.data[2] == 0.0 and m.data[5] == 1.0, 5.0)
+    assert limited is not None  # DIP (the fastest) at the limit: inlet closed, outlet open
+    pressures = np.array([m.data for m in glove.pressure.messages()])
+    assert pressures.max() < 20e3 + 25e3  # at most about one step's fill above it
+    status = glove.status(lambda s: int(values(s)['pressure_limited']) > 0)
+    assert status is not None
+    assert 'at or above max_pressure 20000 Pa' in bridge.stop() * '' + bridge.stderr()
+
+
+def test_an_unplugged_board_is_an_error_then_found_again_and_vented(launcher, probe, emulator):
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_unplug')
+    glove.send(FILL)
+    assert glove.applied.wait_for(lambda m: list(m.data) == FILL, 5.0) is not None
+    before = time.monotonic()
+    emulator.command('unplug 1.5')
+    status = glove.status(lambda s: s.level == DiagnosticStatus.ERROR, 5.0, before)
+    assert status is not None and 'board link' in status.message
+    assert glove.applied.wait_for(lambda m: list(m.data) == VENT, 5.0, before) is not None
+    back = glove.status(
+        lambda s: s.level == DiagnosticStatus.OK and values(s)['sessions'] == '2', 15.0, before
+    )
+    assert back is not None, bridge.stderr()
+    # the old command is not applied again: the board holds the vent until a new one
+    assert 'openings 0 0 0 1 1 1' in emulator.status()
+    glove.send(FILL)
+    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    assert bridge.stop() == 0
+    log = bridge.stderr()
+    assert 'board link lost' in log and 'venting' in log and '(session 2: vented)' in log
+
+
+@pytest.mark.parametrize(
+    'emulator', [('--corrupt-probability', '0.01', '--drop-probability', '0.005')], indirect=True
+)
+def test_a_noisy_line_costs_frames_and_the_bridge_goes_on(launcher, probe, emulator):
+    bridge, glove = start_bridge(launcher, probe, emulator, '/hw_noise', sample_timeout=0.5)
+    for _ in range(50):
+        glove.send(FILL)
+        time.sleep(0.02)
+    status = glove.status(lambda s: int(values(s)['frames_bad']) > 0, 10.0)
+    assert status is not None
+    pressures = np.array([m.data for m in glove.pressure.messages()])
+    assert len(pressures) > 50 and np.all(np.isfinite(pressures))
+    assert bridge.stop() == 0
+
+
+@pytest.mark.parametrize('emulator', [('--version', '2')], indirect=True)
+def test_a_board_of_another_version_stops_the_start_with_one_line(launcher, emulator):
+    code, _, stderr = launcher.run('hardware', {'port': emulator.link}, timeout=START)
+    assert code == 2
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and 'protocol version 2' in lines[0] and 'version 1' in lines[0]
+    assert 'Traceback' not in stderr
+
+
+def test_a_port_that_does_not_exist_is_an_error_not_a_crash(launcher, probe, tmp_path):
+    bridge = launcher.start(
+        'hardware', {'port': str(tmp_path / 'none'), 'diagnostic_period': 0.2}, namespace='/hw0'
+    )
+    diagnostics = probe.subscribe('/diagnostics', DiagnosticArray, qos=RECORD_QOS)
+    found = diagnostics.wait_for(
+        lambda a: any(
+            s.name.endswith('/hw0/hardware') and s.level == DiagnosticStatus.ERROR
+            for s in a.status
+        ),
+        START,
+    )
+    assert found is not None
+    assert bridge.stop() == 0 and 'Traceback' not in bridge.stderr()
