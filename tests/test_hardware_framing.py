@@ -52,16 +52,17 @@ def reference_crc(data: bytes) -> int:
 
 def reference_cobs(data: bytes) -> bytes:
     """COBS from its definition: each block is a code byte (distance to the next zero, at most
-    255 meaning 254 data bytes and no zero) and the non-zero bytes before that zero."""
+    255 meaning 254 data bytes and no zero) and the non-zero bytes before that zero; a full
+    block that ends the data is the last."""
     out = bytearray()
     block = bytearray()
-    for byte in data:
+    for index, byte in enumerate(data):
         if byte == 0:
             out += bytes([len(block) + 1]) + block
             block.clear()
         else:
             block.append(byte)
-            if len(block) == 254:
+            if len(block) == 254 and index + 1 < len(data):
                 out += b'\xff' + block
                 block.clear()
     out += bytes([len(block) + 1]) + block

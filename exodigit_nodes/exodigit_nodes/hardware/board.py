@@ -33,6 +33,8 @@ from .messages import (
 
 VENT_DUTIES = (0,) * CHAMBERS + (DUTY_FULL,) * CHAMBERS
 """Inlets closed, outlets fully open."""
+HOST_TYPES = frozenset({MessageType.HELLO, MessageType.OPENINGS, MessageType.HEARTBEAT})
+"""The types a board takes; any other (a board-to-host type too) is an unknown type to it."""
 
 
 class BoardProtocol:
@@ -76,23 +78,20 @@ class BoardProtocol:
         """Take bytes from the host at ``now`` (s); the bytes to answer (Capabilities, Notices)."""
         answer = b''
         for payload in self.decoder.feed(data):
+            kind = payload[0]
+            if kind not in HOST_TYPES:
+                answer += encode_frame(encode(Notice(NoticeCode.UNKNOWN_TYPE, kind)))
+                continue
             try:
                 message = decode(payload)
             except ProtocolError:
-                answer += self._refuse_payload(payload)
+                answer += encode_frame(encode(Notice(NoticeCode.BAD_LENGTH, kind)))
                 continue
             answer += self._take(message, now)
         return answer
 
-    def _refuse_payload(self, payload: bytes) -> bytes:
-        """The Notice for a payload that is no message (unknown type or wrong length)."""
-        kind = payload[0]
-        known = kind in MessageType._value2member_map_
-        code = NoticeCode.BAD_LENGTH if known else NoticeCode.UNKNOWN_TYPE
-        return encode_frame(encode(Notice(code, kind)))
-
-    def _take(self, message, now: float) -> bytes:
-        """Act on one decoded message; the answer's bytes."""
+    def _take(self, message: Hello | Openings | Heartbeat, now: float) -> bytes:
+        """Act on one message from the host; the answer's bytes."""
         if isinstance(message, Hello):
             if message.version != self.capabilities.version:
                 return encode_frame(encode(self.capabilities))
@@ -104,26 +103,21 @@ class BoardProtocol:
             self._tripped = False
             self.last_valid = now
             return encode_frame(encode(self.capabilities))
-        if isinstance(message, Openings | Heartbeat) and not self.streaming:
+        if not self.streaming:
             kind = MessageType.OPENINGS if isinstance(message, Openings) else MessageType.HEARTBEAT
             return encode_frame(encode(Notice(NoticeCode.NOT_STREAMING, kind)))
+        self.last_valid = now
         if isinstance(message, Heartbeat):
-            self.last_valid = now
             return b''
-        if isinstance(message, Openings):
-            self.last_valid = now
-            over = [i for i, duty in enumerate(message.duties) if duty > DUTY_FULL]
-            if over:
-                self.refused = True
-                return encode_frame(encode(Notice(NoticeCode.BAD_OPENINGS, over[0])))
-            self.refused = False
-            self._tripped = False
-            self.commanded = message.duties
-            self.applied_sequence = message.sequence
-            return b''
-        # a board-to-host message sent to the board: not for it
-        kind = encode(message)[0]
-        return encode_frame(encode(Notice(NoticeCode.UNKNOWN_TYPE, kind)))
+        over = [i for i, duty in enumerate(message.duties) if duty > DUTY_FULL]
+        if over:
+            self.refused = True
+            return encode_frame(encode(Notice(NoticeCode.BAD_OPENINGS, over[0])))
+        self.refused = False
+        self._tripped = False
+        self.commanded = message.duties
+        self.applied_sequence = message.sequence
+        return b''
 
     def duties(self, now: float) -> tuple[int, ...]:
         """The openings the valves get at ``now``: the command, or a vent where the rules say.
