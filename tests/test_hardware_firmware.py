@@ -256,3 +256,20 @@ def test_the_python_host_runs_a_session_with_the_c_board(core):
     assert received[-1].sample.pressures_pa == (49, 98, 147)
     assert received[-1].sample.angles == (49, -49, 0)
     assert received[-1].sample.applied_sequence == 1
+
+
+def test_the_arduino_sketch_compiles_against_the_core(tmp_path):
+    """The sketch, as C++ against a stub of the Arduino core's declarations (syntax and types;
+    the AVR build itself needs the Arduino toolchain, docs/hardware.md)."""
+    compiler = shutil.which('c++') or shutil.which('g++') or shutil.which('clang++')
+    if compiler is None:
+        pytest.skip('no C++ compiler on this machine: the sketch is not compiled')
+    sketch = CORE.parents[1] / 'exodigit_board.ino'
+    stub = Path(__file__).resolve().parent / 'firmware_stub'
+    result = subprocess.run(
+        [compiler, '-std=c++11', '-Wall', '-Wextra', '-Werror', '-fsyntax-only', '-x', 'c++',
+         '-include', 'Arduino.h', '-I', str(stub), str(sketch)],
+        capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
