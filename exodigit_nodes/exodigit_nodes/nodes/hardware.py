@@ -60,7 +60,7 @@ from .messages import (
     valve_command_message,
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, run
-from .qos import READER_QOS, WRITER_QOS
+from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
 
 POLL_PERIOD = 0.005
 """Longest time the link thread waits for bytes before it looks at its timers, s."""
@@ -97,11 +97,13 @@ class Hardware(GloveNode):
         self.flags = Status(0)
         self.notices = 0
         self.pressure_publisher = self.create_publisher(
-            Float64MultiArray, CHAMBER_PRESSURE, WRITER_QOS
+            Float64MultiArray, CHAMBER_PRESSURE, STREAM_QOS
         )
         self.applied_publisher = self.create_publisher(
-            Float64MultiArray, APPLIED_COMMAND, WRITER_QOS
+            Float64MultiArray, APPLIED_COMMAND, APPLIED_QOS
         )
+        # What the board is told before any command, as the plant's record starts.
+        self.applied_publisher.publish(fill(self.applied_message, self.bridge.openings))
         self.joint_publisher = None
         self.first_session()
         self.create_subscription(Float64MultiArray, VALVE_COMMAND, self.on_command, READER_QOS)
@@ -202,7 +204,7 @@ class Hardware(GloveNode):
     def on_connected(self, event: Connected) -> None:
         capabilities = event.capabilities
         if capabilities.bend_sensors and self.joint_publisher is None:
-            self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, WRITER_QOS)
+            self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, STREAM_QOS)
         firmware = '.'.join(map(str, capabilities.firmware))
         self.get_logger().info(
             f'board on {self.link.settings.port}: firmware {firmware}, '
