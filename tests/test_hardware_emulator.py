@@ -12,7 +12,8 @@ import time
 import numpy as np
 import pytest
 from exodigit_nodes.hardware.board import VENT_DUTIES
-from exodigit_nodes.hardware.emulator import Emulator, EmulatorSettings
+from exodigit_nodes.hardware.emulated_board import EmulatorSettings
+from exodigit_nodes.hardware.emulator import BoardStatus, Emulator
 from exodigit_nodes.hardware.link import (
     Connected,
     HostLink,
@@ -62,17 +63,23 @@ def board(tmp_path, request):
     running.stop()
 
 
-def drive(link: HostLink, seconds: float, plan=None) -> list:
-    """Poll the link for ``seconds``; ``plan(sample_count)`` gives duties to send, or None."""
+def drive(link: HostLink, plan=None, *, samples: int = 0, seconds: float = 0.0) -> list:
+    """Poll the link until ``samples`` samples came and ``seconds`` passed; the events.
+
+    ``plan(sample_count)`` gives duties to send, or None. Counting samples, not seconds, keeps
+    a test of the board's steps the same on a loaded machine (where it samples late).
+    """
     events = []
-    samples = 0
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
+    count = 0
+    start = time.monotonic()
+    end = start + seconds + (samples / 10.0 if samples else 0.0) + 10.0  # 10 Hz at the worst
+    while count < samples or time.monotonic() - start < seconds:
+        assert time.monotonic() < end, f'{count} of {samples} samples'
         for event in link.poll(time.monotonic()):
             events.append(event)
             if isinstance(event, SampleReceived):
-                samples += 1
-                duties = plan(samples) if plan else None
+                count += 1
+                duties = plan(count) if plan else None
                 if duties is not None:
                     link.send_openings(duties, time.monotonic())
         time.sleep(0.001)
@@ -98,11 +105,11 @@ def test_the_samples_are_the_model_behind_valves_within_the_quantisation(board):
             sent[link._sequence % 65535 + 1] = duties
         return duties
 
-    events = drive(link, 1.3, send_and_remember)
+    events = drive(link, send_and_remember, samples=130)
     link.close()
     assert isinstance(events[0], Connected)
     samples = samples_of(events)
-    assert len(samples) >= 90 and link.lost_samples == 0
+    assert link.lost_samples == 0
     replay = GloveSimulation(settings=SimulationSettings(rate_hz=100), actuation='valves')
     largest = 0.0
     for event in samples:
@@ -122,7 +129,7 @@ def test_the_samples_are_the_model_behind_valves_within_the_quantisation(board):
 @pytest.mark.parametrize('board', [dict(latency=0.02)], indirect=True)
 def test_the_round_trip_includes_the_latency_both_ways(board):
     link = HostLink(LinkSettings(port=board.link, handshake_timeout=3.0, sample_timeout=0.5))
-    drive(link, 1.0, lambda count: FILL if count % 5 == 0 else None)
+    drive(link, lambda count: FILL if count % 5 == 0 else None, samples=100)
     link.close()
     assert link.round_trip.count >= 5
     assert link.round_trip.mean >= 0.04  # 20 ms each way, plus up to a sample period
@@ -133,21 +140,23 @@ def test_the_round_trip_includes_the_latency_both_ways(board):
 )
 def test_a_damaged_line_costs_frames_not_the_session(board):
     link = HostLink(LinkSettings(port=board.link, sample_timeout=0.5))
-    events = drive(link, 2.0, lambda count: FILL if count % 2 == 0 else None)
+    events = drive(link, lambda count: FILL if count % 2 == 0 else None, samples=200)
     link.close()
     assert link.decoder.counts.bad + link.lost_samples > 0
-    assert len(samples_of(events)) > 120  # of about 200: a damaged frame is lost, not more
+    sent = samples_of(events)[-1].sample.sequence + 1  # the board's count since the Hello
+    # a damaged frame (about 1 in 10 of 27 bytes at 2e-3 each) is lost, not more
+    assert len(samples_of(events)) > 0.6 * sent
     assert link.sessions == 1
 
 
 def test_a_silent_host_makes_the_board_vent(board):
     link = HostLink(LinkSettings(port=board.link))
-    drive(link, 0.3, lambda count: FILL if count == 5 else None)
+    drive(link, lambda count: FILL if count == 5 else None, samples=10)
     filling = board.emulator.board.openings.copy()
     assert filling[0] == pytest.approx(0.6)
     time.sleep(0.5)  # the host says nothing: the board's watchdog (200 ms) vents
     assert list(board.emulator.board.openings) == list(openings_of(VENT_DUTIES))
-    events = drive(link, 0.2)
+    events = drive(link, samples=5)
     link.close()
     assert any(e.sample.status & Status.WATCHDOG_VENT for e in samples_of(events))
 
@@ -155,7 +164,7 @@ def test_a_silent_host_makes_the_board_vent(board):
 def test_supply_loss_is_flagged_and_no_air_comes_in(board):
     link = HostLink(LinkSettings(port=board.link))
     board.command('supply off')
-    events = drive(link, 0.6, lambda count: FILL)
+    events = drive(link, lambda count: FILL, samples=60)
     link.close()
     samples = samples_of(events)
     assert all(s.sample.status & Status.SUPPLY_LOW for s in samples[5:])
@@ -165,7 +174,7 @@ def test_supply_loss_is_flagged_and_no_air_comes_in(board):
 def test_a_stuck_inlet_fills_its_chamber_to_the_supply_whatever_is_commanded(board):
     link = HostLink(LinkSettings(port=board.link))
     board.command('stick 2 1')
-    events = drive(link, 1.5, lambda count: (0, 0, 0, 10000, 10000, 0))
+    events = drive(link, lambda count: (0, 0, 0, 10000, 10000, 0), samples=150)
     link.close()
     samples = samples_of(events)
     assert max(s.sample.pressures_pa[2] for s in samples) > 90e3  # the supply is 100 kPa
@@ -175,7 +184,7 @@ def test_a_stuck_inlet_fills_its_chamber_to_the_supply_whatever_is_commanded(boa
 @pytest.mark.parametrize('board', [dict(vent_pressure=30e3)], indirect=True)
 def test_the_board_vents_a_chamber_at_its_vent_pressure(board):
     link = HostLink(LinkSettings(port=board.link))
-    events = drive(link, 1.5, lambda count: (10000, 10000, 10000, 0, 0, 0))
+    events = drive(link, lambda count: (10000, 10000, 10000, 0, 0, 0), samples=150)
     link.close()
     readings = np.array([s.sample.pressures_pa for s in samples_of(events)])
     flagged = [bool(s.sample.status & Status.OVER_PRESSURE) for s in samples_of(events)]
@@ -189,13 +198,13 @@ def test_the_board_vents_a_chamber_at_its_vent_pressure(board):
 
 def test_an_unplugged_board_is_found_again_and_starts_vented(board):
     link = HostLink(LinkSettings(port=board.link, reconnect_min=0.05, reconnect_max=0.2))
-    drive(link, 0.3, lambda count: FILL)
+    drive(link, lambda count: FILL, samples=30)
     board.command('unplug 0.5')
-    events = drive(link, 0.3)
+    events = drive(link, seconds=0.3)
     lost = [e for e in events if isinstance(e, LinkLost)]
     assert lost and lost[0].state is LinkState.DISCONNECTED
     assert not os.path.exists(board.link)
-    events = drive(link, 1.2)
+    events = drive(link, samples=5)  # after the board is back
     link.close()
     assert any(isinstance(e, Connected) for e in events) and link.sessions == 2
     after = samples_of(events)
@@ -208,7 +217,7 @@ def test_a_board_of_another_version_is_refused(board):
 
     link = HostLink(LinkSettings(port=board.link))
     with pytest.raises(IncompatibleBoardError, match='version 2'):
-        drive(link, 1.0)
+        drive(link, seconds=1.0)
 
 
 def test_the_command_line_refuses_bad_values_and_has_help(tmp_path):
@@ -223,3 +232,15 @@ def test_the_command_line_refuses_bad_values_and_has_help(tmp_path):
     )
     assert refused.returncode == 2 and 'rate_hz = 0.0' in refused.stderr
     assert 'Traceback' not in refused.stderr
+
+
+def test_the_status_line_reads_back_as_the_board_is(board):
+    link = HostLink(LinkSettings(port=board.link))
+    drive(link, lambda count: FILL, samples=20)
+    link.close()
+    status = board.emulator.status()
+    assert status.streaming and status.openings == pytest.approx(openings_of(FILL))
+    assert max(status.pressures) > 0 and not status.watchdog_tripped
+    assert BoardStatus.parse(str(status)) == status
+    with pytest.raises(ValueError, match='no status line'):
+        BoardStatus.parse('refused: unknown command')
