@@ -125,10 +125,12 @@ class Hardware(GloveNode):
     # -- the link --------------------------------------------------------------------------
 
     def first_session(self) -> None:
-        """Try the board once before spinning: a wrong version refuses the start (one line).
+        """Try the board for ``handshake_timeout`` before spinning (a wrong version: no start).
 
-        No board yet (absent, silent) is no reason not to start: the link thread goes on
-        trying, and the diagnostics say ERROR meanwhile.
+        A board of another protocol version refuses the start with one line. A port that
+        appears meanwhile (an emulator started beside us, a board being plugged in) is opened
+        at the reconnection backoff. No board by then (absent, silent) is no reason not to
+        start: the link thread goes on trying, and the diagnostics say ERROR meanwhile.
         """
         deadline = time.monotonic() + self.link.settings.handshake_timeout + POLL_PERIOD
         while time.monotonic() < deadline:
@@ -139,8 +141,6 @@ class Hardware(GloveNode):
             self.take_events(events)
             if self.link.state is LinkState.STREAMING:
                 return
-            if self.link.state is LinkState.DISCONNECTED and self.link.failures:
-                break  # the port does not open: say so now, retry in the thread
             time.sleep(POLL_PERIOD)
         self.get_logger().error(
             f'no board on {self.link.settings.port} yet ({self.link.last_error or "no answer"})'
