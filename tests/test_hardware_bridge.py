@@ -3,17 +3,13 @@ processes a user runs: its topics, and each fault of docs/spec/hardware.md §7 w
 behaviour it names."""
 
 import itertools
-import queue
-import subprocess
-import sys
-import threading
 import time
 
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from exodigit_nodes.nodes.qos import RECORD_APPLIED_QOS, RECORD_QOS
-from exodigit_nodes.testing.processes import ros_environment
+from exodigit_nodes.testing import EmulatorProcess
 from ros_harness import wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -25,61 +21,9 @@ START = 30.0
 """Longest wait for a process to be up (the emulator loads the model's kernels), s."""
 
 
-class EmulatorProcess:
-    """``python -m exodigit_nodes.hardware.emulator`` with its stdin for fault commands."""
-
-    def __init__(self, directory, domain_id, *arguments: str) -> None:
-        self.link = str(directory / f'board-{time.monotonic_ns()}')
-        self.process = subprocess.Popen(
-            [sys.executable, '-m', 'exodigit_nodes.hardware.emulator', '--link', self.link,
-             *arguments],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            env=ros_environment(domain_id),
-        )  # fmt: skip
-        self.lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=self._read, daemon=True).start()
-        assert self.answer('mcu_emulator: board', START), 'the emulator did not start'
-
-    def _read(self) -> None:
-        for line in self.process.stdout:
-            self.lines.put(line.rstrip('\n'))
-
-    def answer(self, start: str, timeout: float = 5.0) -> str | None:
-        """The next line that starts with ``start`` (None after ``timeout`` s)."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            try:
-                line = self.lines.get(timeout=max(0.0, end - time.monotonic()))
-            except queue.Empty:
-                return None
-            if line.startswith(start):
-                return line
-        return None
-
-    def command(self, line: str) -> None:
-        self.process.stdin.write(line + '\n')
-        self.process.stdin.flush()
-
-    def status(self) -> str:
-        self.command('status')
-        return self.answer('status ')
-
-    def stop(self) -> None:
-        if self.process.poll() is None:
-            self.command('quit')
-            try:
-                self.process.wait(10.0)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-
-
 @pytest.fixture
-def emulator(request, tmp_path, ros_domain):
-    board = EmulatorProcess(tmp_path, ros_domain, *getattr(request, 'param', ()))
+def emulator(request, tmp_path):
+    board = EmulatorProcess(tmp_path / 'board', tmp_path, getattr(request, 'param', ()), START)
     yield board
     board.stop()
 
@@ -183,14 +127,15 @@ def test_the_bridge_vents_when_the_controller_stops_and_when_it_exits(launcher, 
     # The board's watchdog is 30 s here: every vent seen is the bridge's own.
     bridge, glove = start_bridge(launcher, probe, emulator, '/hw_vent', command_timeout=0.3)
     glove.send(FILL)
-    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    assert wait_until(lambda: emulator.status().openings == pytest.approx(FILL), 5.0)
     # no more commands: within the command timeout and a few samples, the vent
     assert glove.applied.wait_for(lambda m: list(m.data) == VENT, 3.0) is not None
-    assert wait_until(lambda: 'openings 0 0 0 1 1 1' in (emulator.status() or ''), 3.0)
+    assert wait_until(lambda: emulator.status().openings == tuple(VENT), 3.0)
     glove.send(FILL)
-    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    assert wait_until(lambda: emulator.status().openings == pytest.approx(FILL), 5.0)
     assert bridge.stop() == 0
-    assert 'openings 0 0 0 1 1 1, watchdog fed' in emulator.status()
+    status = emulator.status()
+    assert status.openings == tuple(VENT) and not status.watchdog_tripped
     assert 'vented and closed the port' in bridge.stderr()
 
 
@@ -233,9 +178,9 @@ def test_an_unplugged_board_is_an_error_then_found_again_and_vented(launcher, pr
     )
     assert back is not None, bridge.stderr()
     # the old command is not applied again: the board holds the vent until a new one
-    assert 'openings 0 0 0 1 1 1' in emulator.status()
+    assert emulator.status().openings == tuple(VENT)
     glove.send(FILL)
-    assert wait_until(lambda: 'openings 0.6 0.3 1 0 0 0' in (emulator.status() or ''), 5.0)
+    assert wait_until(lambda: emulator.status().openings == pytest.approx(FILL), 5.0)
     assert bridge.stop() == 0
     log = bridge.stderr()
     assert 'board link lost' in log and 'venting' in log and '(session 2: vented)' in log
@@ -279,25 +224,3 @@ def test_a_port_that_does_not_exist_is_an_error_not_a_crash(launcher, probe, tmp
     )
     assert found is not None
     assert bridge.stop() == 0 and 'Traceback' not in bridge.stderr()
-
-
-def test_the_reference_controller_drives_the_board_unchanged(launcher, probe, emulator):
-    """pressure_command with output valves, as it drives the simulated plant, on the bridge:
-    the chambers come to its pressures and hold them, within its hold deadband (300 Pa) and
-    the sensor's quantum (50 Pa), for half a second of samples."""
-    namespace = '/hw_controller'
-    bridge, glove = start_bridge(launcher, probe, emulator, namespace)
-    hold = np.array([20e3, 15e3, 10e3])
-    controller = launcher.start(
-        'pressure_command',
-        {'mode': 'hold', 'output': 'valves', 'hold_pressure': hold.tolist()},
-        namespace=namespace,
-    )
-
-    def holding() -> bool:
-        recent = np.array([m.data for m in glove.pressure.messages()[-50:]])
-        return len(recent) == 50 and np.all(np.abs(recent - hold) <= 300.0 + 50.0)
-
-    assert wait_until(holding, START), (glove.pressure.latest(), controller.stderr())
-    assert glove.applied.wait_for(lambda m: m.data[0] > 0.0, 0.0) is not None  # it filled
-    assert controller.stop() == 0 and bridge.stop() == 0
