@@ -288,6 +288,15 @@ ESTIMATOR_NODE = NodeEntry(
                 low=0.05,
                 high=3600.0,
             ),
+            ParamSpec(
+                'glove_node',
+                'plant',
+                'The node of our namespace whose chamber_pressure and joint_states we estimate '
+                'from: plant (simulated) or hardware (a board); ~/ready says when it has matched '
+                'our readers',
+                choices=('plant', 'hardware'),
+                read_only=True,
+            ),
             DIAGNOSTIC_PERIOD,
         ]
     ),
@@ -552,3 +561,6 @@ HARDWARE_NODE = NodeEntry(
 )
 """The hardware bridge: it replaces the plant (and is no node of :data:`NODES`, which the
 runners start for a simulated glove)."""
+
+EXECUTABLES = (*NODES, HARDWARE_NODE)
+"""Every node of the table: each has its parameter file ``config/<executable>.yaml``."""
