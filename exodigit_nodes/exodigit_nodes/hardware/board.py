@@ -1,4 +1,4 @@
-"""The board's side of the link (docs/spec/hardware.md, "The board"), without I/O.
+"""The board's side of the link (docs/spec/hardware.md §6), without I/O.
 
 What every board does, whatever drives its valves: it starts vented and silent; a Hello of its
 version starts streaming (answered by its Capabilities, a Hello of another version only by

@@ -1,4 +1,4 @@
-"""Frames on the serial link (docs/spec/hardware.md, "Framing"): COBS, CRC-16, a zero delimiter.
+"""Frames on the serial link (docs/spec/hardware.md §2): COBS, CRC-16, a zero delimiter.
 
 A frame on the wire is ``COBS(payload ‖ crc) ‖ 0x00``: the payload (a message type byte and
 its body, :mod:`.messages`), its CRC-16/CCITT-FALSE (polynomial 0x1021, initial value 0xFFFF,

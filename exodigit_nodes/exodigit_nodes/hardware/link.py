@@ -1,4 +1,4 @@
-"""The host's side of the link: port, handshake, supervision (docs/spec/hardware.md, "The host").
+"""The host's side of the link: port, handshake, supervision (docs/spec/hardware.md §7).
 
 :class:`HostLink` owns the port and knows nothing of ROS. Call :meth:`HostLink.poll` often
 (every few ms, or when the port's descriptor is readable): it opens the port (again, after a

@@ -1,4 +1,4 @@
-"""The link's messages and their byte layouts (docs/spec/hardware.md, "Messages").
+"""The link's messages and their byte layouts (docs/spec/hardware.md §3).
 
 A payload is one type byte and a body of little-endian fields, packed without padding. Host to
 board: :class:`Hello`, :class:`Openings`, :class:`Heartbeat`; board to host:
