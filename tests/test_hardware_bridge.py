@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from exodigit_nodes.nodes.qos import RECORD_APPLIED_QOS, RECORD_QOS
-from exodigit_nodes.testing import EmulatorProcess
 from ros_harness import wait_until
+from running_emulator import RunningEmulator
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -23,7 +23,8 @@ START = 30.0
 
 @pytest.fixture
 def emulator(request, tmp_path):
-    board = EmulatorProcess(tmp_path / 'board', tmp_path, getattr(request, 'param', ()), START)
+    """The board, in a thread of this process (the kit's EmulatorProcess: the kit's test)."""
+    board = RunningEmulator(tmp_path, duration=120.0, **getattr(request, 'param', {}))
     yield board
     board.stop()
 
@@ -88,17 +89,20 @@ def test_a_session_through_the_bridge_applies_every_command_and_reports_the_boar
     )  # fmt: skip
     # the record starts with the vent, as the plant's: what the board was told before any command
     assert list(glove.applied.messages()[0].data) == VENT
+    # each command once the last is answered: the bridge's reader keeps the latest 10 (a
+    # controller wants the latest), so a stalled bridge would drop older ones, not answer them
     sent = []
     for k in range(30):
         openings = FILL if k < 20 else [0.0, 0.0, 0.0, 0.0, 0.5, 0.0]
         openings = [round(value * (1.0 - 0.01 * (k % 3)), 4) for value in openings]
+        before = time.monotonic()
         glove.send(openings)
         sent.append(openings)
-        time.sleep(0.02)
-    assert wait_until(
-        lambda: [list(m.data) for m in glove.applied.messages()][-len(sent) :] == sent, 5.0
-    ), 'applied_command does not answer each command with it'
-    time.sleep(0.2)
+        answer = glove.applied.wait_for(lambda m, o=openings: list(m.data) == o, 5.0, before)
+        assert answer is not None, (k, [list(m.data) for m in glove.applied.messages()][-3:])
+        if k == 19:  # the DIP inlet wide open since: it fills
+            assert glove.pressure.wait_for(lambda m: m.data[2] > 20e3, 10.0) is not None
+    assert [list(m.data) for m in glove.applied.messages()][-len(sent) :] == sent
     pressures = np.array([m.data for m in glove.pressure.messages()])
     assert np.all(np.isfinite(pressures))
     assert np.all(pressures % 50.0 == 0.0)  # the emulator's sensor quantum
@@ -117,7 +121,7 @@ def test_a_session_through_the_bridge_applies_every_command_and_reports_the_boar
     assert bridge.stop() == 0
 
 
-@pytest.mark.parametrize('emulator', [('--no-bend-sensors',)], indirect=True)
+@pytest.mark.parametrize('emulator', [{'bend_sensors': False}], indirect=True)
 def test_a_board_without_bend_sensors_gets_no_joint_states(launcher, probe, emulator):
     bridge, glove = start_bridge(launcher, probe, emulator, '/hw_no_bend')
     status = glove.status(lambda s: values(s).get('bend_sensors') == '0')
@@ -127,7 +131,7 @@ def test_a_board_without_bend_sensors_gets_no_joint_states(launcher, probe, emul
     assert bridge.stop() == 0
 
 
-@pytest.mark.parametrize('emulator', [('--watchdog', '30')], indirect=True)
+@pytest.mark.parametrize('emulator', [{'watchdog': 30.0}], indirect=True)
 def test_the_bridge_vents_when_the_controller_stops_and_when_it_exits(launcher, probe, emulator):
     # The board's watchdog is 30 s here: every vent seen is the bridge's own.
     bridge, glove = start_bridge(launcher, probe, emulator, '/hw_vent', command_timeout=0.3)
@@ -144,7 +148,7 @@ def test_the_bridge_vents_when_the_controller_stops_and_when_it_exits(launcher, 
     assert 'vented and closed the port' in bridge.stderr()
 
 
-@pytest.mark.parametrize('emulator', [('--watchdog', '30')], indirect=True)
+@pytest.mark.parametrize('emulator', [{'watchdog': 30.0}], indirect=True)
 def test_a_pressure_limit_brings_a_chamber_back_whatever_is_commanded(launcher, probe, emulator):
     # Every inlet wide open all along: unlimited, DIP would fill to the supply (100 kPa) and stay
     # there. Neither the board's watchdog (30 s here) nor the bridge's own vents (long timeouts)
@@ -192,7 +196,7 @@ def test_an_unplugged_board_is_an_error_then_found_again_and_vented(launcher, pr
 
 
 @pytest.mark.parametrize(
-    'emulator', [('--corrupt-probability', '0.01', '--drop-probability', '0.005')], indirect=True
+    'emulator', [{'corrupt_probability': 0.01, 'drop_probability': 0.005}], indirect=True
 )
 def test_a_noisy_line_costs_frames_and_the_bridge_goes_on(launcher, probe, emulator):
     bridge, glove = start_bridge(launcher, probe, emulator, '/hw_noise', sample_timeout=0.5)
@@ -206,7 +210,7 @@ def test_a_noisy_line_costs_frames_and_the_bridge_goes_on(launcher, probe, emula
     assert bridge.stop() == 0
 
 
-@pytest.mark.parametrize('emulator', [('--version', '2')], indirect=True)
+@pytest.mark.parametrize('emulator', [{'version': 2}], indirect=True)
 def test_a_board_of_another_version_stops_the_start_with_one_line(launcher, emulator):
     code, _, stderr = launcher.run('hardware', {'port': emulator.link}, timeout=START)
     assert code == 2

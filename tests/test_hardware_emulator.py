@@ -6,14 +6,12 @@ docs/spec/hardware.md says."""
 import os
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
 import pytest
 from exodigit_nodes.hardware.board import VENT_DUTIES
-from exodigit_nodes.hardware.emulated_board import EmulatorSettings
-from exodigit_nodes.hardware.emulator import BoardStatus, Emulator
+from exodigit_nodes.hardware.emulator import BoardStatus
 from exodigit_nodes.hardware.link import (
     Connected,
     HostLink,
@@ -23,37 +21,13 @@ from exodigit_nodes.hardware.link import (
     SampleReceived,
 )
 from exodigit_nodes.hardware.messages import Status, openings_of
+from running_emulator import RunningEmulator
 
 from exodigit_model import GloveSimulation, SimulationSettings
 
 FILL = (6000, 3000, 10000, 0, 0, 0)
 HOLD = (0, 0, 0, 0, 0, 0)
 EMPTY = (0, 0, 0, 10000, 2000, 10000)
-
-
-class RunningEmulator:
-    """An Emulator serving in a thread; fault commands through a pipe, as on its stdin."""
-
-    def __init__(self, directory, duration=30.0, **settings) -> None:
-        self.link = str(directory / 'board')
-        self.emulator = Emulator(EmulatorSettings(**settings), self.link)
-        read, self._write = os.pipe()
-        self._commands = os.fdopen(read)
-        self.thread = threading.Thread(
-            target=self.emulator.run, args=(duration, self._commands), daemon=True
-        )
-        self.thread.start()
-
-    def command(self, line: str) -> None:
-        os.write(self._write, (line + '\n').encode())
-
-    def stop(self) -> None:
-        self.command('quit')
-        self.thread.join(10.0)
-        assert not self.thread.is_alive()
-        self.emulator.close()
-        os.close(self._write)
-        self._commands.close()
 
 
 @pytest.fixture
