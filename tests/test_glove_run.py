@@ -314,15 +314,16 @@ def plant_fails(run: Run) -> list[str]:
 SCENARIOS = {
     # the default session on the wall clock, from a background shell, until Ctrl-C
     'interrupted_run': interrupted_once(['--record'], identified, prefix=BACKGROUND),
-    # make run HARDWARE=emulated: the bridge and the emulated board, until Ctrl-C
-    'emulated_run': interrupted_once(
-        ['--hardware', 'emulated', '--mode', 'hold', '--patient', 'nominal'],
-        holding_on_the_board,
-    ),
     # two identical lockstep sessions, for "the same every time"
     'lockstep_run': ends_by_itself(lockstep_hold),
     'lockstep_rerun': ends_by_itself(lockstep_hold_recorded),
     'valves_run': ends_by_itself(lockstep_hold_behind_valves),
+    # make run HARDWARE=emulated: the bridge and the emulated board, until Ctrl-C (after the
+    # longest three: five processes of its own)
+    'emulated_run': interrupted_once(
+        ['--hardware', 'emulated', '--mode', 'hold', '--patient', 'nominal'],
+        holding_on_the_board,
+    ),
     'failing_run': ends_by_itself(plant_fails),
     # the wall clock's duration, over while the nodes still start
     'wall_clock_run': ends_by_itself(lambda run: ['--duration', f'{WALL_DURATION:g}']),
