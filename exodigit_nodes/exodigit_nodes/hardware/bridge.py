@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from exodigit_model.settings import VENT
+from exodigit_model.stepping.settings import VENT
 
 from .link import Connected, Event, HostLink, LinkLost, LinkState, SampleReceived
 from .messages import CHAMBERS, duties_of, openings_of

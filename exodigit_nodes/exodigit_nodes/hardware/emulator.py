@@ -11,16 +11,16 @@ then quantised to the sensor's resolution and clipped to its range) and sends on
 Line faults: a one-way latency, and each byte dropped or corrupted (one bit flipped) with a
 probability, both ways. Board faults, typed on standard input while it runs (one a line):
 
-``unplug [SECONDS]``  the USB cable out (the pty and the link vanish; the board loses power and
-                      vents); back after SECONDS, or at ``plug``
-``plug``              the cable back in (the board boots: silent and vented until a Hello)
-``supply off|on``     the supply lost (no air comes through the inlets; the board flags it) or
-                      back
-``stick VALVE OPENING`` valve 0-5 (inlets MCP, PIP, DIP, then outlets) stays at OPENING in [0, 1]
-                      whatever is commanded; ``unstick`` frees them
-``status``            print one line: streaming or silent, the openings applied, the watchdog,
-                      the pressures read (:class:`BoardStatus`, which reads it back)
-``quit``              stop
+- ``unplug [SECONDS]``: the USB cable out (the pty and the link vanish; the board loses power
+  and vents); back after SECONDS, or at ``plug``;
+- ``plug``: the cable back in (the board boots: silent and vented until a Hello);
+- ``supply off|on``: the supply lost (no air comes through the inlets; the board flags it) or
+  back;
+- ``stick VALVE OPENING``: valve 0-5 (inlets MCP, PIP, DIP, then outlets) stays at OPENING in
+  [0, 1] whatever is commanded; ``unstick`` frees them;
+- ``status``: print one line: streaming or silent, the openings applied, the watchdog, the
+  pressures read (:class:`BoardStatus`, which reads it back);
+- ``quit``: stop.
 
 Run: ``python -m exodigit_nodes.hardware.emulator --link /tmp/glove_board`` (``--help``).
 """

@@ -59,7 +59,8 @@ from .messages import (
     joint_vector_message,
     valve_command_message,
 )
-from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, run
+from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode
+from .process import run
 from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
 
 POLL_PERIOD = 0.005
