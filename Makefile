@@ -6,6 +6,9 @@
 #                            HAND=1 runs a whole hand instead (five gloves, one process);
 #                            ACTUATION=valves drives the chambers by inlet and outlet valves
 #                            (plant actuation valves, pressure_command output valves)
+#   make run HARDWARE=emulated|/dev/ttyACM0
+#                            the glove through the hardware bridge on an emulated board, or on
+#                            the board at that port (docs/hardware.md)
 #   make test [PYTEST_WORKERS=2] [PYTEST_ARGS=...]
 #                            lint, format check, the documentation site and the whole test
 #                            suite (what CI runs)
@@ -23,6 +26,7 @@ DURATION ?= 0
 NAMESPACE ?= /glove
 RECORD ?=
 ACTUATION ?=
+HARDWARE ?=
 PYTEST_ARGS ?=
 # Test workers (pytest-xdist; docs/development.md, "The two commands"): two, for this project's two-core VMs;
 # 0 runs every test in the one pytest process.
@@ -78,7 +82,8 @@ ifdef HAND
 		$(if $(ACTUATION),--actuation $(ACTUATION))
 else
 	$(BIN)/python -m exodigit_nodes.glove --duration $(DURATION) --namespace $(NAMESPACE) \
-		$(if $(RECORD),--record) $(if $(ACTUATION),--actuation $(ACTUATION))
+		$(if $(RECORD),--record) $(if $(ACTUATION),--actuation $(ACTUATION)) \
+		$(if $(HARDWARE),--hardware $(HARDWARE))
 endif
 
 docs: $(DOCS_OUT)/.built

@@ -21,7 +21,7 @@ setup(
         (f'share/{PACKAGE}/config/hand', glob('config/hand/*.yaml')),
     ],
     # matplotlib: the runner's session plot; rosbags: the recorder's bag (pip only, see
-    # package.xml)
+    # package.xml); pyserial and cobs: the hardware bridge's serial link (docs/spec/hardware.md)
     install_requires=[
         'setuptools',
         'exodigit_model',
@@ -29,6 +29,8 @@ setup(
         'PyYAML>=6',
         'matplotlib>=3.7',
         'rosbags>=0.10',
+        'pyserial>=3.5',
+        'cobs>=1.2',
     ],
     zip_safe=True,
     maintainer='exodigit developers',
@@ -44,6 +46,8 @@ setup(
             f'hand = {PACKAGE}.console:hand',
             f'hand_nodes = {PACKAGE}.console:hand_nodes',
             f'recorder = {PACKAGE}.console:recorder',
+            f'hardware = {PACKAGE}.console:hardware',
+            f'mcu_emulator = {PACKAGE}.console:mcu_emulator',
         ],
         # The testing kit's glove_sim fixture, for every pytest run where the package is installed.
         'pytest11': [f'exodigit_glove_sim = {PACKAGE}.testing.plugin'],

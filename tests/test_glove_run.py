@@ -65,6 +65,12 @@ WALL_DURATION = 0.5
 #: A shell starting a background job: SIGINT ignored, which stays so across exec.
 BACKGROUND = ('sh', '-c', 'trap "" INT; exec "$@"', 'sh')
 SUPPLY_LIMIT = 200e3  # Pa, plant default max_supply_pressure upper bound used as a sanity limit
+#: The nodes of a glove on a board: the hardware bridge in the plant's place.
+BOARD_NODES = ('hardware', 'estimator', 'pressure_command')
+#: Recorded steps at the hold pressure after which the emulated-board session is stopped.
+HOLD_ROWS = 50
+#: kPa: the valve loop's hold deadband (0.3) and the emulated pressure sensor's quantum (0.05).
+BOARD_HOLD_KPA = 0.35
 #: Simulated seconds of a lockstep session: the hold ramp and the chambers' lag, and a while
 #: at the hold pressure.
 LOCKSTEP_DURATION = 1
@@ -142,14 +148,14 @@ def printed(line, column):
     return line.split(f' {column}=[', 1)[1].split(']', 1)[0].split()
 
 
-def healthy_summary_line(stdout):
+def healthy_summary_line(stdout, nodes=NODES):
     """The last complete summary line under pressure with every node OK or WARN, else None."""
     lines = [line for line in stdout.splitlines(keepends=True) if line.endswith('\n')]
     for line in reversed(lines):
         if (
             line.startswith('t=')
             and all(cell not in ('-', '0.00') for cell in printed(line, 'p_kpa'))
-            and all(f'{node} OK' in line or f'{node} WARN' in line for node in NODES)
+            and all(f'{node} OK' in line or f'{node} WARN' in line for node in nodes)
         ):
             return line
     return None
@@ -259,25 +265,43 @@ def lockstep_hold_behind_valves(run: Run) -> list[str]:
     return [*lockstep_hold(run), '--actuation', 'valves']
 
 
-def interrupted_once_identified(run: Run) -> Run:
-    """The default session (sine, stroke_moderate) with a bag, started as a shell starts a
-    background job (SIGINT ignored); Ctrl-C (kill -INT) once the record has a fit made after
-    FIT_ROWS steps and the summary has shown every node's health."""
-    process = launch(run, ['--record'], prefix=BACKGROUND)
-    record = run.out / 'signals.csv'
-    try:
-        run.seen['settled'] = wait_until(
-            lambda: fitted_after(record, FIT_ROWS) and healthy_summary_line(run.stdout),
-            START_TIMEOUT,
-            interval=0.1,
-        )
-        run.seen['processes'] = len(node_pids(run.ns))  # while it still runs
-        process.send_signal(signal.SIGINT)
-        return finish(run, process, STOP_TIMEOUT)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
+def interrupted_once(arguments: list[str], settled: Callable[[Run], bool], prefix=()):
+    """A session stopped by Ctrl-C (kill -INT) once ``settled(run)`` holds."""
+
+    def scenario(run: Run) -> Run:
+        process = launch(run, arguments, prefix=prefix)
+        try:
+            run.seen['settled'] = wait_until(lambda: settled(run), START_TIMEOUT, interval=0.1)
+            run.seen['processes'] = len(node_pids(run.ns))  # while it still runs
+            process.send_signal(signal.SIGINT)
+            return finish(run, process, STOP_TIMEOUT)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+
+    return scenario
+
+
+def identified(run: Run) -> bool:
+    """The record has a fit made after FIT_ROWS steps and the summary has shown every node's
+    health."""
+    return fitted_after(run.out / 'signals.csv', FIT_ROWS) and bool(
+        healthy_summary_line(run.stdout)
+    )
+
+
+def holding_on_the_board(run: Run) -> bool:
+    """The record's last HOLD_ROWS steps are at the hold pressure (within the valve loop's
+    deadband and the emulated sensor's quantum) and the summary has shown the board's nodes'
+    health."""
+    rows = recorded_rows(run.out / 'signals.csv')[-HOLD_ROWS:]
+    held = len(rows) == HOLD_ROWS and all(
+        abs(float(row[f'p_{joint}_kpa']) - HOLD_PRESSURE_KPA) <= BOARD_HOLD_KPA
+        for row in rows
+        for joint in JOINTS
+    )
+    return held and bool(healthy_summary_line(run.stdout, BOARD_NODES))
 
 
 def plant_fails(run: Run) -> list[str]:
@@ -288,12 +312,18 @@ def plant_fails(run: Run) -> list[str]:
 
 #: The sessions, in start order: the longest first, PARALLEL at a time.
 SCENARIOS = {
-    # the default session on the wall clock, until Ctrl-C
-    'interrupted_run': interrupted_once_identified,
+    # the default session on the wall clock, from a background shell, until Ctrl-C
+    'interrupted_run': interrupted_once(['--record'], identified, prefix=BACKGROUND),
     # two identical lockstep sessions, for "the same every time"
     'lockstep_run': ends_by_itself(lockstep_hold),
     'lockstep_rerun': ends_by_itself(lockstep_hold_recorded),
     'valves_run': ends_by_itself(lockstep_hold_behind_valves),
+    # make run HARDWARE=emulated: the bridge and the emulated board, until Ctrl-C (after the
+    # longest three: five processes of its own)
+    'emulated_run': interrupted_once(
+        ['--hardware', 'emulated', '--mode', 'hold', '--patient', 'nominal'],
+        holding_on_the_board,
+    ),
     'failing_run': ends_by_itself(plant_fails),
     # the wall clock's duration, over while the nodes still start
     'wall_clock_run': ends_by_itself(lambda run: ['--duration', f'{WALL_DURATION:g}']),
@@ -354,6 +384,11 @@ def interrupted_run(sessions) -> Run:
 @pytest.fixture(scope='module')
 def valves_run(sessions) -> Run:
     return sessions['valves_run'].result()
+
+
+@pytest.fixture(scope='module')
+def emulated_run(sessions) -> Run:
+    return sessions['emulated_run'].result()
 
 
 @pytest.fixture(scope='module')
@@ -552,6 +587,37 @@ def test_the_summary_shows_the_recorded_angles_in_degrees_and_every_node_healthy
     table = read_record(interrupted_run.out / 'signals.csv')
     recorded = {tuple(f'{q:.2f}' for q in row) for row in joint_columns(table, 'q', 'deg')}
     assert tuple(printed(line, 'q_deg')) in recorded, line
+
+
+# -- make run HARDWARE=emulated ----------------------------------------------------------------
+
+
+def test_the_glove_runs_through_the_bridge_on_the_emulated_board(emulated_run):
+    assert emulated_run.seen['settled'], emulated_run.output()
+    assert emulated_run.seen['processes'] == 3  # the bridge, estimator, pressure_command
+    assert emulated_run.returncode == 0, emulated_run.output()
+    assert node_pids(emulated_run.ns) == []
+    assert 'Traceback' not in emulated_run.stdout + emulated_run.stderr
+    assert f'on the emulated board {emulated_run.out / "board"}' in emulated_run.stdout
+    assert not (emulated_run.out / 'board').exists()  # the emulator took its pty away
+    logs = sorted(log.stem for log in (emulated_run.out / 'logs').iterdir())
+    assert logs == sorted([*BOARD_NODES, 'mcu_emulator'])
+    assert 'vented and closed the port' in (emulated_run.out / 'logs' / 'hardware.log').read_text()
+
+
+def test_the_board_glove_is_recorded_from_the_boards_samples(emulated_run):
+    # the summary showed the board's pressures with the bridge healthy
+    assert healthy_summary_line(emulated_run.stdout, BOARD_NODES), emulated_run.output()
+    table = read_record(emulated_run.out / 'signals.csv')
+    assert_every_row_has_a_command(table, 'u_net', 'pct')  # the openings the board applied
+    assert np.isnan(joint_columns(table, 'f', 'n')).all()  # a board measures no contact force
+    pressure = 1e3 * joint_columns(table, 'p', 'kpa')
+    assert np.all(np.abs(pressure / 50.0 - np.round(pressure / 50.0)) < 1e-6)  # its sensor
+    # each step's angles are the nominal finger's at its pressure (the emulated patient), within
+    # the sensors' quanta (50 Pa of pressure, 1e-3 rad of angle)
+    angles = np.radians(joint_columns(table, 'q', 'deg'))
+    model = GloveModel(load_params()).solve_batch(pressure).q
+    np.testing.assert_allclose(angles, model, rtol=0, atol=2e-3)
 
 
 # -- the wall clock's duration, a failing node -------------------------------------------------

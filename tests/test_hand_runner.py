@@ -224,3 +224,56 @@ def test_refusals_name_the_option(tmp_path, monkeypatch, command, arguments, mes
 def test_a_model_file_is_the_lone_gloves():
     with pytest.raises(UsageError, match='--params-file'):
         HandConfig(fingers=('index',), params_file='my_glove.yaml')
+
+
+# -- on a board ---------------------------------------------------------------------------------
+
+
+def test_an_emulated_board_runs_first_and_stops_last_with_the_bridge_in_the_plants_place(
+    session_of, tmp_path
+):
+    session = session_of(GLOVE, '--hardware', 'emulated')
+    commands = dict(session.processes)
+    assert list(commands) == ['mcu_emulator', 'hardware', 'estimator', 'pressure_command']
+    assert session.stop_order == ('pressure_command', 'estimator', 'hardware', 'mcu_emulator')
+    assert session.runs['mcu_emulator'] == () and session.runs['hardware'] == ('hardware',)
+    assert session.nodes == ('hardware', 'estimator', 'pressure_command')
+    link = str(tmp_path / 'run' / 'board')
+    emulator = commands['mcu_emulator']
+    assert emulator[1:5] == ['-m', 'exodigit_nodes.hardware.emulator', '--link', link]
+    # the emulated board simulates the patient (the glove's default), as the plant would
+    assert emulator[5:] == ['--params-file', str(patient_file(DEFAULT_PATIENTS['glove']))]
+    assert overrides(commands['hardware']) == {'use_sim_time': False, 'port': link}
+    assert overrides(commands['estimator'])['glove_node'] == 'hardware'
+    assert overrides(commands['pressure_command'])['output'] == 'valves'
+    assert session.streams == ('chamber_pressure', 'joint_states')  # no contact forces
+    (glove,) = session.gloves
+    assert glove.title == 'exodigit glove /glove (sine, board emulated)'
+    assert set(glove.references['estimated_finger_stiffness']) == {'nominal', 'patient'}
+
+
+def test_a_board_on_a_port_has_no_emulator_and_no_simulated_patient(session_of):
+    session = session_of(GLOVE, '--hardware', '/dev/ttyACM0', '--mode', 'hold')
+    commands = dict(session.processes)
+    assert list(commands) == ['hardware', 'estimator', 'pressure_command']
+    assert overrides(commands['hardware'])['port'] == '/dev/ttyACM0'
+    (glove,) = session.gloves
+    assert set(glove.references['estimated_finger_stiffness']) == {'nominal'}
+    assert set(session_of(GLOVE).gloves[0].references['estimated_finger_stiffness']) == {
+        'nominal',
+        'patient',
+    }
+
+
+@pytest.mark.parametrize('arguments', [['--clock', 'sim'], ['--clock', 'sim', '--lockstep']])
+def test_a_board_on_simulated_time_is_refused(arguments):
+    with pytest.raises(UsageError, match=r'^--hardware emulated: .*wall clock'):
+        configured(GLOVE, '--hardware', 'emulated', *arguments)
+
+
+def test_only_the_lone_glove_has_a_board():
+    assert 'hardware' in {option.name for option in command_options('glove')}
+    for command in ('hand', 'hand_nodes'):
+        assert 'hardware' not in {option.name for option in command_options(command)}
+    with pytest.raises(UsageError, match='--hardware'):
+        HandConfig(fingers=('index',), actuation='valves', hardware='emulated')

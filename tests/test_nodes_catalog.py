@@ -13,7 +13,7 @@ import yaml
 from exodigit_model.control import MODES
 from exodigit_nodes.glove import GLOVE
 from exodigit_nodes.logic.parameters import ParamSpec
-from exodigit_nodes.nodes.catalog import NODES
+from exodigit_nodes.nodes.catalog import EXECUTABLES, NODES
 from exodigit_nodes.nodes.config_files import CONFIG_WIDTH, config_text
 from exodigit_nodes.nodes.config_files import main as write_config_main
 from exodigit_nodes.runner import hand_runner
@@ -24,6 +24,7 @@ CONFIG = PACKAGE_DIR / 'config'
 PARAMETER_PAGE = ROOT / 'docs' / 'parameters.md'
 REGENERATE = 'python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config'
 by_executable = pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)
+with_config = pytest.mark.parametrize('node', EXECUTABLES, ids=lambda node: node.executable)
 ROS_PARAMETERS = ('use_sim_time',)
 """Parameters rclpy declares on every node (not in the table)."""
 SI_UNIT = re.compile(
@@ -147,29 +148,37 @@ def test_the_runner_sets_only_declared_parameters_to_values_they_accept(mode, cl
 
 
 def test_the_config_directory_holds_one_parameter_file_per_node():
-    assert sorted(p.name for p in CONFIG.glob('*.yaml')) == sorted(n.config_file for n in NODES)
+    assert sorted(p.name for p in CONFIG.glob('*.yaml')) == sorted(
+        n.config_file for n in EXECUTABLES
+    )
 
 
-@by_executable
+@with_config
 def test_each_config_file_is_generated_from_the_table(node):
     committed = (CONFIG / node.config_file).read_text()
     assert committed == config_text(node), f'{node.config_file} is stale: run {REGENERATE}'
 
 
-@by_executable
+@with_config
 def test_each_config_file_is_a_ros_parameter_file_of_every_parameter_at_its_default(node):
     document = yaml.safe_load((CONFIG / node.config_file).read_text())
     assert list(document) == ['/**']
     assert list(document['/**']) == ['ros__parameters']
     values = document['/**']['ros__parameters']
     assert list(values) == list(node.table.specs)
-    assert node.table.check(values) == node.table.defaults()
+    # a parameter with no default (the hardware bridge's port) is left empty, for the user
+    given = [name for name, spec in node.table.specs.items() if spec.required and not spec.default]
+    assert all(values.pop(name) == '' for name in given)
+    specs = node.table.specs
+    assert node.table.check(values) == {
+        name: specs[name].check(specs[name].default) for name in values
+    }
     for name, value in values.items():  # the YAML type is the declared type (no 1 for 1.0)
         default = node.table[name].default
         assert type(value) is (list if isinstance(default, tuple) else type(default)), name
 
 
-@by_executable
+@with_config
 def test_each_parameter_is_preceded_by_a_comment_with_its_description(node):
     lines = config_text(node).splitlines()
     for name, spec in node.table.specs.items():
@@ -185,7 +194,7 @@ def test_each_parameter_is_preceded_by_a_comment_with_its_description(node):
 
 def test_write_config_writes_every_nodes_file(tmp_path):
     assert write_config_main(['--write-config', str(tmp_path)]) == 0
-    for node in NODES:
+    for node in EXECUTABLES:
         assert (tmp_path / node.config_file).read_text() == config_text(node)
     with pytest.raises(SystemExit) as refused:
         write_config_main(['--write-config', str(tmp_path / 'missing')])
@@ -200,7 +209,7 @@ def test_the_parameter_page_shows_each_nodes_generated_file_and_no_other():
     # node added to the table without a section on the page fails here.
     page = PARAMETER_PAGE.read_text()
     included = re.findall(r'^```\{literalinclude\} \.\./exodigit_nodes/(\S+)$', page, re.MULTILINE)
-    assert sorted(included) == sorted(f'config/{node.config_file}' for node in NODES)
+    assert sorted(included) == sorted(f'config/{node.config_file}' for node in EXECUTABLES)
 
 
 @pytest.mark.parametrize('node', NODES, ids=lambda node: node.executable)

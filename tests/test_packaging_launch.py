@@ -23,6 +23,8 @@ from exodigit_nodes.runner import hand_runner
 PACKAGE_DIR = Path(__file__).resolve().parents[1] / 'exodigit_nodes'
 LAUNCH_FILE = PACKAGE_DIR / 'launch' / 'glove.launch.py'
 NODE_EXECUTABLES = {'plant', 'pressure_command', 'estimator'}
+LAUNCHED = NODE_EXECUTABLES | {'hardware'}
+"""Every node executable the launch file names (the bridge in the plant's place on a board)."""
 SIM_TIME_ARGUMENTS = {'clock', 'real_time_factor', 'lockstep', 'use_sim_time'}
 RUNNER_ONLY = {'start_paused', 'pause_at'}
 """Plant parameters the runner sets for its live summary and duration, not the launch file."""
@@ -63,10 +65,10 @@ def test_launch_file_compiles(tmp_path):
     py_compile.compile(str(LAUNCH_FILE), cfile=str(tmp_path / 'launch.pyc'), doraise=True)
 
 
-def test_launch_file_starts_the_three_node_executables_of_setup_py(entities, launch_api):
+def test_launch_file_starts_the_node_executables_of_setup_py(entities, launch_api):
     scripts = console_scripts()
-    assert scripts >= NODE_EXECUTABLES
-    assert set(nodes_by_executable(entities, launch_api)) == NODE_EXECUTABLES
+    assert scripts >= LAUNCHED
+    assert set(nodes_by_executable(entities, launch_api)) == LAUNCHED
 
 
 def test_launch_and_config_files_are_installed_by_setup_py():
@@ -89,7 +91,13 @@ class Recorded:
 
 LAUNCH_API = {
     'launch': ['LaunchDescription'],
-    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.actions': [
+        'DeclareLaunchArgument',
+        'ExecuteProcess',
+        'RegisterEventHandler',
+        'Shutdown',
+    ],
+    'launch.conditions': ['IfCondition', 'UnlessCondition'],
     'launch.event_handlers': ['OnProcessExit'],
     'launch.substitutions': [
         'AndSubstitution',
@@ -97,6 +105,7 @@ LAUNCH_API = {
         'IfElseSubstitution',
         'LaunchConfiguration',
         'NotEqualsSubstitution',
+        'OrSubstitution',
     ],
     'launch_ros': [],
     'launch_ros.actions': ['Node'],
@@ -180,12 +189,15 @@ def resolve(value, configurations: dict[str, str], api):
         left, right = (resolve(side, configurations, api) for side in value.args)
         equal = left == right
         return str(equal if isinstance(value, api.EqualsSubstitution) else not equal).lower()
-    if isinstance(value, api.AndSubstitution):
+    if isinstance(value, api.AndSubstitution | api.OrSubstitution):
         left, right = (truth(resolve(side, configurations, api)) for side in value.args)
-        return str(left and right).lower()
+        both = isinstance(value, api.AndSubstitution)
+        return str(left and right if both else left or right).lower()
     if isinstance(value, api.IfElseSubstitution):
         condition = truth(resolve(value.args[0], configurations, api))
-        return value.kwargs['if_value' if condition else 'else_value']
+        return resolve(
+            value.kwargs['if_value' if condition else 'else_value'], configurations, api
+        )
     if isinstance(value, api.ParameterValue):
         text = resolve(value.args[0], configurations, api)
         kind = value.kwargs['value_type']
@@ -193,8 +205,8 @@ def resolve(value, configurations: dict[str, str], api):
     raise AssertionError(f'no stand-in evaluation for {value!r}')
 
 
-def node_parameters(entities, api, **arguments) -> dict[str, dict]:
-    """Each node's parameter overrides for the launch arguments ``arguments`` (name:=value)."""
+def configurations_of(entities, api, **arguments) -> dict[str, str]:
+    """Every launch argument's value for the launch arguments ``arguments`` (name:=value)."""
     configurations = {}
     for name, kwargs in declared_arguments(entities, api).items():
         value = arguments.pop(name, None)
@@ -203,8 +215,25 @@ def node_parameters(entities, api, **arguments) -> dict[str, dict]:
         assert value in kwargs.get('choices', [value]), (name, value)
         configurations[name] = value
     assert not arguments, f'undeclared arguments {sorted(arguments)}'
+    return configurations
+
+
+def started(action, configurations, api) -> bool:
+    """Whether launch starts ``action`` (its condition holds, or it has none)."""
+    condition = action.kwargs.get('condition')
+    if condition is None:
+        return True
+    holds = truth(resolve(condition.args[0], configurations, api))
+    return holds if isinstance(condition, api.IfCondition) else not holds
+
+
+def node_parameters(entities, api, **arguments) -> dict[str, dict]:
+    """The parameter overrides of each node started for the launch arguments ``arguments``."""
+    configurations = configurations_of(entities, api, **arguments)
     result = {}
     for executable, node in nodes_by_executable(entities, api).items():
+        if not started(node, configurations, api):
+            continue
         overrides = {}
         for item in node.kwargs['parameters']:
             if isinstance(item, dict):
@@ -225,7 +254,7 @@ def test_launch_description_declares_every_argument_it_uses(entities, launch_api
             assert order.index(used) < order.index(name), f'{name} defaults to a later {used}'
 
     nodes = of_kind(entities, launch_api.Node)
-    assert {n.kwargs['executable'] for n in nodes} == NODE_EXECUTABLES
+    assert {n.kwargs['executable'] for n in nodes} == LAUNCHED
     for node in nodes:
         assert set(used_configurations(node, launch_api)) <= set(declared)
         files = [p for p in node.kwargs['parameters'] if isinstance(p, str)]
@@ -275,11 +304,12 @@ def test_by_default_every_node_runs_on_the_wall_clock(entities, launch_api):
     assert parameters['pressure_command']['lockstep'] is False
 
 
-def runner_overrides(arguments: list[str]) -> dict[str, dict]:
+def runner_overrides(arguments: list[str], emulator_link: str = '') -> dict[str, dict]:
     """The ``-p`` values ``python -m exodigit_nodes.glove <arguments>`` gives each node process,
     read as YAML (as ROS reads them)."""
     options = hand_runner.build_parser(GLOVE).parse_args(arguments)
-    processes = hand_runner.node_processes(hand_runner.run_config(GLOVE, options))
+    config = hand_runner.run_config(GLOVE, options)
+    processes = hand_runner.node_processes(config, emulator_link)
     result = {}
     for executable, command in processes.items():
         given = [command[i + 1] for i, word in enumerate(command) if word == '-p']
@@ -338,7 +368,7 @@ def exit_handlers(entities, api) -> dict[int, Recorded]:
 
 def test_every_node_has_an_exit_handler_registered_before_it_starts(entities, launch_api):
     handlers = exit_handlers(entities, launch_api)
-    nodes = of_kind(entities, launch_api.Node)
+    nodes = of_kind(entities, launch_api.Node) + of_kind(entities, launch_api.ExecuteProcess)
     assert set(handlers) == {id(node) for node in nodes}
     registered = [entities.index(e) for e in of_kind(entities, launch_api.RegisterEventHandler)]
     # A raising handler ends launch's handling of that event, so the node's own exit handlers
@@ -395,3 +425,29 @@ def test_actuation_valves_reaches_the_plant_and_pressure_command_as_the_runner_g
     assert default['plant']['actuation'] == 'regulator'
     assert default['pressure_command']['output'] == 'pressure'
     assert 'actuation' not in runner_overrides([])['plant']
+
+
+@pytest.mark.parametrize('hardware', ['emulated', '/dev/ttyACM0'])
+def test_hardware_puts_the_bridge_in_the_plants_place_as_the_runner_does(
+    entities, launch_api, hardware
+):
+    """``hardware:=`` is ``--hardware``: the bridge on the board's port (or the emulator's
+    link), no plant, the estimator on the bridge, pressure_command with output valves, and
+    mcu_emulator for an emulated board only."""
+    link = '/tmp/board_of_this_test'
+    launched = node_parameters(entities, launch_api, hardware=hardware, board_link=link)
+    given = runner_overrides(['--hardware', hardware], emulator_link=link)
+    assert set(launched) == set(given) == LAUNCHED - {'plant'}
+    port = link if hardware == 'emulated' else hardware
+    assert launched['hardware']['port'] == given['hardware']['port'] == port
+    for executable, name, value in (
+        ('estimator', 'glove_node', 'hardware'),
+        ('pressure_command', 'output', 'valves'),
+    ):
+        assert launched[executable][name] == given[executable][name] == value
+    configurations = configurations_of(entities, launch_api, hardware=hardware, board_link=link)
+    (emulator,) = of_kind(entities, launch_api.ExecuteProcess)
+    assert started(emulator, configurations, launch_api) is (hardware == 'emulated')
+    command = [resolve(word, configurations, launch_api) for word in emulator.kwargs['cmd']]
+    assert command[-3:] == ['--link', link, '--params-file=']  # the built-in model
+    assert set(node_parameters(entities, launch_api)) == NODE_EXECUTABLES  # by default no board

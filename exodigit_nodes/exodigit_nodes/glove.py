@@ -12,6 +12,10 @@ With ``--clock sim`` the plant owns simulated time (``/clock``) and every other 
 keeps one step in flight, so a session gives the same result on a loaded machine as on an idle
 one. ``--duration`` then counts simulated seconds.
 
+With ``--hardware`` the glove runs on a board (docs/hardware.md): the ``hardware`` bridge takes
+the plant's place behind valves, on ``mcu_emulator`` (``--hardware emulated``: the simulated
+patient behind an emulated board) or on a board's serial port (``--hardware /dev/ttyACM0``).
+
 This is what ``make run`` calls; on a ROS 2 install ``ros2 launch exodigit_nodes
 glove.launch.py`` starts the same nodes without the summary.
 """
@@ -33,6 +37,9 @@ GLOVE = hand_runner.Command(
   python -m exodigit_nodes.glove --params-file my_glove.yaml --namespace /left/index
   python -m exodigit_nodes.glove --clock sim --real-time-factor 0 --lockstep --duration 60
                                                       # 60 simulated s, as fast as the CPU allows
+  python -m exodigit_nodes.glove --hardware emulated  # through the bridge and an emulated board
+  python -m exodigit_nodes.glove --hardware /dev/ttyACM0 --mode hold
+                                                      # on a real board (docs/hardware.md)
 
 ROS_AUTOMATIC_DISCOVERY_RANGE (default LOCALHOST) and ROS_DOMAIN_ID (default 0) are passed to
 every node; see docs/networking.md.""",

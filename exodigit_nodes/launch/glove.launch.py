@@ -5,6 +5,8 @@
     ros2 launch exodigit_nodes glove.launch.py params_file:=/path/to/my_glove.yaml
     ros2 launch exodigit_nodes glove.launch.py clock:=sim lockstep:=true real_time_factor:=0.0
     ros2 launch exodigit_nodes glove.launch.py actuation:=valves
+    ros2 launch exodigit_nodes glove.launch.py hardware:=emulated
+    ros2 launch exodigit_nodes glove.launch.py hardware:=/dev/ttyACM0 mode:=hold
 
 Each node reads its defaults from its ``config/<executable>.yaml`` in the package share
 directory; the launch arguments below override them. The nodes, the modes and the arguments'
@@ -14,21 +16,32 @@ which those config files are generated. Simulated time (docs/spec/ros.md Part II
 owns /clock (``clock``, ``real_time_factor``, ``lockstep``), the other nodes run with
 ``use_sim_time`` and pressure_command answers each joint_states in lockstep. ``actuation:=valves``
 is ``--actuation valves``: the plant's chambers driven by valves (``valve_command``) and
-pressure_command's ``output`` valves (docs/spec/ros.md, "Valves").
+pressure_command's ``output`` valves (docs/spec/ros.md, "Valves"). ``hardware:=emulated`` or
+``hardware:=<port>`` is ``--hardware``: the ``hardware`` bridge in the plant's place, with valves,
+on ``mcu_emulator`` (its pty at ``board_link``) or on the board at that serial port; leave
+``clock`` at wall (docs/hardware.md).
 
-Like that runner, the glove is one unit: when any of its nodes exits, launch stops the other two
-and ends; ``ros2 launch`` then exits 1 if that node failed (non-zero code, or killed by a
-signal) and 0 after a clean exit or Ctrl-C. Without a ROS install, ``python -m
-exodigit_nodes.glove`` starts the same three nodes (docs/running.md).
+Like that runner, the glove is one unit: when any of its nodes (or the emulated board) exits,
+launch stops the others and ends; ``ros2 launch`` then exits 1 if that node failed (non-zero
+code, or killed by a signal) and 0 after a clean exit or Ctrl-C. Without a ROS install,
+``python -m exodigit_nodes.glove`` starts the same nodes (docs/running.md).
 """
 
 import os
+import sys
 
 from ament_index_python.packages import get_package_share_directory
 from exodigit_nodes.logic.lifetime import exit_status
-from exodigit_nodes.nodes.catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE
+from exodigit_nodes.nodes.catalog import (
+    ESTIMATOR_NODE,
+    HARDWARE_NODE,
+    PLANT_NODE,
+    PRESSURE_COMMAND_NODE,
+)
+from exodigit_nodes.nodes.hand_config import EMULATED
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
+from launch.actions import DeclareLaunchArgument, ExecuteProcess, RegisterEventHandler, Shutdown
+from launch.conditions import IfCondition, UnlessCondition
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import (
     AndSubstitution,
@@ -36,6 +49,7 @@ from launch.substitutions import (
     IfElseSubstitution,
     LaunchConfiguration,
     NotEqualsSubstitution,
+    OrSubstitution,
 )
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
@@ -105,6 +119,19 @@ def launch_arguments() -> list[DeclareLaunchArgument]:
             + '; with valves pressure_command publishes valve_command (output valves)',
         ),
         DeclareLaunchArgument(
+            'hardware',
+            default_value='',
+            description=f"run the glove on a board, the hardware bridge in the plant's place: "
+            f'{EMULATED} (mcu_emulator at board_link) or the serial port of a board '
+            '(/dev/ttyACM0), with valves, on the wall clock; empty = the simulated plant',
+        ),
+        DeclareLaunchArgument(
+            'board_link',
+            default_value='/tmp/exodigit_board',
+            description=f"hardware {EMULATED}: where the emulated board's pseudo-terminal "
+            'appears (a symbolic link; one per glove)',
+        ),
+        DeclareLaunchArgument(
             'params_file',
             default_value=PLANT['params_file'].default,
             description='model parameter YAML (docs/spec/model.md §10) for plant, estimator and '
@@ -146,18 +173,30 @@ def launch_arguments() -> list[DeclareLaunchArgument]:
     ]
 
 
-def glove_nodes(config_dir: str) -> list[Node]:
-    """The plant, estimator and pressure_command, configured by the launch arguments."""
+def glove_nodes(config_dir: str) -> list:
+    """The glove's processes, configured by the launch arguments.
+
+    The plant, or with ``hardware`` the bridge (and ``mcu_emulator`` for an emulated board),
+    then the estimator and pressure_command.
+    """
     namespace = LaunchConfiguration('namespace')
+    hardware = LaunchConfiguration('hardware')
+    simulated = EqualsSubstitution(hardware, '')
+    emulated = EqualsSubstitution(hardware, EMULATED)
+    board_link = LaunchConfiguration('board_link')
     clock = LaunchConfiguration('clock')
     use_sim_time = LaunchConfiguration('use_sim_time')
     params_file = ParameterValue(LaunchConfiguration('params_file'), value_type=str)
     joint_prefix = ParameterValue(LaunchConfiguration('joint_prefix'), value_type=str)
     mode = ParameterValue(LaunchConfiguration('mode'), value_type=str)
     actuation = LaunchConfiguration('actuation')
-    # pressure_command publishes what the plant takes: valve_command for valves
+    # pressure_command publishes what the plant takes: valve_command for valves (a board's)
     output = IfElseSubstitution(
-        EqualsSubstitution(actuation, 'valves'), if_value='valves', else_value='pressure'
+        OrSubstitution(
+            EqualsSubstitution(actuation, 'valves'), NotEqualsSubstitution(hardware, '')
+        ),
+        if_value='valves',
+        else_value='pressure',
     )
     real_time_factor = ParameterValue(LaunchConfiguration('real_time_factor'), value_type=float)
     lockstep = ParameterValue(LaunchConfiguration('lockstep'), value_type=bool)
@@ -170,7 +209,7 @@ def glove_nodes(config_dir: str) -> list[Node]:
         AndSubstitution(use_sim_time, NotEqualsSubstitution(clock, 'sim')), value_type=bool
     )
 
-    def glove_node(entry, overrides):
+    def glove_node(entry, overrides, condition=None):
         return Node(
             package=PACKAGE,
             executable=entry.executable,
@@ -179,9 +218,33 @@ def glove_nodes(config_dir: str) -> list[Node]:
             output='screen',
             emulate_tty=True,
             parameters=[os.path.join(config_dir, entry.config_file), overrides],
+            condition=condition,
         )
 
     return [
+        ExecuteProcess(
+            name='mcu_emulator',
+            cmd=[
+                *(sys.executable, '-m', 'exodigit_nodes.hardware.emulator'),
+                *('--link', board_link),
+                # one word, so that an empty params_file (the built-in model) is a value too
+                ['--params-file=', LaunchConfiguration('params_file')],
+            ],
+            output='screen',
+            condition=IfCondition(emulated),
+        ),
+        glove_node(
+            HARDWARE_NODE,
+            {
+                'use_sim_time': node_sim_time,
+                'joint_prefix': joint_prefix,
+                'port': ParameterValue(
+                    IfElseSubstitution(emulated, if_value=board_link, else_value=hardware),
+                    value_type=str,
+                ),
+            },
+            UnlessCondition(simulated),
+        ),
         glove_node(
             PLANT_NODE,
             {
@@ -193,10 +256,22 @@ def glove_nodes(config_dir: str) -> list[Node]:
                 'real_time_factor': real_time_factor,
                 'lockstep': lockstep,
             },
+            IfCondition(simulated),
         ),
         glove_node(
             ESTIMATOR_NODE,
-            {'use_sim_time': node_sim_time, 'params_file': params_file},
+            {
+                'use_sim_time': node_sim_time,
+                'params_file': params_file,
+                'glove_node': ParameterValue(
+                    IfElseSubstitution(
+                        simulated,
+                        if_value=PLANT_NODE.executable,
+                        else_value=HARDWARE_NODE.executable,
+                    ),
+                    value_type=str,
+                ),
+            },
         ),
         glove_node(
             PRESSURE_COMMAND_NODE,
@@ -212,7 +287,7 @@ def glove_nodes(config_dir: str) -> list[Node]:
 
 
 def generate_launch_description():
-    """The glove's three nodes, the arguments that configure them, and the exit handlers."""
+    """The glove's nodes, the arguments that configure them, and the exit handlers."""
     nodes = glove_nodes(os.path.join(get_package_share_directory(PACKAGE), 'config'))
     # Registered before the nodes start, so that each node's own exit handlers (which flush its
     # last output) come first: a raising handler ends the handling of that event.

@@ -109,7 +109,13 @@ class ParamSpec:
             allowed = f'>= {low:g}' if high is None else f'<= {high:g}'
         else:
             allowed = ''
-        return ' '.join(filter(None, (allowed, '(read-only)' if self.read_only else '')))
+        given = self.required and not self.default  # no default: the user names it
+        return ' '.join(
+            filter(
+                None,
+                (allowed, '(read-only)' if self.read_only else '', '(must be given)' * given),
+            )
+        )
 
     def help_line(self) -> str:
         """One entry of ``--help``: name, default and rule, then the meaning on a second line."""

@@ -288,6 +288,15 @@ ESTIMATOR_NODE = NodeEntry(
                 low=0.05,
                 high=3600.0,
             ),
+            ParamSpec(
+                'glove_node',
+                'plant',
+                'The node of our namespace whose chamber_pressure and joint_states we estimate '
+                'from: plant (simulated) or hardware (a board); ~/ready says when it has matched '
+                'our readers',
+                choices=('plant', 'hardware'),
+                read_only=True,
+            ),
             DIAGNOSTIC_PERIOD,
         ]
     ),
@@ -470,3 +479,88 @@ PRESSURE_COMMAND_NODE = NodeEntry(
 
 NODES = (PLANT_NODE, ESTIMATOR_NODE, PRESSURE_COMMAND_NODE)
 """The glove's nodes in start order: the plant first, the commands last."""
+
+HARDWARE_NODE = NodeEntry(
+    executable='hardware',
+    class_name='Hardware',
+    summary="the bridge to a real (or emulated) glove board, in the plant's place",
+    table=ParamTable(
+        [
+            ParamSpec(
+                'port',
+                '',
+                'Serial port of the board (pyserial name: /dev/ttyACM0, COM3, or the link of '
+                'mcu_emulator)',
+                required=True,
+                read_only=True,
+            ),
+            ParamSpec(
+                'baud_rate',
+                115200,
+                'Line speed, Hz (baud, 8N1; USB boards and pseudo-terminals ignore it)',
+                low=300.0,
+                high=4e6,
+                read_only=True,
+            ),
+            ParamSpec(
+                'max_pressure',
+                80e3,
+                'A chamber reading at or above this gets no air: its inlet closed, its outlet '
+                "opened (above pressure_command's 60 kPa limit), Pa",
+                low=1e3,
+                high=1e6,
+            ),
+            ParamSpec(
+                'command_timeout',
+                0.5,
+                'No valid valve_command for this long: vent (inlets closed, outlets open), s',
+                low=0.01,
+                high=60.0,
+            ),
+            ParamSpec(
+                'sample_timeout',
+                0.1,
+                'No valid sample from the board for this long: the link is lost (ERROR, vent, '
+                'hello again), s',
+                low=0.005,
+                high=60.0,
+                read_only=True,
+            ),
+            ParamSpec(
+                'handshake_timeout',
+                3.0,
+                'Longest wait for the board to answer hello after opening its port, s',
+                low=0.05,
+                high=60.0,
+                read_only=True,
+            ),
+            ParamSpec(
+                'heartbeat_period',
+                0.05,
+                'Longest time without a frame to the board (then a heartbeat; below its '
+                'watchdog time), s',
+                low=0.001,
+                high=10.0,
+                read_only=True,
+            ),
+            ParamSpec(
+                'reconnect_max',
+                2.0,
+                'Longest wait between two attempts to reopen the port (from 0.1 s, doubled at '
+                'each failure), s',
+                low=0.1,
+                high=600.0,
+                read_only=True,
+            ),
+            ParamSpec(
+                'joint_prefix', '', 'Prefix of the joint names (<prefix>mcp, ...)', read_only=True
+            ),
+            DIAGNOSTIC_PERIOD,
+        ]
+    ),
+)
+"""The hardware bridge: it replaces the plant (and is no node of :data:`NODES`, which the
+runners start for a simulated glove)."""
+
+EXECUTABLES = (*NODES, HARDWARE_NODE)
+"""Every node of the table: each has its parameter file ``config/<executable>.yaml``."""

@@ -1,7 +1,7 @@
 """The ROS parameter files ``config/<executable>.yaml``, generated from the node table.
 
 Each file sets every parameter of one node to its default, after a comment with its meaning, SI
-unit and rule (:data:`.catalog.NODES`); a test checks the committed files against this::
+unit and rule (:data:`.catalog.EXECUTABLES`); a test checks the committed files against this::
 
     python -m exodigit_nodes.nodes.config_files --write-config exodigit_nodes/config
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import yaml
 
-from .catalog import NODES, NodeEntry
+from .catalog import EXECUTABLES, NodeEntry
 
 CONFIG_WIDTH = 99
 """Longest line of a generated parameter file's comments, characters."""
@@ -64,8 +64,8 @@ def comment(text: str, indent: str = '', hang: str = '') -> list[str]:
 
 def write_config(directory: Path) -> list[Path]:
     """Write every node's :func:`config_text` into ``directory``; the paths written."""
-    paths = [directory / entry.config_file for entry in NODES]
-    for entry, path in zip(NODES, paths, strict=True):
+    paths = [directory / entry.config_file for entry in EXECUTABLES]
+    for entry, path in zip(EXECUTABLES, paths, strict=True):
         path.write_text(config_text(entry))
     return paths
 

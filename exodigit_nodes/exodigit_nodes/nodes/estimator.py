@@ -34,7 +34,7 @@ from ..logic.inputs import (
     stamp_seconds,
 )
 from ..logic.parameters import describe_files
-from .catalog import ESTIMATOR_NODE, PLANT_NODE
+from .catalog import ESTIMATOR_NODE
 from .handshake import Ready
 from .message_info import WithInfo
 from .messages import (
@@ -96,9 +96,9 @@ class Estimator(GloveNode):
             Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), inputs
         )
         self.create_subscription(JointState, JOINT_STATES, WithInfo(self.on_joint_states), inputs)
-        # says on ~/ready when the plant beside it has matched those readers (the testing kit
-        # waits for it: a state the plant sent before is lost to the estimator)
-        self.readiness = Ready(self, [PLANT_NODE.executable])
+        # says on ~/ready when the plant (or the bridge: glove_node) beside it has matched those
+        # readers (the testing kit waits for it: a state the plant sent before is lost to us)
+        self.readiness = Ready(self, [self.values['glove_node']])
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
         )

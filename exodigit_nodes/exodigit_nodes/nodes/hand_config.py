@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..logic.options import NOMINAL_PATIENT, UsageError, check_namespace, with_patient
 from ..logic.pacing import TimeSettings
-from .catalog import ESTIMATOR_NODE, NODES, PLANT_NODE, PRESSURE_COMMAND_NODE
+from .catalog import ESTIMATOR_NODE, HARDWARE_NODE, NODES, PLANT_NODE, PRESSURE_COMMAND_NODE
 from .run_options import (
     BOOLEANS,
     TIME_OPTIONS,
@@ -43,6 +43,8 @@ COMMANDS = ('glove', 'hand', 'hand_nodes')
 """The commands :func:`command_options` has a table for."""
 GLOVE_TIME_OPTIONS = ('real_time_factor', 'lockstep')
 """The time options of the lone glove's command (the hand has every one of TIME_OPTIONS)."""
+EMULATED = 'emulated'
+"""``--hardware`` value for the emulated board (``mcu_emulator``)."""
 DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
 """The finger the plants simulate by default: the glove's shows the estimator identifying a
 patient who is not the finger it assumes (docs/running.md); a hand's fingers are
@@ -86,6 +88,16 @@ def command_options(command: str) -> tuple[RunOption, ...]:
             'valve_command from its pressure loop (output valves)',
         ),
         RunOption(
+            'hardware',
+            '',
+            "run the glove on a board, the hardware bridge in the plant's place (docs/"
+            f'hardware.md): {EMULATED} (mcu_emulator, the simulated patient behind an emulated '
+            'board on a pseudo-terminal) or the serial port of a board (/dev/ttyACM0); the '
+            'chambers then have valves (actuation valves) and the glove runs on the wall clock; '
+            'default none (the simulated plant)',
+            metavar=f'{EMULATED}|PORT',
+        ),
+        RunOption(
             'params_file',
             '',
             'model parameter YAML (docs/spec/model.md §10) of the glove, for every node; default '
@@ -109,7 +121,7 @@ def command_options(command: str) -> tuple[RunOption, ...]:
             switch=True,
         ),
     ]
-    lone = {'fingers', 'estimator'} if glove else {'params_file'}
+    lone = {'fingers', 'estimator'} if glove else {'params_file', 'hardware'}
     runner = set() if command in ('glove', 'hand') else {'record'}
     return tuple(option for option in options if option.name not in lone | runner)
 
@@ -165,6 +177,9 @@ class HandConfig:
         With ``clock`` sim: pace, lockstep, pause.
     params_file : str
         The lone glove's model file (empty: built-in); the fingers have their own.
+    hardware : str
+        A lone glove on a board, the ``hardware`` bridge in the plant's place: :data:`EMULATED`
+        or the board's serial port; empty: the simulated plant.
     """
 
     fingers: tuple[str, ...] = FINGERS
@@ -176,6 +191,7 @@ class HandConfig:
     clock: str = PLANT_NODE.table['clock'].default
     time: TimeSettings = field(default_factory=TimeSettings)
     params_file: str = ''
+    hardware: str = ''
 
     def __post_init__(self) -> None:
         unknown = [f for f in self.fingers if f not in FINGERS]
@@ -185,10 +201,23 @@ class HandConfig:
             )
         if self.fingers and self.params_file:
             raise UsageError('--params-file: a lone glove has one; every finger has its own')
+        if self.hardware and (self.fingers or self.clock != 'wall' or self.actuation != 'valves'):
+            raise UsageError(
+                f'--hardware {self.hardware}: a lone glove with valves on the wall clock (a board '
+                'has no simulated time): leave out --clock sim'
+            )
 
     def node_entries(self):
-        """The catalog entries of a finger's nodes, in start order (:data:`.catalog.NODES`)."""
-        return tuple(entry for entry in NODES if self.estimator or entry is not ESTIMATOR_NODE)
+        """The catalog entries of a finger's nodes, in start order (:data:`.catalog.NODES`).
+
+        On a board the ``hardware`` bridge stands in the plant's place.
+        """
+        glove = HARDWARE_NODE if self.hardware else PLANT_NODE
+        return tuple(
+            glove if entry is PLANT_NODE else entry
+            for entry in NODES
+            if self.estimator or entry is not ESTIMATOR_NODE
+        )
 
     def gloves(self) -> tuple[Glove, ...]:
         """The gloves of the hand, one per finger (a lone glove: one)."""
@@ -209,18 +238,28 @@ class HandConfig:
         plant = tuple(with_patient(list(files), self.patient))
         return Glove(finger, namespace, prefix, files, plant)
 
-    def parameters(self, executable: str, glove: Glove) -> dict:
+    def parameters(self, executable: str, glove: Glove, emulator_link: str = '') -> dict:
         """The parameters of one node of ``glove`` (they win over ``--ros-args`` values).
 
-        Those at the node's default (no joint prefix, no model file) are left out.
+        Those at the node's default (no joint prefix, no model file) are left out. The bridge's
+        port is the board's, or ``emulator_link`` (where the emulated board's pty appears).
         """
         values = time_parameters(executable, self.clock, self.time)
+        if executable == HARDWARE_NODE.executable:
+            if self.hardware == EMULATED and not emulator_link:
+                raise ValueError('the bridge to an emulated board needs its emulator_link')
+            values['port'] = emulator_link if self.hardware == EMULATED else self.hardware
+            if glove.joint_prefix:
+                values['joint_prefix'] = glove.joint_prefix
+            return values
         plant = executable == PLANT_NODE.executable
         files = glove.plant_files if plant else glove.model_files
         if files:
             values['params_file'] = list(files)
         if plant and glove.joint_prefix:
             values['joint_prefix'] = glove.joint_prefix
+        if executable == ESTIMATOR_NODE.executable and self.hardware:
+            values['glove_node'] = HARDWARE_NODE.executable
         valves = self.actuation == 'valves'
         if plant and valves:
             values['actuation'] = self.actuation
@@ -253,7 +292,8 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
     """The :class:`HandConfig` of parsed :func:`command_options` options (UsageError).
 
     The options a command does not have keep their defaults: no ``--fingers``, a lone glove.
-    The time options on the wall clock are refused naming those the command has.
+    The time options on the wall clock are refused naming those the command has. A glove on a
+    board (``--hardware``) has valves whatever ``--actuation`` says (the help says so).
     """
     check_namespace(
         options.namespace, '/glove, /hand or /left/hand'
@@ -266,14 +306,16 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
         fingers = tuple(f.strip() for f in options.fingers.split(',') if f.strip())
         if not fingers:
             raise UsageError(f'--fingers {options.fingers!r}: give at least one finger')
+    hardware = getattr(options, 'hardware', '')
     return HandConfig(
         fingers=fingers,
         namespace=options.namespace,
         mode=options.mode,
-        actuation=options.actuation,
+        actuation='valves' if hardware else options.actuation,
         patient=options.patient,
         estimator=getattr(options, 'estimator', 'true') == 'true',
         clock=options.clock,
         time=time,
         params_file=getattr(options, 'params_file', ''),
+        hardware=hardware,
     )

@@ -22,6 +22,10 @@ The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`)
     Its stop gives every command node's zero pressure before any node is destroyed
     (:func:`..nodes.process.serve`).
 
+With ``--hardware`` (a lone glove) the ``hardware`` bridge takes the plant's place, on a board's
+serial port or on ``mcu_emulator`` (``emulated``: started first, stopped last, its pty at
+``<run>/board``).
+
 With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
 a lone glove's to ``<run>/bag``, finger f's to ``<run>/bag/f``; it starts first and stops last.
 (One, not one per finger: a five-finger hand with a recorder per finger is eight DDS
@@ -43,11 +47,12 @@ from pathlib import Path
 from ..logic.options import UsageError
 from ..logic.ros_env import discovery_settings, ros_args
 from ..nodes.catalog import ESTIMATOR_NODE
-from ..nodes.hand_config import HandConfig, command_options, hand_config
+from ..nodes.hand_config import EMULATED, HandConfig, command_options, hand_config
 from ..nodes.messages import SET_PAUSED
 from ..nodes.run_options import add_options, time_parameters
 from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
 from .session import Session, WatchedGlove, identification_references, run_session
+from .summary import BOARD_STEP_ORDER, STEP_ORDER
 
 NODE_PROCESSES = 'nodes'
 """Layout: each node of a lone glove its own process."""
@@ -56,6 +61,10 @@ HAND_PROCESS = 'hand_nodes'
 LAYOUTS = (NODE_PROCESSES, HAND_PROCESS)
 RECORDER = 'recorder'
 """The rosbag2 recorder's process, node and module name."""
+EMULATOR = 'mcu_emulator'
+"""The emulated board's process (``--hardware emulated``)."""
+BOARD_LINK_NAME = 'board'
+"""The emulated board's port in the run directory (a link to its pty)."""
 
 
 @dataclass(frozen=True)
@@ -203,8 +212,11 @@ def ros_arguments(namespace: str, ros_params: Sequence[str], values: dict) -> li
     return ros_args(values, namespace, extra=files)
 
 
-def node_processes(config: RunConfig) -> dict[str, list[str]]:
-    """The processes of the run's nodes, name to command line, in start order."""
+def node_processes(config: RunConfig, emulator_link: str = '') -> dict[str, list[str]]:
+    """The processes of the run's nodes, name to command line, in start order.
+
+    ``emulator_link``: the emulated board's port (``--hardware emulated``).
+    """
     hand = config.hand
     if config.layout == NODE_PROCESSES:
         (glove,) = hand.gloves()
@@ -216,7 +228,7 @@ def node_processes(config: RunConfig) -> dict[str, list[str]]:
                 *ros_arguments(
                     glove.namespace,
                     config.ros_params,
-                    hand.parameters(entry.executable, glove),
+                    hand.parameters(entry.executable, glove, emulator_link),
                 ),
             ]
             for entry in hand.node_entries()
@@ -249,29 +261,48 @@ def recorder_command(config: RunConfig, bag: Path) -> list[str]:
     ]
 
 
+def emulator_command(config: RunConfig, link: Path) -> list[str]:
+    """``mcu_emulator`` serving at ``link``: the glove's plant model (the patient's finger)."""
+    (glove,) = config.hand.gloves()
+    files = [word for path in glove.plant_files for word in ('--params-file', path)]
+    return [sys.executable, '-m', 'exodigit_nodes.hardware.emulator', '--link', str(link), *files]
+
+
 def session(config: RunConfig, run_dir: Path) -> Session:
-    """The :class:`.session.Session` of the run: its processes, one watched glove per finger."""
+    """The :class:`.session.Session` of the run: its processes, one watched glove per finger.
+
+    With ``--hardware emulated`` ``mcu_emulator`` starts before the bridge and stops after it,
+    its pty at ``<run>/board``.
+    """
     hand = config.hand
     clock = '' if hand.clock == 'wall' else ', simulated time' + ', lockstep' * hand.time.lockstep
+    board = f', board {hand.hardware}' if hand.hardware else ''
+    simulated = hand.hardware in ('', EMULATED)  # a patient is simulated (not a real board)
     watched = tuple(
         WatchedGlove(
-            title=f'exodigit {config.program} {glove.namespace} ({hand.mode}{clock})',
+            title=f'exodigit {config.program} {glove.namespace} ({hand.mode}{clock}{board})',
             namespace=glove.namespace,
             record=RunRecord(run_dir / glove.finger),  # a lone glove's: the run directory
-            references=identification_references(list(glove.model_files), list(glove.plant_files)),
+            references=identification_references(
+                list(glove.model_files), list(glove.plant_files) if simulated else None
+            ),
         )
         for glove in hand.gloves()
     )
     recorders = (
         {RECORDER: recorder_command(config, run_dir / BAG_DIR_NAME)} if config.record else {}
     )
-    nodes = node_processes(config)
+    link = run_dir / BOARD_LINK_NAME
+    emulated = hand.hardware == EMULATED
+    boards = {EMULATOR: emulator_command(config, link)} if emulated else {}
+    nodes = node_processes(config, str(link) if emulated else '')
     estimated = hand.gloves() if hand.estimator else ()
     return Session(
         program=config.program,
-        processes=(*recorders.items(), *nodes.items()),
-        stop_order=(*reversed(nodes), *recorders),  # the command nodes first, the plants last
-        runs={name: nodes_run(config, name) for name in (*recorders, *nodes)},
+        processes=(*recorders.items(), *boards.items(), *nodes.items()),
+        # the command nodes first, the plants (a board's bridge, then the board) last
+        stop_order=(*reversed(nodes), *boards, *recorders),
+        runs={name: nodes_run(config, name) for name in (*recorders, *boards, *nodes)},
         nodes=tuple(entry.executable for entry in hand.node_entries()),
         gloves=watched,
         pause_service=f'{hand.namespace.rstrip("/")}/{SET_PAUSED}',
@@ -282,6 +313,7 @@ def session(config: RunConfig, run_dir: Path) -> Session:
             *(f'{hand.namespace.rstrip("/")}/{RECORDER}' for _ in recorders),
             *(f'{glove.namespace.rstrip("/")}/{ESTIMATOR_NODE.executable}' for glove in estimated),
         ),
+        streams=BOARD_STEP_ORDER if hand.hardware else STEP_ORDER,
     )
 
 
@@ -290,8 +322,13 @@ def banner(config: RunConfig, session: Session) -> str:
     hand = config.hand
     fingers = f'fingers {", ".join(hand.fingers)}, ' if hand.fingers else ''
     run_dir = session.log_dir.parent
+    patient = f'patient {hand.patient}'
+    if hand.hardware == EMULATED:
+        patient += f' on the emulated board {run_dir / BOARD_LINK_NAME}'
+    elif hand.hardware:
+        patient = f'the board on {hand.hardware}, the finger in the glove'
     return (
-        f'{config.program} {hand.namespace}: {fingers}mode {hand.mode}, patient {hand.patient} '
+        f'{config.program} {hand.namespace}: {fingers}mode {hand.mode}, {patient} '
         '(the controllers and estimators assume the nominal finger); run records and node logs '
         f'in {run_dir}/'
         + (f'; rosbag2 (MCAP) in {run_dir / BAG_DIR_NAME}' if config.record else '')

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..logic.lifetime import StopRequest
 from ..nodes.dds import use_profile
 from .run_record import RunRecord
-from .summary import GloveSignals, SummaryDisplay
+from .summary import STEP_ORDER, GloveSignals, SummaryDisplay
 from .supervisor import Supervisor
 
 #: Seconds between two refreshes of the terminal summary.
@@ -79,6 +79,9 @@ class Session:
         before the plants resume, as each says on its ``~/ready``: the recorder (a plant in
         simulated time that ends its session before it knows of a reader takes every sample
         with it) and the estimators (one the plant does not know yet misses the first states).
+    streams : tuple of str
+        The topics a glove's step joins in the summary and the record (`.summary.STEP_ORDER`;
+        a board's: `.summary.BOARD_STEP_ORDER`).
     """
 
     program: str
@@ -92,16 +95,20 @@ class Session:
     duration: float
     log_dir: Path
     listeners: tuple[str, ...] = ()
+    streams: tuple[str, ...] = STEP_ORDER
 
 
-def identification_references(nominal_files: list[str], plant_files: list[str]) -> dict:
-    """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate."""
+def identification_references(nominal_files: list[str], plant_files: list[str] | None) -> dict:
+    """Nominal and simulated patient's stiffness and rest angle, to show beside the estimate.
+
+    ``plant_files`` None: no simulated patient (a real board's), the nominal finger alone.
+    """
     from exodigit_model import load_params
 
-    joints = {
-        label: load_params(files).finger.joints
-        for label, files in (('nominal', nominal_files), ('patient', plant_files))
-    }
+    files = {'nominal': nominal_files}
+    if plant_files is not None:
+        files['patient'] = plant_files
+    joints = {label: load_params(paths).finger.joints for label, paths in files.items()}
     return {
         'estimated_finger_stiffness': {
             label: [j.stiffness for j in rows] for label, rows in joints.items()
@@ -137,7 +144,13 @@ def run_session(session: Session, env: dict) -> int:
     display = SummaryDisplay(sys.stdout, sys.stdout.isatty() and env.get('TERM') != 'dumb')
     estimated = ESTIMATOR_NODE.executable in session.nodes
     signals = [
-        GloveSignals(session.nodes, glove.references, estimated=estimated, commanded=True)
+        GloveSignals(
+            session.nodes,
+            glove.references,
+            estimated=estimated,
+            commanded=True,
+            streams=session.streams,
+        )
         for glove in session.gloves
     ]
     executor = None

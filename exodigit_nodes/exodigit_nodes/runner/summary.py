@@ -70,6 +70,8 @@ VALVE_OPENINGS = 6
 #: The plant topics a `Sample` joins, in the order the plant publishes them in a step
 #: (``Plant.publish_state``): the first leads (`exodigit_model.stepping.joining`).
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
+#: The topics of a step of the ``hardware`` bridge: a board's sample (pressures, then angles).
+BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
 #: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
 STAMPED = ('estimated_contact_forces',)
 #: Most joined steps held back for their estimates: an estimator that stops answering holds
@@ -155,9 +157,21 @@ class GloveSignals:
         Steps wait for the first command (a plant's ``applied_command`` starts with the vent it
         applies before any command, so it comes), at most `ESTIMATE_WAIT` steps: a record that
         matched the plant's states before its commands then has a command in every step.
+    streams : sequence of str
+        The topics a step joins, in the order they are sent, ``chamber_pressure`` first and
+        ``joint_states`` among them: `STEP_ORDER` for the plant, `BOARD_STEP_ORDER` for the
+        hardware bridge (a board's sample has no contact forces).
     """
 
-    def __init__(self, nodes, references=None, *, estimated: bool = False, commanded=False):
+    def __init__(
+        self,
+        nodes,
+        references=None,
+        *,
+        estimated: bool = False,
+        commanded=False,
+        streams=STEP_ORDER,
+    ):
         self.references = {
             topic: {label: np.asarray(values, dtype=float) for label, values in rows.items()}
             for topic, rows in (references or {}).items()
@@ -170,7 +184,8 @@ class GloveSignals:
         self.received_stamp: float | None = None
         """Stamp of the latest joint_states received (its step may not be joined yet), s."""
         self._first_stamp: float | None = None
-        self._joiner = Joiner(STEP_ORDER, confirm=True)
+        self._streams = tuple(streams)
+        self._joiner = Joiner(self._streams, confirm=True)
         self._stamped: dict[str, dict[float, np.ndarray]] = {signal: {} for signal in STAMPED}
         """Per `STAMPED` signal, the values received for steps not yet handed on, by stamp."""
         self._newest: dict[str, float | None] = dict.fromkeys(
@@ -218,7 +233,7 @@ class GloveSignals:
         if signal in COMMAND_SIGNALS:
             self._commands.append((published, signal, values))
             return self._release()
-        if signal not in STEP_ORDER:
+        if signal not in self._streams:
             return []
         if signal == 'joint_states':
             self.received_stamp = stamp

@@ -20,10 +20,8 @@ bit, however loaded the machine is.
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -38,7 +36,7 @@ from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
 from ..nodes.dds import use_profile
 from ..nodes.run_options import time_parameters
 from .driving import DEFAULT_TIMEOUT, GloveSimError, PlantDriver
-from .processes import DomainLease, NodeProcess, claim_domain, ros_environment
+from .processes import KitPlace, NodeProcess
 from .records import SimRecord, SimState, state_arrays
 
 PLANT_DEFAULTS = {'pressure_time_constant': 0.0, 'marker_rate_hz': 0.0}
@@ -52,7 +50,6 @@ FIXED_PLANT = time_parameters(PLANT_NODE.executable, 'sim', KIT_TIME)
 """Plant parameters the kit sets itself (they define how it drives the plant)."""
 KIT_OPTIONS = ('actuation',)
 """Plant parameters given as :class:`GloveSim`'s own keyword arguments (the client needs them)."""
-_NAMESPACES = itertools.count(1)
 
 
 def patient_parameters(
@@ -129,23 +126,13 @@ class GloveSim(PlantDriver):
         if not timeout > 0.0:
             raise ValueError(f'timeout = {timeout!r}: must be > 0 s')
         self.timeout = timeout
-        self.namespace = namespace or f'/glove_sim_{os.getpid()}_{next(_NAMESPACES)}'
-        if not self.namespace.startswith('/'):
-            raise ValueError(f'namespace {self.namespace!r} must be absolute (start with /)')
-        self._lease: DomainLease | None = None
-        if domain_id is None:
-            self._lease = claim_domain()
-            domain_id = self._lease.domain_id
-        self.domain_id = domain_id
-        self.env = ros_environment(domain_id)
+        self._place = KitPlace('glove_sim', namespace, domain_id, log_dir)
+        self.namespace = self._place.namespace
+        self.domain_id = self._place.domain_id
+        self.env = self._place.env
         """The environment for a controller process of yours: this process's, with the glove's
         ROS_DOMAIN_ID and loopback-only discovery."""
-        self._temporary = None
-        if log_dir is None:
-            self._temporary = tempfile.TemporaryDirectory(prefix='glove_sim_')
-            log_dir = self._temporary.name
-        self.log_dir = Path(log_dir)
-        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.log_dir = self._place.log_dir
 
         self.actuation = PLANT_NODE.table['actuation'].check(actuation)
         parameters = {
@@ -219,12 +206,7 @@ class GloveSim(PlantDriver):
         for process in self._processes:
             process.stop()
         self._processes = []
-        if self._lease is not None:
-            self._lease.release()
-            self._lease = None
-        if self._temporary is not None:
-            self._temporary.cleanup()
-            self._temporary = None
+        self._place.close()
 
     def __enter__(self) -> GloveSim:
         return self

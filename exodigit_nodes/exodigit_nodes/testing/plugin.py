@@ -1,4 +1,4 @@
-"""pytest plugin of the testing kit: the ``glove_sim`` fixture.
+"""pytest plugin of the testing kit: the ``glove_sim`` and ``emulated_glove`` fixtures.
 
 Registered through the ``pytest11`` entry point of ``exodigit_nodes``, so installing the package
 is enough. Each test that asks for ``glove_sim`` gets its own simulated glove (a plant in
@@ -13,6 +13,11 @@ arguments, given with a marker::
 
 or by indirect parametrization (``@pytest.mark.parametrize('glove_sim', [{...}],
 indirect=True)``). Node logs go to the test's ``tmp_path``.
+
+The ``emulated_glove`` fixture is the glove on an emulated board behind the ``hardware`` bridge
+(:class:`~exodigit_nodes.testing.EmulatedGlove`, on the wall clock), for a controller's test
+without a board; its options with ``@pytest.mark.emulated_glove(emulator=['--latency',
+'0.01'], bridge={'max_pressure': 50e3})``.
 """
 
 from __future__ import annotations
@@ -27,6 +32,21 @@ def pytest_configure(config: pytest.Config) -> None:
         'glove_sim(**options): options of the glove_sim fixture (the keyword arguments of '
         'exodigit_nodes.testing.GloveSim: params_file, estimator, plant, timeout)',
     )
+    config.addinivalue_line(
+        'markers',
+        'emulated_glove(**options): options of the emulated_glove fixture (the keyword '
+        'arguments of exodigit_nodes.testing.EmulatedGlove: emulator, bridge, timeout)',
+    )
+
+
+def fixture_options(request: pytest.FixtureRequest, name: str, log_dir) -> dict:
+    """A kit fixture's options: its markers' (the closest last), then an indirect parameter."""
+    options = {}
+    for marker in reversed(list(request.node.iter_markers(name))):
+        options.update(marker.kwargs)
+    options.update(getattr(request, 'param', None) or {})
+    options.setdefault('log_dir', log_dir / name)
+    return options
 
 
 @pytest.fixture
@@ -34,10 +54,14 @@ def glove_sim(request: pytest.FixtureRequest, tmp_path):
     """A simulated glove in lockstep simulated time, driven by the test (a ``GloveSim``)."""
     from .client import GloveSim
 
-    options = {}
-    for marker in reversed(list(request.node.iter_markers('glove_sim'))):
-        options.update(marker.kwargs)
-    options.update(getattr(request, 'param', None) or {})
-    options.setdefault('log_dir', tmp_path / 'glove_sim')
-    with GloveSim(**options) as glove:
+    with GloveSim(**fixture_options(request, 'glove_sim', tmp_path)) as glove:
+        yield glove
+
+
+@pytest.fixture
+def emulated_glove(request: pytest.FixtureRequest, tmp_path):
+    """The glove on an emulated board behind the hardware bridge (an ``EmulatedGlove``)."""
+    from .board import EmulatedGlove
+
+    with EmulatedGlove(**fixture_options(request, 'emulated_glove', tmp_path)) as glove:
         yield glove

@@ -5,6 +5,7 @@
   parallel test runs never cross-talk.
 * :func:`ros_environment` is the environment of a ROS child process: that domain, and discovery
   kept on this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``).
+* :class:`KitPlace` is a kit glove's domain, namespace and log folder together.
 * :class:`NodeProcess` starts ``python -m exodigit_nodes.<node> --ros-args ...`` as the runners
   start theirs (:class:`..runner.supervisor.Child`: own session, output to log files, SIGINT then
   SIGTERM then SIGKILL to stop, SIGINT if the process that started it dies).
@@ -16,6 +17,7 @@ import itertools
 import os
 import random
 import sys
+import tempfile
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -27,6 +29,8 @@ from ..logic.ros_env import ros_args
 from ..nodes.dds import with_profile
 from ..runner.supervisor import STOP_GRACE, Child
 
+_NAMESPACES = itertools.count(1)
+"""Numbers of the fresh namespaces of this process's kit gloves."""
 DOMAIN_IDS = tuple(i for i in range(1, 101) if i != 37)
 """Domain ids the kit and the tests may use (37 is the Makefile's ``make run`` domain)."""
 STOP_TIMEOUT = 2.0
@@ -77,6 +81,65 @@ def ros_environment(domain_id: int) -> dict[str, str]:
     env.pop('ROS_LOCALHOST_ONLY', None)
     env['PYTHONUNBUFFERED'] = '1'
     return with_profile(env)
+
+
+class KitPlace:
+    """Where a kit's glove lives: a ROS domain, an absolute namespace, a folder for its logs.
+
+    Parameters
+    ----------
+    prefix : str
+        Stem of a fresh namespace (``/<prefix>_<pid>_<n>``) and of a temporary folder.
+    namespace : str, optional
+        Absolute namespace; a fresh one when omitted.
+    domain_id : int, optional
+        ROS_DOMAIN_ID; a free one is claimed (:func:`claim_domain`) and held until
+        :meth:`close` when omitted.
+    log_dir : str or Path, optional
+        Where the processes' output goes; a temporary folder, removed at :meth:`close`, when
+        omitted.
+
+    Attributes
+    ----------
+    namespace : str
+    domain_id : int
+    env : dict
+        The environment for a process of the glove's, or a controller of yours
+        (:func:`ros_environment`: the domain, loopback-only discovery).
+    log_dir : Path
+    """
+
+    def __init__(
+        self,
+        prefix: str,
+        namespace: str | None = None,
+        domain_id: int | None = None,
+        log_dir: str | os.PathLike | None = None,
+    ) -> None:
+        self.namespace = namespace or f'/{prefix}_{os.getpid()}_{next(_NAMESPACES)}'
+        if not self.namespace.startswith('/'):
+            raise ValueError(f'namespace {self.namespace!r} must be absolute (start with /)')
+        self._lease: DomainLease | None = None
+        if domain_id is None:
+            self._lease = claim_domain()
+            domain_id = self._lease.domain_id
+        self.domain_id = domain_id
+        self.env = ros_environment(domain_id)
+        self._temporary = None
+        if log_dir is None:
+            self._temporary = tempfile.TemporaryDirectory(prefix=f'{prefix}_')
+            log_dir = self._temporary.name
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+
+    def close(self) -> None:
+        """Release the domain and remove a temporary log folder (idempotent)."""
+        if self._lease is not None:
+            self._lease.release()
+            self._lease = None
+        if self._temporary is not None:
+            self._temporary.cleanup()
+            self._temporary = None
 
 
 # -- node processes ------------------------------------------------------------------------
