@@ -166,7 +166,7 @@ class RayEngine:
         Raises
         ------
         ShardError
-            For the first shard found failed (the others are cancelled).
+            For the first shard found failed (the others are cancelled, their workers ended).
         """
         ray = self._ray
         bounds = shard_bounds(spec)
@@ -198,8 +198,12 @@ class RayEngine:
                 on_done(index, results[position])
                 submit()
         finally:
+            # force: a running task's worker process is ended, not interrupted. Ray interrupts a
+            # task with KeyboardInterrupt, which can land inside numba's registry loader while
+            # the worker loads its first kernel; that worker then failed every later task
+            # ("generator raised StopIteration", seen once in a full suite run).
             for reference in pending:
-                ray.cancel(reference)
+                ray.cancel(reference, force=True)
         return results
 
     def close(self) -> None:
