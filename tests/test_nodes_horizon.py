@@ -1,10 +1,9 @@
 """How far a runner lets a simulated plant run ahead (exodigit_nodes.runner.horizon), without DDS.
 
 The plant's parameter services are stand-ins that answer when the test says so; what is checked
-is the rule of the module: ``run_until`` stays at most its lead (LEAD_STEPS for the project's
-publishers, FOREIGN_LEAD_STEPS in the testing kit) past the newest step received, is raised
-every RAISE_STEPS (or FOREIGN_RAISE_STEPS), never passes the end of the run, and a request
-whose answer was lost is sent again.
+is the rule of the module: ``run_until`` stays at most LEAD_STEPS past the newest step received,
+is raised every RAISE_STEPS, never passes the end of the run, and a request whose answer was
+lost is sent again.
 """
 
 import itertools
@@ -13,13 +12,7 @@ import pytest
 from exodigit_nodes.nodes import repeated_call
 from exodigit_nodes.nodes.qos import RECORD_QOS, STREAM_QOS
 from exodigit_nodes.nodes.repeated_call import RepeatedCall
-from exodigit_nodes.runner.horizon import (
-    FOREIGN_LEAD_STEPS,
-    FOREIGN_RAISE_STEPS,
-    LEAD_STEPS,
-    RAISE_STEPS,
-    Horizon,
-)
+from exodigit_nodes.runner.horizon import LEAD_STEPS, RAISE_STEPS, Horizon
 from rcl_interfaces.msg import ParameterValue
 from rclpy.task import Future
 
@@ -114,22 +107,15 @@ def test_the_lead_is_shorter_than_what_each_publisher_and_each_recording_reader_
     assert STREAM_QOS.depth >= LEAD_STEPS + 1
     assert RECORD_QOS.depth >= LEAD_STEPS + 1
     assert 0 < RAISE_STEPS < LEAD_STEPS
-    # a user's controller in the testing kit may publish with rclpy's usual depth of 10
-    assert FOREIGN_LEAD_STEPS + 1 <= 10
-    assert 0 < FOREIGN_RAISE_STEPS < FOREIGN_LEAD_STEPS
 
 
-@pytest.mark.parametrize(
-    ('lead', 'raise_every'),
-    [(LEAD_STEPS, RAISE_STEPS), (FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS)],
-    ids=['project', 'foreign'],
-)
 @pytest.mark.parametrize('ends', [False, True], ids=['open', 'end'])
-def test_the_limit_follows_the_steps_received_and_stops_at_the_end(ends, lead, raise_every):
+def test_the_limit_follows_the_steps_received_and_stops_at_the_end(ends):
+    lead, raise_every = LEAD_STEPS, RAISE_STEPS
     end_steps = 2.5 * lead if ends else 0
     end = end_steps * PERIOD
     node = StandInNode()
-    hold = Horizon(node, '/glove/plant', period=PERIOD, lead=lead, raise_every=raise_every)
+    hold = Horizon(node, '/glove/plant', period=PERIOD)
     hold.start(end)
     wait_ready(hold)
     setter = node.clients['set_parameters']

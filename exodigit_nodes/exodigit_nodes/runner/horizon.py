@@ -14,9 +14,9 @@ So a runner in simulated time holds the plant with its ``run_until`` parameter
 (:class:`.sim_time.SimulatedTime`): it keeps it at most `LEAD_STEPS` past the newest step that
 every glove of the run has received whole (each of its streams: one held back holds the plant),
 and raises it each time `RAISE_STEPS` more have arrived. A message in flight is then always
-among what its publisher keeps, and nothing is lost. The testing kit also records a user's
-controller, whose publisher may keep only rclpy's usual 10: it holds the plant within
-`FOREIGN_LEAD_STEPS` (before the project's publishers kept 1,000 samples, every hold did).
+among what its publisher keeps, and nothing is lost. The testing kit holds the plant the same
+way: what a user's controller answered, it reads from the plant's ``applied_command``, not from
+the controller's publisher (which may keep only rclpy's usual 10).
 """
 
 from __future__ import annotations
@@ -32,16 +32,11 @@ LEAD_STEPS = 400
 publisher keeps (:data:`.qos.WRITER_DEPTH`; one step in flight beyond them is still kept)."""
 RAISE_STEPS = 100
 """Steps received between two raises of ``run_until``."""
-FOREIGN_LEAD_STEPS = 8
-"""The lead when a stream held comes from a node outside the project (the testing kit records a
-user's controller): its publisher may keep only rclpy's usual 10 samples."""
-FOREIGN_RAISE_STEPS = 4
-"""Steps received between two raises with :data:`FOREIGN_LEAD_STEPS`."""
 RUN_UNTIL = 'run_until'
 
 
 class Horizon:
-    """The ``run_until`` of one plant, kept ``lead`` steps ahead of the steps received.
+    """The ``run_until`` of one plant, kept `LEAD_STEPS` ahead of the steps received.
 
     Parameters
     ----------
@@ -52,24 +47,9 @@ class Horizon:
         plant: they share one time).
     period : float, optional
         Simulated seconds per step; None: ask the plant its ``rate_hz``.
-    lead, raise_every : int
-        Most steps past the newest one received, and steps received between two raises:
-        `LEAD_STEPS` and `RAISE_STEPS` for the project's publishers, `FOREIGN_LEAD_STEPS` and
-        `FOREIGN_RAISE_STEPS` when one comes from elsewhere.
     """
 
-    def __init__(
-        self,
-        node: Node,
-        plant: str,
-        *,
-        period: float | None = None,
-        lead: int = LEAD_STEPS,
-        raise_every: int = RAISE_STEPS,
-    ) -> None:
-        if not 0 < raise_every < lead:
-            raise ValueError(f'raise_every = {raise_every}: must be in 1 .. lead - 1 = {lead - 1}')
-        self.lead, self.raise_every = lead, raise_every
+    def __init__(self, node: Node, plant: str, *, period: float | None = None) -> None:
         self._get = None  # asks the rate only if it is not given
         if period is None:
             self._get = node.create_client(GetParameters, f'{plant}/get_parameters')
@@ -121,7 +101,7 @@ class Horizon:
         self._pending = None
         if self._end and self.limit >= self._end:
             return
-        if received + (self.lead - self.raise_every + 0.5) * self.period >= self.limit:
+        if received + (LEAD_STEPS - RAISE_STEPS + 0.5) * self.period >= self.limit:
             self._raise(received)
 
     def release(self) -> RepeatedCall:
@@ -137,6 +117,6 @@ class Horizon:
         return RepeatedCall(self._set, set_double_request(RUN_UNTIL, 0.0))
 
     def _raise(self, received: float) -> None:
-        limit = received + self.lead * self.period
+        limit = received + LEAD_STEPS * self.period
         self.limit = min(limit, self._end) if self._end else limit
         self._pending = RepeatedCall(self._set, set_double_request(RUN_UNTIL, self.limit))

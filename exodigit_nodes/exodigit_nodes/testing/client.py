@@ -314,7 +314,7 @@ class GloveSim(PlantDriver):
         first run after :meth:`reset` or :meth:`step` starts with a fresh state (one step with
         the latest command) so that a node started since sees a state to answer; later runs go
         on exactly where the last one stopped. Start your node after ``reset()``. The plant
-        runs at most 8 steps ahead of the states this client has received (its ``run_until``,
+        runs at most 400 steps ahead of the states this client has received (its ``run_until``,
         :mod:`exodigit_nodes.runner.horizon`), so no state is lost on a loaded machine.
 
         Returns

@@ -42,7 +42,7 @@ from ..nodes.messages import (
     valve_command_message,
 )
 from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, STREAM_QOS, record_profile
-from ..runner.horizon import FOREIGN_LEAD_STEPS, FOREIGN_RAISE_STEPS, Horizon
+from ..runner.horizon import Horizon
 from .records import SimState
 
 
@@ -116,15 +116,8 @@ class GloveClient(Node):
         self.step_client = self.create_client(Trigger, STEP)
         self.pause_client = self.create_client(SetBool, SET_PAUSED)
         self.parameter_client = self.create_client(SetParameters, f'{plant}/set_parameters')
-        # the answers come from the user's controller, whose publisher may keep only 10
-        self.horizon = Horizon(
-            self,
-            plant,
-            period=1.0 / rate_hz,
-            lead=FOREIGN_LEAD_STEPS,
-            raise_every=FOREIGN_RAISE_STEPS,
-        )
-        """Holds the plant a few steps ahead of the states received in a :meth:`run`."""
+        self.horizon = Horizon(self, plant, period=1.0 / rate_hz)
+        """Holds the plant at most `LEAD_STEPS` ahead of the states received in a :meth:`run`."""
         # The session protocol (nodes/handshake.py), after every reader of ours: the glove's
         # nodes have matched our readers once they have answered, and the estimator says on its
         # ~/ready when the plant has matched its own.
