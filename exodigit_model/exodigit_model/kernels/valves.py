@@ -75,10 +75,10 @@ from .jit import kernel
 SUBSTEP_TIME = 0.04
 """T_sub, s: a (split) step of a glove stepped at Δt takes at least n = round(T_sub/Δt) ROS2
 sub-steps (:func:`air_steps`), h ≤ Δt²/T_sub: four at 100 Hz."""
-SPLIT_RATE = 1.5e6
+SPLIT_RATE = 3e6
 """Ṗ_s, Pa/s: a step splits into m ≥ |Ṗ|/Ṗ_s steps of Δt/m (:func:`air_steps`), |Ṗ| the
 fastest chamber's pressure rate at the step's start: at 100 Hz a split step moves a pressure
-by at most 15 kPa at its starting rate."""
+by at most 30 kPa at its starting rate."""
 SPLIT_BEND = 7.5e3
 """ω_s, √Pa/s: a step also splits into m ≥ √(|J·Ṗ|)/ω_s (:func:`air_steps`), J = ∂ṁ/∂m: at
 100 Hz the pressure's path bends away from a straight line by at most (ω_s·10 ms)² ≈ 5.6 kPa
