@@ -22,12 +22,12 @@ import warnings
 from functools import cache
 
 import pytest
-from exodigit_model.validity import OutsideModelWarning
 from valves_corners import BOX, CORNERS, GLOVES, model, pneumatics, pressure_error
 
 from exodigit_model import (
     GloveModel,
     GloveSimulation,
+    OutsideModelWarning,
     SimulationSettings,
     load_params,
     params_from_dict,
