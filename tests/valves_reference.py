@@ -50,6 +50,8 @@ POSE_TOLERANCE = 1e-12
 """The pose solve stops at a Newton step below this, rad (≈ 3e-8 Pa through (14.2))."""
 POSE_ITERATIONS = 50
 """Newton steps the pose solve may take."""
+PRESSURE_TOLERANCE = 1e-6
+"""The pose solve of :class:`SolvedChambers` stops at a Newton step below this, Pa."""
 COMPLEX_STEP = 1e-30
 """Imaginary step of the complex-step derivatives, rad."""
 GAUSS_POINTS = 32
@@ -300,6 +302,69 @@ class GloveChambers:
     def rest_mass(self):
         """m_rest: the masses at p = 0 (vented; q = 0 for a finger resting at 0), kg."""
         return self.supply.mass_of(np.full(3, ATMOSPHERIC_PRESSURE), self.volumes(np.zeros(3)))
+
+
+class SolvedChambers:
+    """The chambers of any glove, extensible segments too, posed by the model's own statics.
+
+    For gloves :class:`GloveChambers` does not cover (an extensible segment's length is an
+    unknown of (12.4)-(12.5)): ``pose(mass)`` finds the gauge pressures p with
+    p_i = m_i·R·T/V_i(q(p), ℓ(p)) − P_atm, where q(p), ℓ(p) are the equilibrium of
+    ``model.solve(p)`` (the statics, checked against quadrature by the model's own tests) and
+    V_i is (14.1) written here, by Newton's method on p with a difference Jacobian. What this
+    checks of the model is the air: the integration of (14.4) and its coupling to the pose.
+    """
+
+    def __init__(self, model, supply):
+        self.model, self.supply = model, supply
+        segments = model.params.exo_digit.segments
+        dead = np.array([c['dead_volume'] for c in supply.pneumatics['chambers']])
+        self.areas = np.array([cross_section_area(s) for s in segments])
+        self.arcs = np.array([s.arc_length for s in segments])
+        self.dead = dead
+        self.pressure_moments = np.array([region_first_moment(s) for s in segments])
+        self._guess = np.zeros(3)
+        self._last = None
+
+    def volumes(self, q, lengths):
+        """V_i = V_d + A_c·ℓ + (r_p·A_p)·q of (14.1), m³."""
+        return self.dead + self.areas * np.asarray(lengths) + self.pressure_moments * q
+
+    def _posed(self, gauge):
+        """(q, volumes) at the gauge pressures: the statics from the last pose, else from rest."""
+        solution = self.model.solve(gauge, self._last)
+        if solution.status > 1:
+            solution = self.model.solve(gauge, np.zeros(3))
+        if solution.status > 1:
+            raise RuntimeError(f'reference statics at p = {gauge}: {solution.message}')
+        self._last = solution
+        return solution.q, self.volumes(solution.q, solution.lengths)
+
+    def gap(self, gauge, mass):
+        """p − (m·R·T/V(p) − P_atm), Pa: zero at the pose of ``mass``."""
+        volumes = self._posed(gauge)[1]
+        absolute = mass * GAS_CONSTANT * self.supply.temperature / volumes
+        return gauge - (absolute - ATMOSPHERIC_PRESSURE)
+
+    def pose(self, mass):
+        """(absolute pressures, volumes, q) of the glove holding the air masses ``mass``."""
+        gauge = self._guess.copy()
+        for _ in range(POSE_ITERATIONS):
+            jacobian = jacobian_by_differences_of(lambda p: self.gap(p, mass), gauge, step=1.0)
+            step = -np.linalg.solve(jacobian, self.gap(gauge, mass))
+            gauge = gauge + step
+            if np.abs(step).max() < PRESSURE_TOLERANCE:
+                break
+        else:
+            raise RuntimeError(f'reference pose at m = {mass}: no convergence')
+        self._guess = gauge
+        q, volumes = self._posed(gauge)
+        return gauge + ATMOSPHERIC_PRESSURE, volumes, q
+
+    @cached_property
+    def rest_mass(self):
+        """m_rest: the masses vented at the pose of p = 0, kg."""
+        return self.supply.mass_of(np.full(3, ATMOSPHERIC_PRESSURE), self._posed(np.zeros(3))[1])
 
 
 # -- the integration -----------------------------------------------------------------------------

@@ -35,7 +35,7 @@ from .constants import (
 from .jit import kernel
 from .newton import CONVERGED_STEP, newton
 from .solves import in_range_of_motion, stretch_in_range
-from .valves import GAS_ROWS, admit_air, settle_air
+from .valves import GAS_ROWS, GAS_VOLUME, GAS_VOLUME_BEFORE, admit_air, air_steps, settle_air
 from .workspace import workspace
 
 
@@ -121,6 +121,98 @@ def predict(glove, x, q_before, earlier, start):
 def step_into(glove, work, state, new, command, effort, limits, air):
     """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
 
+    Behind valves the step is taken as :func:`.valves.air_steps` says: one :func:`advance` in
+    its sub-steps, or, when a chamber moves faster than the step resolves, several of a share
+    of the step (:func:`split_step`). With regulators one :func:`advance`. Arguments and
+    result those of :func:`advance`.
+    """
+    splits, count = 1, 0
+    if air.shape[0] > 0:
+        splits, count = air_steps(air, state[6], command, 1.0 / limits[2])
+    if splits == 1:
+        return advance(glove, work, state, new, command, effort, limits, air, count, 1)
+    return split_step(glove, work, state, new, command, effort, limits, air, splits, count)
+
+
+@kernel(counted=False)
+def split_step(glove, work, state, new, command, effort, limits, air, splits, count):
+    """A valve step of Δt as ``splits`` steps of Δt/m (:func:`advance`, ``count`` sub-steps).
+
+    The history the first of them predicts from (the angles and volumes of the steps before)
+    is the last step's motion scaled to Δt/m. After them the angles' history is that of one
+    step of Δt (the angles at its start), as an unsplit step leaves, and the volumes' is the
+    last split step's motion m times over (:func:`.valves.settle_air`'s ``scale``): where a
+    chamber settled early in the step, the next one predicts it still. Unless the last of
+    them failed: then the glove is still, as :func:`advance` leaves it. q̇ is over Δt.
+    The outcome: the worst status, the iterations summed, the last residual, the flags of
+    the last for the state and of any for the clipping. The state between them is kept in the
+    workspace's ``split_*`` arrays. Called for the few steps that split, not inlined.
+    """
+    x, q_before, pressure, forces, torque, earlier, gas = state
+    decay, supply, rate, valid_low, valid_high = limits
+    share = 1.0 / splits
+    current_x = work.split_unknowns[: x.size]
+    current_q_before, current_earlier = work.split_angles, work.split_earlier
+    current_gas = work.split_gas
+    for k in range(x.size):
+        current_x[k] = x[k]
+    for k in range(3):
+        moved = (x[k] - q_before[k]) * share
+        current_q_before[k] = x[k] - moved
+        current_earlier[0, k] = x[k] - 2.0 * moved
+        current_earlier[1, k] = x[k] - 3.0 * moved
+        work.split_pressure[k] = pressure[k]
+        work.split_forces[k] = forces[k]
+        work.split_torque[k] = torque[k]
+        for row in range(GAS_ROWS):
+            current_gas[row, k] = gas[row, k]
+        volume = gas[GAS_VOLUME, k]
+        current_gas[GAS_VOLUME_BEFORE, k] = volume - (volume - gas[GAS_VOLUME_BEFORE, k]) * share
+    current = (
+        current_x,
+        current_q_before,
+        work.split_pressure,
+        work.split_forces,
+        work.split_torque,
+        current_earlier,
+        current_gas,
+    )
+    inner = (decay, supply, rate * splits, valid_low, valid_high)
+    worst, iterations, below, above = 0, 0, False, False
+    outcome = (0, 0, 0.0, True, True, False, False)
+    for split in range(splits):
+        scale = splits if split == splits - 1 else 1
+        outcome = advance(glove, work, current, new, command, effort, inner, air, count, scale)
+        worst = max(worst, outcome[0])
+        iterations += outcome[1]
+        below = below or outcome[5]
+        above = above or outcome[6]
+        new_x, new_q_before, new_pressure, new_forces, new_torque = new[:5]
+        for k in range(x.size):
+            current_x[k] = new_x[k]
+        for k in range(3):
+            current_q_before[k] = new_q_before[k]
+            current[2][k] = new_pressure[k]
+            current[3][k] = new_forces[k]
+            current[4][k] = new_torque[k]
+            current_earlier[0, k] = new[7][0, k]
+            current_earlier[1, k] = new[7][1, k]
+            for row in range(GAS_ROWS):
+                current_gas[row, k] = new[8][row, k]
+    if outcome[0] <= CONVERGED_STEP:
+        for k in range(3):
+            new[1][k] = x[k]
+            new[7][0, k] = q_before[k]
+            new[7][1, k] = earlier[0, k]
+    for k in range(3):
+        new[6][k] = (new[0][k] - x[k]) * rate
+    return worst, iterations, outcome[2], outcome[3], outcome[4], below, above
+
+
+@kernel(counted=False, forceinline=True)
+def advance(glove, work, state, new, command, effort, limits, air, count, scale):
+    """One glove one step on, from ``state`` into the arrays of ``new`` (no allocation).
+
     Parameters
     ----------
     glove : GloveConstants
@@ -145,6 +237,11 @@ def step_into(glove, work, state, new, command, effort, limits, air):
         (12.1), low and high.
     air : ndarray
         The chambers' pneumatic constants, (3, AIR_COLUMNS) behind valves, else (0, 3).
+    count : int
+        Behind valves, the ROS2 sub-steps of the air (:func:`.valves.air_steps`).
+    scale : int
+        Behind valves, how many times this step's volume motion the next step predicts
+        (:func:`.valves.settle_air`): 1, or m for the last of m split steps.
 
     Returns
     -------
@@ -159,7 +256,7 @@ def step_into(glove, work, state, new, command, effort, limits, air):
     decay, supply, rate, valid_low, valid_high = limits
     valves = air.shape[0] > 0
     if valves:
-        below, above = admit_air(work, air, gas, new_gas, command, applied, 1.0 / rate)
+        below, above = admit_air(work, air, gas, new_gas, command, applied, 1.0 / rate, count)
     else:
         for k in range(3):
             applied[k] = command[k]
@@ -194,7 +291,7 @@ def step_into(glove, work, state, new, command, effort, limits, air):
             new_forces[k] = forces[k]
             new_torque[k] = torque[k]
     if valves:
-        settle_air(work, air, gas, new_gas, new_x, new_pressure, failed)
+        settle_air(work, air, gas, new_gas, new_x, new_pressure, failed, scale, applied)
     for k in range(3):
         new_earlier[0, k] = x[k] if failed else q_before[k]
         new_earlier[1, k] = x[k] if failed else earlier[0, k]

@@ -19,12 +19,15 @@ with ψ = 1 (r ≤ b, choked), √(1 − ((r − b)/(1 − b))²) (b < r ≤ 0.9
 A step of Δt from the masses m_k and volumes V_k, V_{k−1} under openings held over it:
 
 1. Mass balance (:func:`admit_air`, :func:`integrate_air`). Each chamber's volume is taken
-   affine in time from V_k to a prediction V̂ = 2V_k − V_{k−1} of its end value (the line
-   through the last two steps' volumes). Along that path the chambers are independent scalar
-   ODEs ṁ = F(t, m), integrated by n = max(1, round(T_sub/Δt)) equal sub-steps
-   h = Δt/n ≈ Δt²/T_sub (T_sub = ``SUBSTEP_TIME`` = 0.04 s: four at 100 Hz, eight at 200 Hz)
-   of ROS2, the two-stage Rosenbrock W-method of Verwer, Spee, Blom and Hundsdorfer (SIAM J.
-   Sci. Comput. 20, 1999):
+   affine in time from V_k to a prediction V̂ of its end value: the line through the last two
+   steps' volumes, 2V_k − V_{k−1}, its motion shortened where the last step brought the
+   pressure within that motion's reach of where it can go no further (the supply, the
+   atmosphere, or where the valves' flows balance; :func:`settle_air`). Along that path the
+   chambers are independent scalar ODEs ṁ = F(t, m), integrated by n equal sub-steps h
+   (:func:`air_steps`: at least round(T_sub/Δt), T_sub = ``SUBSTEP_TIME`` = 0.04 s, so
+   h ≤ Δt²/T_sub: four at 100 Hz; more for a chamber whose pressure moves fast) of ROS2, the
+   two-stage Rosenbrock W-method of Verwer, Spee, Blom and Hundsdorfer (SIAM J. Sci. Comput.
+   20, 1999):
 
    .. math:: (1 - \gamma h J)\,k_1 = F(t_n, m_n), \quad
              (1 - \gamma h J)\,k_2 = F(t_n + h, m_n + h k_1) - 2k_1, \quad
@@ -45,15 +48,19 @@ A step of Δt from the masses m_k and volumes V_k, V_{k−1} under openings held
 3. The masses m(x), volumes V(x) and pressures of the solved x are the new state
    (:func:`settle_air`).
 
+A step in which a chamber fills, vents or settles fast is taken as m shorter steps, each with
+its own statics (:func:`air_steps`, :func:`.stepping.split_step`): the chord between volumes
+cannot follow a pressure that reaches the supply early in the step.
+
 Order. The mass balance sees the volume along the chord from V_k to V(x_{k+1}) up to the
 linearisation's O((V(x) − V̂)²) = O(Δt⁴), and the chord is O(Δt²) from the true path, so a
-step adds O(Δt³) to the masses: the scheme is second order in Δt. The sub-steps add O(h²) =
-O(Δt⁴) globally, with h ∝ Δt²: without that rule (n fixed) the sub-step error dominates at
-100-400 Hz, where the root of ψ near r = 1 (ψ'' large just below r = 0.999) keeps ROS2 short of
-its asymptotic order (measured 1.6-1.8). Measured against the DAE reference of
-tests/valves_reference.py (tests/test_model_valves_convergence.py, default glove, 100/200/400
-Hz): largest pressure errors 345/44/7.8 Pa (fill, hold, vent), orders 2.97 and 2.50, falling
-toward two; with the volume predicted but not linearised (S = 0) 806 Pa at 100 Hz.
+step adds O(Δt³) to the masses: the scheme is second order in Δt. The sub-steps add O(h²)
+globally, h ≤ Δt²/T_sub, or h ∝ Δt where a pressure's rate sets their number: O(Δt²) either
+way. The splits and the rate bound of the sub-steps do not depend on Δt, so they shrink with
+it. Measured against the DAE reference of tests/valves_reference.py
+(tests/test_model_valves_convergence.py, default glove, 10 ms openings, 100/200/400 Hz):
+largest pressure errors 80/23/4.8 Pa (fill, hold, vent), orders 1.79 and 2.27; over the box of
+docs/valves.md at most 0.38 kPa at 50 Hz (tests/test_model_valves_corners.py).
 """
 
 from __future__ import annotations
@@ -66,8 +73,27 @@ from .flow_regions import LAMINAR_RATIO
 from .jit import kernel
 
 SUBSTEP_TIME = 0.04
-"""T_sub, s: a step of Δt integrates the mass balance in n = max(1, round(T_sub/Δt)) ROS2
-sub-steps (:func:`substeps`), so the sub-steps are h ≈ Δt²/T_sub long: four at 100 Hz."""
+"""T_sub, s: a (split) step of a glove stepped at Δt takes at least n = round(T_sub/Δt) ROS2
+sub-steps (:func:`air_steps`), h ≤ Δt²/T_sub: four at 100 Hz."""
+SPLIT_RATE = 3e6
+"""Ṗ_s, Pa/s: a step splits into m ≥ |Ṗ|/Ṗ_s steps of Δt/m (:func:`air_steps`), |Ṗ| the
+fastest chamber's pressure rate at the step's start: at 100 Hz a split step moves a pressure
+by at most 30 kPa at its starting rate."""
+SPLIT_BEND = 7.5e3
+"""ω_s, √Pa/s: a step also splits into m ≥ √(|J·Ṗ|)/ω_s (:func:`air_steps`), J = ∂ṁ/∂m: at
+100 Hz the pressure's path bends away from a straight line by at most (ω_s·10 ms)² ≈ 5.6 kPa
+within a split step (P̈ ≈ J·Ṗ)."""
+SETTLED = 1e3
+"""D_min, Pa: a chamber whose pressure lies within this of where its flows balance (by one
+Newton step, D = |Ṗ/J|) does not split a step for its bend: however sharply it settles, its
+path departs from a line by less than D."""
+SUBSTEP_RATE = 1.0e5
+"""Ṗ_h, Pa/s: the m split steps take together at least |Ṗ|/Ṗ_h sub-steps (:func:`air_steps`):
+at 100 Hz a sub-step moves a pressure by at most 1 kPa at its starting rate."""
+MOST_SPLITS = 64
+"""m at most, and 4·:data:`MOST_SPLITS` sub-steps per split at most: the rule's rates are those
+of the documented box (docs/valves.md, "Where the bound holds"); far outside it (a valve ten
+times larger) they would grow without end, and such parameters are warned about anyway."""
 ROS2_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
 """γ of ROS2 (L-stable)."""
 
@@ -89,7 +115,7 @@ AIR_COLUMNS = 12
 # Rows of a glove's air state (``gas``, one column per chamber).
 GAS_MASS = 0  # m, kg
 GAS_VOLUME = 1  # V at the state, m³
-GAS_VOLUME_BEFORE = 2  # V one step before, m³
+GAS_VOLUME_BEFORE = 2  # V one step before, its motion shortened (settle_air), m³
 GAS_ROWS = 3
 
 
@@ -162,24 +188,61 @@ def air_rate(row, mass, gas_per_volume, inlet, outlet):
 
 
 @kernel(counted=False, forceinline=True)
-def substeps(period):
-    """The ROS2 sub-steps of a step of ``period`` s (:data:`SUBSTEP_TIME`)."""
-    return max(1, round(SUBSTEP_TIME / period))
+def air_steps(air, gas, openings, period):
+    """How a step of ``period`` s under ``openings`` (6,) is taken: (splits m, sub-steps n).
+
+    Each chamber's own time scales set it, from its pressure rate Ṗ = ṁ·R·T/V and the mass
+    balance's slope J = ∂ṁ/∂m (14.4) at the step's start (volume held; :func:`air_rate`):
+
+    - m = max(1, ⌈|Ṗ|/Ṗ_s⌉, ⌈√(|J·Ṗ|)/ω_s⌉) over the chambers (:data:`SPLIT_RATE`,
+      :data:`SPLIT_BEND`; the second only for a chamber further than :data:`SETTLED` from
+      where its flows balance, |Ṗ/J|): the step is taken as m steps of Δt/m, each with its
+      own statics. A step integrates the air along a straight line between volumes, and the
+      volume follows the pressure through the pose, so its error is set by how far the
+      pressure moves within it (|Ṗ|·Δt) and how far its path bends away from a line
+      (|P̈|·Δt², P̈ ≈ J·Ṗ): a chamber that fills or vents within the step, or settles toward
+      where its valves' flows balance, moves the volume along a path no chord follows.
+    - n = max(1, round(T_sub/Δt), ⌈max|Ṗ|/(m·Ṗ_h)⌉) ROS2 sub-steps per split step
+      (:data:`SUBSTEP_TIME`, :data:`SUBSTEP_RATE`): h ≤ Δt²/T_sub, and no sub-step moves a
+      pressure by more than Ṗ_h·Δt at its starting rate.
+
+    m and the rate bound of n do not depend on Δt: the split steps and sub-steps shrink with
+    the step, and the error falls with the scheme's order. A chamber at rest or at the
+    pressure its valves hold (Ṗ = 0) takes one step of round(T_sub/Δt) sub-steps, the scheme
+    of issue 26. Both are capped (:data:`MOST_SPLITS`).
+    """
+    splits, fastest = 1, 0.0
+    for k in range(3):
+        volume = gas[GAS_VOLUME, k]
+        if volume <= 0.0:
+            continue
+        inlet = min(max(openings[k], 0.0), 1.0)
+        outlet = min(max(openings[3 + k], 0.0), 1.0)
+        gas_per_volume = air[k, AIR_GAS] / volume
+        rate, slope = air_rate(air[k], gas[GAS_MASS, k], gas_per_volume, inlet, outlet)
+        speed = abs(rate) * gas_per_volume
+        splits = max(splits, math.ceil(speed / SPLIT_RATE))
+        if speed > SETTLED * abs(slope):
+            splits = max(splits, math.ceil(math.sqrt(speed * abs(slope)) / SPLIT_BEND))
+        fastest = max(fastest, speed)
+    splits = min(splits, MOST_SPLITS)
+    count = max(1, round(SUBSTEP_TIME / period), math.ceil(fastest / (splits * SUBSTEP_RATE)))
+    return splits, min(count, 4 * MOST_SPLITS)
 
 
 @kernel(counted=False)
-def integrate_air(air, masses, start, end, openings, period, scratch, slopes):
+def integrate_air(air, masses, start, end, openings, period, count, scratch, slopes):
     """The chambers' air masses (3,), kg, over a step of ``period`` s, in place (ROS2, above).
 
     Chamber k's volume goes from ``start[k]`` to ``end[k]`` (m³) affinely in time under the
-    ``openings`` (6,) held over the step; ``scratch`` (5, 3) is work space. Into ``slopes``
+    ``openings`` (6,) held over the step, in ``count`` ROS2 sub-steps (:func:`air_steps`);
+    ``scratch`` (5, 3) is work space. Into ``slopes``
     (3,), kg/m³: ∂m/∂V̂, how each new mass moves with the end volume V̂ (the sub-steps
     differentiated with each sub-step's J held, as the W-method allows). The three chambers
     advance together, stage by stage: their chains of divisions and roots are independent, and
     so overlap in the processor. Called, not inlined (:func:`.jit.kernel`): compiled once
     instead of once more in every stepping kernel, for a call of a few tens of ns per step.
     """
-    count = substeps(period)
     h = period / count
     first, shrink, moved, held, inverse = scratch
     for k in range(3):
@@ -233,11 +296,15 @@ def admit(openings, applied):
 def advance_masses(air, masses, start, end, openings, period):
     """:func:`integrate_air` from Python: the chambers' (rows of ``air``) new masses.
 
+    In round(T_sub/Δt) sub-steps (:data:`SUBSTEP_TIME`), whatever the chambers.
+
     ``masses``, ``start`` and ``end`` (3,): kg, m³, m³; ``openings`` (6,): u_in, then u_out
     (MCP, PIP, DIP), each within [0, 1]; ``period``: s.
     """
     result = masses.copy()
-    integrate_air(air, result, start, end, openings, period, np.empty((5, 3)), np.empty(3))
+    count = max(1, round(SUBSTEP_TIME / period))
+    scratch, slopes = np.empty((5, 3)), np.empty(3)
+    integrate_air(air, result, start, end, openings, period, count, scratch, slopes)
     return result
 
 
@@ -284,12 +351,13 @@ def gas_pressures(air, masses, slopes, predicted, x, gauge, spring):
 
 
 @kernel(counted=False, forceinline=True)
-def admit_air(work, air, gas, new_gas, openings, applied, period):
+def admit_air(work, air, gas, new_gas, openings, applied, period, count):
     """The first half of a valve step: openings clipped, masses integrated over the step.
 
     ``openings`` (6,) are clipped to [0, 1] into ``applied``; each chamber's mass goes from
     ``gas`` to ``new_gas`` (rows ``GAS_*``) by :func:`integrate_air` along the volume's path
-    from its value to 2V_k − V_{k−1} (its value where that is not positive), and with the
+    from its value to 2V_k − V_{k−1} (its value where that is not positive) in ``count``
+    sub-steps, and with the
     constants ``air`` into ``work`` for the statics' gas law. Returns whether an opening was
     below zero and whether one was above one.
     """
@@ -304,18 +372,46 @@ def admit_air(work, air, gas, new_gas, openings, applied, period):
         for column in range(AIR_COLUMNS):
             work.air[k, column] = air[k, column]
     scratch, slopes = work.air_scratch, work.mass_slopes
-    integrate_air(air, masses, gas[GAS_VOLUME], predicted, applied, period, scratch, slopes)
+    volume = gas[GAS_VOLUME]
+    integrate_air(air, masses, volume, predicted, applied, period, count, scratch, slopes)
     return below, above
 
 
 @kernel(counted=False, forceinline=True)
-def settle_air(work, air, gas, new_gas, x, pressure, still):
+def room_ahead(row, mass, volume, moved, inlet, outlet):
+    """How far (Pa) a chamber's pressure, which just moved by ``moved``, can go on that way.
+
+    To the supply (rising) or the atmosphere (falling), and no further than where the flows of
+    (14.4) under the openings ``inlet``, ``outlet`` balance, by one Newton step from the mass
+    ``mass`` (kg) in ``volume`` (m³): |ṁ/J|·R·T/V. Zero when the flows drive it back; infinite
+    when it did not move or no flow depends on its pressure (valves closed, no leak).
+    """
+    gas_per_volume = row[AIR_GAS] / volume
+    rate, slope = air_rate(row, mass, gas_per_volume, inlet, outlet)
+    if moved == 0.0 or slope >= 0.0:
+        return math.inf
+    if rate * moved <= 0.0:
+        return 0.0
+    absolute = mass * gas_per_volume
+    edge = row[AIR_SUPPLY] - absolute if moved > 0.0 else absolute - row[AIR_ATMOSPHERE]
+    return max(min(edge, abs(rate / slope) * gas_per_volume), 0.0)
+
+
+@kernel(counted=False, forceinline=True)
+def settle_air(work, air, gas, new_gas, x, pressure, still, scale, applied):
     """The second half of a valve step: masses, volumes and gauge pressures at the solved ``x``.
 
     Into ``new_gas`` the masses at the volumes of ``x`` (:func:`end_mass`, from what
-    :func:`admit_air` left in ``work``), those volumes and the ones before them (``gas``'s, or
-    the same where the glove is ``still``: its solve failed), into ``pressure`` the gauge
-    pressures of the gas law (Pa), as the statics had them.
+    :func:`admit_air` left in ``work``) and those volumes; into ``pressure`` the gauge
+    pressures of the gas law (Pa), as the statics had them. The row ``GAS_VOLUME_BEFORE``,
+    which the next step extrapolates from (its prediction 2V − V_before), gets V − s·ΔV: the
+    step's volume motion ΔV, ``scale`` times over (the split steps of :func:`.stepping.
+    split_step` hand a whole step this many times as long to the next), and shortened,
+    s = room/|ΔP|, where the pressure moved by ΔP but can go only ``room`` further the same
+    way: to the supply or the atmosphere, or to where the flows under ``applied`` (6,) balance
+    (one Newton step, |ṁ/J|·R·T/V), nowhere if they now drive it back. A chamber that filled
+    within the step is not predicted to swell on as far again. The volumes stay where the
+    glove is ``still`` (its solve failed).
     """
     masses, slopes, predicted = work.masses, work.mass_slopes, work.predicted
     for k in range(3):
@@ -324,5 +420,9 @@ def settle_air(work, air, gas, new_gas, x, pressure, still):
         new_gas[GAS_MASS, k] = mass
         absolute = absolute_pressure(air[k], mass, volume)
         pressure[k] = absolute - air[k, AIR_ATMOSPHERE]
-        new_gas[GAS_VOLUME_BEFORE, k] = volume if still else gas[GAS_VOLUME, k]
+        before = gas[GAS_VOLUME, k]
+        moved = absolute - absolute_pressure(air[k], gas[GAS_MASS, k], before)
+        room = room_ahead(air[k], mass, volume, moved, applied[k], applied[3 + k])
+        share = scale if scale * abs(moved) <= room else room / abs(moved)
+        new_gas[GAS_VOLUME_BEFORE, k] = volume if still else volume - (volume - before) * share
         new_gas[GAS_VOLUME, k] = volume

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .jit import kernel
-from .valves import AIR_COLUMNS
+from .valves import AIR_COLUMNS, GAS_ROWS
 
 MAX_UNKNOWNS = 6
 """Unknowns of the largest solve: q and ε of the extensible glove."""
@@ -42,7 +42,10 @@ class Workspace(NamedTuple):
     ``gauge`` (3), the pressures of the last residual, Pa, and ``spring`` (3), their slopes
     ∂p/∂V, Pa/m³ (:func:`.statics.residual_of`); ``air_scratch`` (5, 3), the integration's,
     ``predicted`` (3), the volumes V̂ it integrated toward, m³, and ``mass_slopes`` (3),
-    ∂m/∂V̂, kg/m³ (:func:`.valves.admit_air`).
+    ∂m/∂V̂, kg/m³ (:func:`.valves.admit_air`). A valve step split in several
+    (:func:`.stepping.split_step`) keeps the state between them in ``split_unknowns``
+    (MAX_UNKNOWNS), ``split_angles`` (3), ``split_pressure`` (3), ``split_forces`` (3),
+    ``split_torque`` (3), ``split_earlier`` (2, 3) and ``split_gas`` (GAS_ROWS, 3).
     """
 
     j_robot: np.ndarray
@@ -81,6 +84,13 @@ class Workspace(NamedTuple):
     air_scratch: np.ndarray
     predicted: np.ndarray
     mass_slopes: np.ndarray
+    split_unknowns: np.ndarray
+    split_angles: np.ndarray
+    split_pressure: np.ndarray
+    split_forces: np.ndarray
+    split_torque: np.ndarray
+    split_earlier: np.ndarray
+    split_gas: np.ndarray
     half_turn: np.ndarray
     chord: np.ndarray
     chord_slope: np.ndarray
@@ -95,6 +105,7 @@ _SQUARE = MAX_UNKNOWNS * MAX_UNKNOWNS
 _REAL = (
     *(9, 27, 9, 27, 27, 9, 27, *(3,) * 12, 6, _SQUARE, 6, 6, _SQUARE, 6, _SQUARE, 3, 3, 9),
     *(3 * AIR_COLUMNS, 3, 3, 3, 15, 3, 3),
+    *(MAX_UNKNOWNS, 3, 3, 3, 3, 6, 3 * GAS_ROWS),
 )
 """Sizes of the real fields, in order."""
 _REAL_ENDS = tuple(int(end) for end in np.cumsum(_REAL))
@@ -147,6 +158,13 @@ def workspace():
         r[e[32] : e[33]].reshape((5, 3)),
         r[e[33] : e[34]],
         r[e[34] : e[35]],
+        r[e[35] : e[36]],
+        r[e[36] : e[37]],
+        r[e[37] : e[38]],
+        r[e[38] : e[39]],
+        r[e[39] : e[40]],
+        r[e[40] : e[41]].reshape((2, 3)),
+        r[e[41] : e[42]].reshape((GAS_ROWS, 3)),
         c[0 : z[0]],
         c[z[0] : z[1]],
         c[z[1] : z[2]],

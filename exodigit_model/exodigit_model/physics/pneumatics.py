@@ -13,6 +13,7 @@ functions these wrap. The ``pneumatics`` section of a parameter file
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -29,6 +30,7 @@ from ..checks import (
     set_field,
 )
 from ..kernels.flow_regions import LAMINAR_RATIO
+from .validity import OutsideModelWarning
 
 if TYPE_CHECKING:
     from .model import GloveModel
@@ -42,6 +44,20 @@ REFERENCE_DENSITY = 1.185
 """ρ0 of ISO 6358 (ANR), kg/m³."""
 REFERENCE_TEMPERATURE = 293.15
 """T0 of ISO 6358, K."""
+VALIDATED_AIR = {
+    'inlet_conductance': (1e-10, 2e-9, 'm^3/(s Pa)'),
+    'outlet_conductance': (1e-10, 2e-9, 'm^3/(s Pa)'),
+    'inlet_critical_ratio': (0.05, 0.6, ''),
+    'outlet_critical_ratio': (0.05, 0.6, ''),
+    'dead_volume': (1e-7, 5e-6, 'm^3'),
+    'leak_conductance': (0.0, 1e-11, 'kg/(s Pa)'),
+    'supply_pressure': (30e3, 200e3, 'Pa'),
+}
+"""The box of valves, tubing and supplies the valve mode's stepping is checked in (key: low,
+high, unit; docs/valves.md, "Where the bound holds"): within it every pressure lies within
+0.5 kPa of the reference at 50, 100 and 200 Hz (tests/test_model_valves_corners.py). A value
+outside is taken, with an :class:`~exodigit_model.validity.OutsideModelWarning` naming its
+key (:func:`warn_outside_validated`)."""
 
 
 @dataclass(frozen=True)
@@ -186,6 +202,7 @@ def air_constants(model: GloveModel, supply: float) -> NDArray[np.float64]:
     pneumatics = model.params.pneumatics
     if pneumatics.supply_pressure is not None:
         supply = pneumatics.supply_pressure
+    warn_outside_validated(pneumatics, supply)
     rows = np.zeros((3, valves.AIR_COLUMNS))
     for k, chamber in enumerate(pneumatics.chambers):
         rows[k, valves.AIR_INLET_CONDUCTANCE] = chamber.inlet_conductance
@@ -202,3 +219,40 @@ def air_constants(model: GloveModel, supply: float) -> NDArray[np.float64]:
     rows[:, valves.AIR_SUPPLY] = supply + ATMOSPHERIC_PRESSURE
     rows[:, valves.AIR_DENSITY] = density_factor(pneumatics.temperature)
     return rows
+
+
+def outside_validated(pneumatics: Pneumatics, supply: float) -> list[str]:
+    """One sentence per value of ``pneumatics`` outside :data:`VALIDATED_AIR`, naming its key.
+
+    ``supply``: the supply's gauge pressure (Pa) where the parameters leave it open (null), the
+    simulation's ``max_supply_pressure``.
+    """
+    if pneumatics.supply_pressure is None:
+        values = [('max_supply_pressure (pneumatics.supply_pressure: null)', 'supply_pressure')]
+        values[0] += (supply,)
+    else:
+        values = [('pneumatics.supply_pressure', 'supply_pressure', pneumatics.supply_pressure)]
+    for k, chamber in enumerate(pneumatics.chambers):
+        for key in VALIDATED_AIR:
+            if key != 'supply_pressure':
+                path = f'pneumatics.chambers[{k}].{key} ({chamber.name})'
+                values.append((path, key, getattr(chamber, key)))
+    sentences = []
+    for path, key, value in values:
+        low, high, unit = VALIDATED_AIR[key]
+        if not low <= value <= high:
+            sentences.append(
+                f'{path} = {value:g} {unit}'.rstrip()
+                + f' is outside the validated range {low:g}..{high:g}'
+            )
+    return sentences
+
+
+def warn_outside_validated(pneumatics: Pneumatics, supply: float) -> None:
+    """Warn, once per value, of ``pneumatics`` outside :data:`VALIDATED_AIR` (its key named)."""
+    for sentence in outside_validated(pneumatics, supply):
+        message = (
+            f'{sentence}: the valve stepping is checked to 0.5 kPa at 50-200 Hz only inside '
+            'it (docs/valves.md, "Where the bound holds")'
+        )
+        warnings.warn(message, OutsideModelWarning, stacklevel=5)
