@@ -56,7 +56,7 @@ VALIDATED_AIR = {
 """The box of valves, tubing and supplies the valve mode's stepping is checked in (key: low,
 high, unit; docs/valves.md, "Where the bound holds"): within it every pressure lies within
 0.5 kPa of the reference at 50, 100 and 200 Hz (tests/test_model_valves_corners.py). A value
-outside is taken, with an :class:`~exodigit_model.validity.OutsideModelWarning` naming its
+outside is taken, with an :class:`~exodigit_model.physics.validity.OutsideModelWarning` naming its
 key (:func:`warn_outside_validated`)."""
 
 
