@@ -15,7 +15,8 @@ from pathlib import Path
 
 import yaml
 
-from .catalog import EXECUTABLES, NodeEntry
+from .catalog import EXECUTABLES
+from .node_entry import NodeEntry
 
 CONFIG_WIDTH = 99
 """Longest line of a generated parameter file's comments, characters."""
