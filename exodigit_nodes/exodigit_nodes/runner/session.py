@@ -134,9 +134,7 @@ def run_session(session: Session, env: dict) -> int:
     from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
-    from ..nodes.handshake import Handshake, ReadyWatch, glove_nodes
-    from .horizon import Horizon
+    from ..nodes.catalog import ESTIMATOR_NODE
     from .monitor import GloveMonitor
 
     stop.install()  # again: loading rclpy's C extension takes the signals over
@@ -171,18 +169,6 @@ def run_session(session: Session, env: dict) -> int:
             )
             monitors.append(monitor)
             executor.add_node(monitor)
-        # the session protocol (nodes/handshake.py): every node of every glove has matched the
-        # summary's readers once it has answered our handshake, and each listener says on its
-        # ~/ready when the nodes it listens to have matched its own
-        handshake = Handshake(
-            monitors[0], glove_nodes([g.namespace for g in session.gloves], session.nodes)
-        )
-        listeners = ReadyWatch(monitors[0], session.listeners)
-        # simulated time: the plant runs only a few steps ahead of what this record has received
-        plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
-        horizon = Horizon(monitors[0], plant) if session.simulated else None
-        if horizon is not None:
-            horizon.start(session.duration)
 
         def spin() -> None:
             executor.spin_once(timeout_sec=0.02)
@@ -192,25 +178,7 @@ def run_session(session: Session, env: dict) -> int:
                 [(s, glove.title) for s, glove in zip(signals, session.gloves, strict=True)], now
             )
 
-        started = time.monotonic()
-        next_refresh = started
-        waiting = session.simulated  # the plants start paused until every glove is watched
-        while not stop.requested:
-            spin()
-            now = time.monotonic()
-            if waiting and listeners.ready() and not handshake.silent():
-                waiting = not (horizon.ready() and monitors[0].resume_plant())
-            elif horizon is not None and not waiting:
-                horizon.follow(_joined(signals))
-            failures = supervisor.exited()
-            elapsed = now - started if not session.simulated else _simulated(signals)
-            if failures or (session.duration and elapsed >= session.duration):
-                break
-            if now >= next_refresh:
-                show(now)
-                for glove in session.gloves:
-                    glove.record.flush()
-                next_refresh = now + REFRESH_PERIOD
+        failures = _watch(session, stop, supervisor, monitors, signals, spin, show)
         show(time.monotonic())
         unit = 'simulated s' if session.simulated else 's'
         reason = stop.signal_name or (
@@ -233,6 +201,51 @@ def run_session(session: Session, env: dict) -> int:
         for glove in session.gloves:
             glove.record.close()
     return _report(session, supervisor, signals, failures, stops)
+
+
+def _watch(session: Session, stop, supervisor, monitors, signals, spin, show) -> list:
+    """Hold the plants to the session protocol and show the glove until the session ends.
+
+    The protocol (nodes/handshake.py): every node of every glove has matched the summary's
+    readers once it has answered our handshake, and each listener says on its ``~/ready`` when
+    the nodes it listens to have matched its own; in simulated time the plants start paused
+    until then, and run only a few hundred steps ahead of what the record has received
+    (:mod:`.horizon`). Ends on a stop request, a process that exited (returned) or the end of
+    the session's duration (wall or simulated seconds).
+    """
+    from ..nodes.catalog import PLANT_NODE
+    from ..nodes.handshake import Handshake, ReadyWatch, glove_nodes
+    from .horizon import Horizon
+
+    handshake = Handshake(
+        monitors[0], glove_nodes([g.namespace for g in session.gloves], session.nodes)
+    )
+    listeners = ReadyWatch(monitors[0], session.listeners)
+    plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
+    horizon = Horizon(monitors[0], plant) if session.simulated else None
+    if horizon is not None:
+        horizon.start(session.duration)
+    started = time.monotonic()
+    next_refresh = started
+    waiting = session.simulated
+    failures = []
+    while not stop.requested:
+        spin()
+        now = time.monotonic()
+        if waiting and listeners.ready() and not handshake.silent():
+            waiting = not (horizon.ready() and monitors[0].resume_plant())
+        elif horizon is not None and not waiting:
+            horizon.follow(_joined(signals))
+        failures = supervisor.exited()
+        elapsed = now - started if not session.simulated else _simulated(signals)
+        if failures or (session.duration and elapsed >= session.duration):
+            break
+        if now >= next_refresh:
+            show(now)
+            for glove in session.gloves:
+                glove.record.flush()
+            next_refresh = now + REFRESH_PERIOD
+    return failures
 
 
 def _simulated(signals: Sequence[GloveSignals]) -> float:
