@@ -1,6 +1,7 @@
 """The ``exodigit`` command: research tools around the glove model.
 
-Subcommands ``curves``, ``draw``, ``calibrate``, ``plot`` and ``trial`` (see
+Subcommands ``curves``, ``draw``, ``calibrate``, ``calibrate-air``, ``air-excitation``,
+``plot``, ``trial`` and ``valves`` (see
 ``exodigit --help``). Units at this interface are kPa, mm and degrees (labelled in every file and
 figure); everything inside is SI. Bad input ends with one line on stderr and a non-zero exit
 status, never a traceback.
@@ -28,6 +29,8 @@ EXAMPLES = {
     'curves': 'exodigit curves --out curves --pressures 0:50:10',
     'draw': 'exodigit draw --pressure 50 --out glove.png',
     'calibrate': 'exodigit calibrate docs/example_bench.csv --fit both --out my_glove.yaml',
+    'calibrate-air': 'exodigit calibrate-air recording.csv --params my_glove.yaml --out air.yaml',
+    'air-excitation': 'exodigit air-excitation --out excitation.csv',
     'plot': 'exodigit plot runs/stairs/bag --out runs/stairs',
     'trial': trial_command.EXAMPLE,
     'valves': 'exodigit valves --out docs/valves.png',
@@ -37,6 +40,8 @@ SUMMARIES = {
     'curves': "simulate the paper's bench experiments: CSV files and PNG plots",
     'draw': 'draw the finger and the exo-digit at one pressure',
     'calibrate': 'fit the material, finger stiffness and/or layer stiffness to measurements',
+    'calibrate-air': "fit each chamber's valves, dead volume and leak to a valve recording",
+    'air-excitation': 'the sequence of valve openings that identifies the air (CSV)',
     'plot': 'plot a recorded session (rosbag2 bag)',
     'trial': 'run a controller against a population of virtual patients',
     'valves': 'one glove behind regulators and behind valves, for the same pressure targets',
@@ -51,6 +56,17 @@ DESCRIPTIONS = {
     'calibrate': 'Fit the Yeoh coefficients, the finger stiffness and/or the axial stiffness of '
     "the segments' bottom layers (E_L, docs/spec/model.md §12) to measured samples and write a "
     'parameter file, with standard errors and a measured-against-model plot.',
+    'calibrate-air': 'Fit, per chamber, the sonic conductance C and critical ratio b of the '
+    'inlet and the outlet valve, the dead volume and the leak (docs/spec/model.md §14) to a '
+    'recording of the glove behind valves (an air-recording CSV or a rosbag2 bag: the openings '
+    'applied and the chamber pressures measured, from rest), with the valve stepper as the '
+    'model; print each value with its 95 % interval and what the recording cannot identify, '
+    'and write a parameter file whose pneumatics section is the fit, with a figure of measured '
+    'against fitted pressures (docs/calibrate_air.md).',
+    'air-excitation': 'Write the identifying sequence of valve openings (about a minute: fills, '
+    'holds, vents, partial openings and pulses, each chamber and then all) as a CSV to play on '
+    'a glove at its step rate; with --simulate, the recording the simulated glove of --params '
+    'makes of it, sensor noise included (docs/calibrate_air.md).',
     'plot': 'Plot angles, pressures and forces against time from a bag recorded by '
     'exodigit_nodes.nodes.recorder (or ros2 bag record).',
     'trial': trial_command.DESCRIPTION,
@@ -59,6 +75,17 @@ DESCRIPTIONS = {
     'pressures, angles and openings side by side and print settling, overshoot, valve '
     'switches and supply air (docs/valves.md).',
 }
+
+
+def _supply_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--supply KPA``: the supply's gauge pressure where ``--params`` leaves it null."""
+    parser.add_argument(
+        '--supply',
+        type=float,
+        default=100.0,
+        metavar='KPA',
+        help=f'{what} where --params leaves it null (pneumatics.supply_pressure), kPa (100)',
+    )
 
 
 def _params_argument(parser: argparse.ArgumentParser, *, patient: bool = True) -> None:
@@ -141,6 +168,55 @@ def build_parser() -> argparse.ArgumentParser:
         default='calibrated.yaml',
         help='fitted parameter file (calibrated.yaml); the plot goes next to it (*_fit.png)',
     )
+
+    air = command('calibrate-air')
+    air.add_argument(
+        'data',
+        metavar='RECORDING',
+        help='an air-recording CSV (time_s, u_in_mcp..u_out_dip, p_mcp_kpa..p_dip_kpa '
+        '[, q_mcp_deg..q_dip_deg]; one row per step) or a rosbag2 bag folder of a plant with '
+        'actuation:=valves (chamber_pressure, applied_command or valve_command, joint_states)',
+    )
+    _params_argument(air, patient=False)
+    air.add_argument(
+        '--rate',
+        type=float,
+        metavar='HZ',
+        help="a bag's plant step rate, Hz (100, the plant's default); a CSV has its own",
+    )
+    _supply_argument(air, "the supply's gauge pressure")
+    air.add_argument(
+        '--out',
+        metavar='FILE.yaml',
+        default='air.yaml',
+        help='fitted parameter file (air.yaml); the figure goes next to it (*_fit.png)',
+    )
+
+    excite = command('air-excitation')
+    _params_argument(excite, patient=False)
+    excite.add_argument('--out', metavar='FILE.csv', default='excitation.csv', help='CSV file')
+    excite.add_argument('--rate', type=float, default=100.0, metavar='HZ', help='step rate (100)')
+    excite.add_argument(
+        '--simulate',
+        action='store_true',
+        help='write the recording the simulated glove of --params makes (an air recording)',
+    )
+    _supply_argument(excite, 'with --simulate, the supply')
+    excite.add_argument(
+        '--pressure-noise',
+        type=float,
+        default=0.3,
+        metavar='KPA',
+        help='with --simulate, the pressure sensor noise (standard deviation), kPa (0.3)',
+    )
+    excite.add_argument(
+        '--angle-noise',
+        type=float,
+        default=0.5,
+        metavar='DEG',
+        help='with --simulate, the angle sensor noise (standard deviation), degrees (0.5)',
+    )
+    excite.add_argument('--seed', type=int, default=0, help='with --simulate, the noise seed')
 
     plot = command('plot')
     plot.add_argument('bag', metavar='BAG', help='rosbag2 folder (MCAP) from the recorder')
@@ -258,6 +334,29 @@ def run_calibrate(args: argparse.Namespace) -> None:
     calibrate_command(args.data, args.params, args.fit, Path(args.out))
 
 
+def run_calibrate_air(args: argparse.Namespace) -> None:
+    """``exodigit calibrate-air``."""
+    from .air_calibration import calibrate_air_command
+
+    calibrate_air_command(args.data, args.params, Path(args.out), args.rate, args.supply * 1e3)
+
+
+def run_air_excitation(args: argparse.Namespace) -> None:
+    """``exodigit air-excitation``."""
+    from .air_recording import excitation_command
+
+    excitation_command(
+        Path(args.out),
+        args.rate,
+        params_path=args.params,
+        simulate=args.simulate,
+        supply=args.supply * 1e3,
+        pressure_noise=args.pressure_noise * 1e3,
+        angle_noise=np.radians(args.angle_noise),
+        seed=args.seed,
+    )
+
+
 def run_plot(args: argparse.Namespace) -> None:
     """``exodigit plot``."""
     from .bag import plot_command
@@ -286,6 +385,8 @@ COMMANDS = {
     'curves': run_curves,
     'draw': run_draw,
     'calibrate': run_calibrate,
+    'calibrate-air': run_calibrate_air,
+    'air-excitation': run_air_excitation,
     'plot': run_plot,
     'trial': trial_command.run,
     'valves': run_valves,
