@@ -405,13 +405,12 @@ def settle_air(work, air, gas, new_gas, x, pressure, still, scale, applied):
     :func:`admit_air` left in ``work``) and those volumes; into ``pressure`` the gauge
     pressures of the gas law (Pa), as the statics had them. The row ``GAS_VOLUME_BEFORE``,
     which the next step extrapolates from (its prediction 2V − V_before), gets V − s·ΔV: the
-    step's volume motion ΔV, ``scale`` times over (the split steps of :func:`.stepping.
-    split_step` hand a whole step this many times as long to the next), and shortened,
-    s = room/|ΔP|, where the pressure moved by ΔP but can go only ``room`` further the same
-    way: to the supply or the atmosphere, or to where the flows under ``applied`` (6,) balance
-    (one Newton step, |ṁ/J|·R·T/V), nowhere if they now drive it back. A chamber that filled
-    within the step is not predicted to swell on as far again. The volumes stay where the
-    glove is ``still`` (its solve failed).
+    step's volume motion ΔV, ``scale`` times over (the last split step of
+    :func:`.stepping.split_step` hands a whole step this many times as long to the next), and
+    shortened to s = room/|ΔP| (:func:`room_ahead`) where the pressure moved by ΔP but can go
+    only ``room`` further the same way under ``applied`` (6,). A chamber that filled within
+    the step is not predicted to swell on as far again. The volumes stay where the glove is
+    ``still`` (its solve failed).
     """
     masses, slopes, predicted = work.masses, work.mass_slopes, work.predicted
     for k in range(3):
