@@ -42,7 +42,7 @@ from .. import GloveModel, GloveParams, dump_params
 from ..extras import ToolError, progress
 from ..physics.pneumatics import ATMOSPHERIC_PRESSURE, VALIDATED_AIR, volume_coefficients
 from ..physics.validity import OutsideModelWarning
-from .air_recording import AirRecording, glove_run
+from .air_recording import AirRecording, simulated_recording
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -242,16 +242,14 @@ def simulate(
 ) -> tuple[NDArray, NDArray]:
     """The forward model's (pressures Pa, angles rad), (T, 3) each, from rest under ``openings``.
 
-    The stepper at :data:`OVERSAMPLE` times the recording's rate
-    (:func:`.air_recording.glove_run`). ``supply``: the supply's gauge pressure where the
-    parameters leave it open (null), Pa.
+    The stepper at :data:`OVERSAMPLE` times the recording's rate, without sensor noise
+    (:func:`.air_recording.simulated_recording`). ``supply``: the supply's gauge pressure
+    where the parameters leave it open (null), Pa.
     """
     with warnings.catch_warnings():  # trial values may leave the checked box: the fit says so
         warnings.simplefilter('ignore', OutsideModelWarning)
-        pressure, angles, *_ = glove_run(
-            params, openings, rate_hz, oversample=OVERSAMPLE, supply=supply
-        )
-    return pressure, angles
+        run = simulated_recording(params, openings, rate_hz, oversample=OVERSAMPLE, supply=supply)
+    return run.pressure, run.angles
 
 
 def _check(recording: AirRecording) -> None:

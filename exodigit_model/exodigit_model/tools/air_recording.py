@@ -273,26 +273,31 @@ def _paired(found, rate_hz: float, source: str) -> AirRecording:
     return AirRecording(rate_hz, openings, pressure, angles, source)
 
 
-def glove_run(
+RECORDING_OVERSAMPLE = 8
+"""Steps per recorded step of a simulated recording: finer than calibrate-air's forward model
+(:data:`.air_calibration.OVERSAMPLE`), so that it is not the fit's own model that made it."""
+
+
+def simulated_recording(
     params,
     openings: NDArray[np.float64],
     rate_hz: float,
     *,
-    oversample: int = 1,
+    oversample: int = RECORDING_OVERSAMPLE,
     supply: float = 100e3,
     pressure_noise: float = 0.0,
     angle_noise: float = 0.0,
     seed: int = 0,
-) -> tuple[NDArray[np.float64], ...]:
-    """The simulated glove of ``params`` behind valves, from rest, under ``openings`` (T, 6).
+) -> AirRecording:
+    """The recording the simulated glove of ``params`` makes of ``openings`` (T, 6), from rest.
 
     Each row is held over 1/``rate_hz`` s, stepped ``oversample`` times at ``oversample`` times
     the rate (finer than the recording: the stepper's own error and the jumps of its whole
-    numbers of sub-steps shrink with the step, docs/valves.md). Returns, at each row's end, the
-    gauge pressures (Pa) and angles (rad), then what the sensors of
-    :class:`~exodigit_model.SimulationSettings` measure of them (Gaussian noise of
-    ``pressure_noise`` Pa and ``angle_noise`` rad, seeded by ``seed``), each (T, 3).
-    ``supply``: the supply's gauge pressure where ``params`` leaves it open, Pa.
+    numbers of split steps shrink with the step, docs/valves.md). At each row's end, the
+    pressures and angles the sensors of :class:`~exodigit_model.SimulationSettings` measure
+    (Gaussian noise of ``pressure_noise`` Pa and ``angle_noise`` rad, seeded by ``seed``;
+    without noise the glove's own). ``supply``: the supply's gauge pressure where ``params``
+    leaves it open, Pa.
     """
     from .. import GloveModel, GloveSimulation, SimulationSettings
 
@@ -304,45 +309,13 @@ def glove_run(
         seed=seed,
     )
     simulation = GloveSimulation(GloveModel(params), settings, actuation='valves')
-    run = simulation.run(np.repeat(np.asarray(openings, dtype=float), oversample, axis=0))
+    openings = np.asarray(openings, dtype=float)
+    run = simulation.run(np.repeat(openings, oversample, axis=0))
     ends = slice(oversample - 1, None, oversample)
-    return run.pressure[ends], run.q[ends], run.pressure_measured[ends], run.q_measured[ends]
-
-
-RECORDING_OVERSAMPLE = 8
-"""Steps per recorded step of a simulated recording: finer than calibrate-air's forward model
-(:data:`.air_calibration.OVERSAMPLE`), so that it is not the fit's own model that made it."""
-
-
-def simulated_recording(
-    params,
-    openings: NDArray[np.float64],
-    rate_hz: float,
-    *,
-    supply: float = 100e3,
-    pressure_noise: float = 0.0,
-    angle_noise: float = 0.0,
-    seed: int = 0,
-) -> AirRecording:
-    """The recording the simulated glove of ``params`` makes of ``openings``, from rest.
-
-    Stepped :data:`RECORDING_OVERSAMPLE` times per recorded step (:func:`glove_run`); the
-    pressures and angles its sensors measure (Gaussian noise of ``pressure_noise`` Pa and
-    ``angle_noise`` rad, seeded by ``seed``). ``supply``: the supply's gauge pressure where
-    ``params`` leaves it open, Pa.
-    """
-    *_, pressure, angles = glove_run(
-        params,
-        openings,
-        rate_hz,
-        oversample=RECORDING_OVERSAMPLE,
-        supply=supply,
-        pressure_noise=pressure_noise,
-        angle_noise=angle_noise,
-        seed=seed,
-    )
     source = f'simulated ({pressure_noise / 1e3:g} kPa noise, seed {seed})'
-    return AirRecording(rate_hz, np.asarray(openings, float), pressure, angles, source)
+    return AirRecording(
+        rate_hz, openings, run.pressure_measured[ends], run.q_measured[ends], source
+    )
 
 
 def write_openings_csv(openings: NDArray[np.float64], rate_hz: float, path: Path) -> None:
