@@ -38,8 +38,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from .. import GloveModel, GloveParams, dump_params
 from ..extras import ToolError, progress
+from ..physics.model import GloveModel
+from ..physics.params import GloveParams, dump_params, load_params
 from ..physics.pneumatics import ATMOSPHERIC_PRESSURE, VALIDATED_AIR, volume_coefficients
 from ..physics.validity import OutsideModelWarning
 from .air_recording import AirRecording, simulated_recording
@@ -512,7 +513,6 @@ def calibrate_air_command(
     data: str, params_path: str | None, out: Path, rate_hz: float | None, supply: float
 ) -> None:
     """``exodigit calibrate-air``: read, fit, print, write the parameter file and the figure."""
-    from .. import load_params
     from .air_recording import read_recording
 
     if out.suffix.lower() not in ('.yaml', '.yml'):

@@ -28,8 +28,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import JOINT_NAMES
 from ..extras import ToolError, require
+from ..physics.model import GloveModel
+from ..physics.params import JOINT_NAMES, load_params
+from ..stepping.settings import SimulationSettings
+from ..stepping.simulation import GloveSimulation
 
 OPENING_COLUMNS = tuple(f'u_{side}_{name}' for side in ('in', 'out') for name in JOINT_NAMES)
 PRESSURE_COLUMNS = tuple(f'p_{name}_kpa' for name in JOINT_NAMES)
@@ -299,8 +302,6 @@ def simulated_recording(
     without noise the glove's own). ``supply``: the supply's gauge pressure where ``params``
     leaves it open, Pa.
     """
-    from .. import GloveModel, GloveSimulation, SimulationSettings
-
     settings = SimulationSettings(
         rate_hz=rate_hz * oversample,
         max_supply_pressure=supply,
@@ -339,8 +340,6 @@ def excitation_command(
     seed: int,
 ) -> None:
     """``exodigit air-excitation``: write the openings, or the simulated recording of them."""
-    from .. import load_params
-
     if out.suffix.lower() != '.csv':
         raise ToolError(f'--out {out}: the sequence is a CSV file, name it *.csv')
     if not out.parent.is_dir():
