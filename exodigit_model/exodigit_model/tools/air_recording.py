@@ -10,7 +10,7 @@ its end, with the joint angles when they were measured. It comes from
 - a rosbag2 bag of a plant with ``actuation:=valves`` (docs/spec/ros.md): each
   ``chamber_pressure`` message with the ``applied_command`` (else ``valve_command``) logged last
   before it, which is the opening its step applied, and the ``joint_states`` of the same step
-  (:func:`exodigit_model.joining.join_indices`).
+  (:func:`exodigit_model.stepping.joining.join_indices`).
 
 :func:`excitation` is the sequence of openings that makes a recording identify every
 parameter ``exodigit calibrate-air`` fits (docs/calibrate_air.md): fills with the inlets fully
