@@ -7,9 +7,11 @@ leaves a process (``process.serve``: status 2, that one line on stderr, no trace
 else rclpy might print) is the same for every node: two processes check it, one per kind.
 """
 
+import os
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -143,3 +145,41 @@ def test_ctrl_c_while_the_console_script_starts_ends_it_without_a_traceback(
     stdout, stderr = process.communicate(timeout=30.0)
     assert 'Traceback' not in stderr + stdout, stderr
     assert process.returncode == 0, stderr
+
+
+def test_ctrl_c_during_an_imports_finaliser_still_ends_the_start_up(tmp_path):
+    # Python's KeyboardInterrupt raised inside a finaliser (imports collect garbage) is only
+    # reported as ignored: the program went on starting with the Ctrl-C lost. A console
+    # script's own handler ends the start-up there, whatever code runs.
+    (tmp_path / 'finalised_probe.py').write_text(
+        textwrap.dedent(
+            """
+            import os, signal, time
+
+            class Finaliser:
+                def __del__(self):
+                    os.kill(os.getpid(), signal.SIGINT)
+                    time.sleep(2.0)  # the handler runs here, inside the finaliser
+
+            Finaliser()  # collected at once
+
+            def main():
+                print('main ran')
+                return 7
+            """
+        )
+    )
+    code = (
+        'import sys; from exodigit_nodes.console import program; '
+        "sys.exit(program('probe', 'finalised_probe')())"
+    )
+    done = subprocess.run(
+        [sys.executable, '-c', code],
+        capture_output=True,
+        text=True,
+        timeout=30.0,
+        cwd=tmp_path,
+        env={**os.environ, 'PYTHONPATH': str(tmp_path)},
+    )
+    assert (done.returncode, done.stdout) == (0, ''), done.stderr
+    assert done.stderr.strip() == 'probe: stopped while starting'
