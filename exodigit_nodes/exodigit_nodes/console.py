@@ -24,9 +24,10 @@ from collections.abc import Callable
 
 def program(name: str, module: str) -> Callable[[], int]:
     """The console script ``name``: ``module``'s ``main()``, imported with Ctrl-C handled."""
+    said = f'{name}: stopped while starting'
 
     def stopped(signum: int, frame: object) -> None:
-        print(f'{name}: stopped while starting', file=sys.stderr, flush=True)
+        print(said, file=sys.stderr, flush=True)
         os._exit(0)
 
     def main() -> int:
@@ -39,7 +40,7 @@ def program(name: str, module: str) -> Callable[[], int]:
         try:
             return loaded.main()
         except KeyboardInterrupt:  # before the program took SIGINT over
-            print(f'{name}: stopped while starting', file=sys.stderr)
+            print(said, file=sys.stderr)
             return 0
 
     main.__qualname__ = main.__name__ = name
