@@ -1,6 +1,7 @@
 """Shared fixtures. ROS tests get a private domain id and a probe node (tests/ros_harness.py)."""
 
 import os
+import signal
 
 import pytest
 import rclpy
@@ -8,6 +9,11 @@ from ros_harness import NodeLauncher, RosProbe, claim_domain
 
 # Nothing this test session starts may multicast discovery on the network interface.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+# A shell starts a background job (`make test &`) with SIGINT ignored, and its children inherit
+# that: a node would rightly ignore the Ctrl-C the tests send it. Python's own handler here, which
+# exec resets to the default in every child, makes the tests mean the same wherever they run.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope='session')
