@@ -68,7 +68,7 @@ class Session:
         The node names each glove's summary shows the health of.
     gloves : tuple of WatchedGlove
     pause_service : str
-        ``set_paused`` of the simulated time, absolute (resumed once every glove is watched).
+        ``set_paused`` of the simulated time, absolute.
     simulated : bool
         Simulated time: the plants start paused and pause at ``duration``.
     duration : float
