@@ -195,26 +195,27 @@ def _watch(session: Session, stop, supervisor, monitors, signals, spin, display,
     from ..nodes.handshake import Handshake, ReadyWatch, glove_nodes
     from .horizon import Horizon
 
-    node = monitors[0]  # after every monitor's readers (the handshake's rule)
-    handshake = Handshake(node, glove_nodes([g.namespace for g in session.gloves], session.nodes))
-    listeners = ReadyWatch(node, session.listeners)
-    pause = node.create_client(SetBool, session.pause_service)
-    plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
-    horizon = Horizon(node, plant) if session.simulated else None
-    if horizon is not None:
+    if session.simulated:
+        node = monitors[0]  # after every monitor's readers (the handshake's rule)
+        namespaces = [glove.namespace for glove in session.gloves]
+        handshake = Handshake(node, glove_nodes(namespaces, session.nodes))
+        listeners = ReadyWatch(node, session.listeners)
+        pause = node.create_client(SetBool, session.pause_service)
+        horizon = Horizon(node, f'{namespaces[0].rstrip("/")}/{PLANT_NODE.executable}')
         horizon.start(session.duration)
     started = time.monotonic()
     next_refresh = started
-    waiting = session.simulated
+    paused = session.simulated
     failures = []
     while not stop.requested:
         spin()
         now = time.monotonic()
-        if waiting and listeners.ready() and not handshake.silent():
-            if horizon.ready() and pause.service_is_ready():
+        if paused:
+            present = listeners.ready() and not handshake.silent()
+            if present and horizon.ready() and pause.service_is_ready():
                 pause.call_async(SetBool.Request(data=False))
-                waiting = False
-        elif horizon is not None and not waiting:
+                paused = False
+        elif session.simulated:
             horizon.follow(_earliest(s.stamp for s in signals))
         failures = supervisor.exited()
         if session.simulated:
