@@ -157,7 +157,7 @@ def run_session(session: Session, env: dict) -> int:
             executor.add_node(monitors[-1])
         spin = functools.partial(executor.spin_once, timeout_sec=0.02)
         failures = _watch(session, stop, supervisor, monitors, signals, spin, display, titled)
-        display.show_many(titled, time.monotonic())
+        display.show(titled, time.monotonic())
         unit = 'simulated s' if session.simulated else 's'
         reason = stop.signal_name or (
             'a process exited' if failures else f'{session.duration:g} {unit} elapsed'
@@ -225,7 +225,7 @@ def _watch(session: Session, stop, supervisor, monitors, signals, spin, display,
         if failures or (session.duration and elapsed >= session.duration):
             break
         if now >= next_refresh:
-            display.show_many(titled, now)
+            display.show(titled, now)
             for glove in session.gloves:
                 glove.record.flush()
             next_refresh = now + REFRESH_PERIOD

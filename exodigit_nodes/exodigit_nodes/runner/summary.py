@@ -344,12 +344,8 @@ class SummaryDisplay:
         self._drawn_lines = 0
         self._next_line = -math.inf
 
-    def show(self, signals: GloveSignals, now: float, title: str) -> None:
-        """Show the current state of one glove (call a few times per second)."""
-        self.show_many([(signals, title)], now)
-
-    def show_many(self, gloves: list[tuple[GloveSignals, str]], now: float) -> None:
-        """Show several gloves (a hand): one block each, or one line each prefixed by its title."""
+    def show(self, gloves: list[tuple[GloveSignals, str]], now: float) -> None:
+        """Show each (signals, title): a block each, or a line each (titled if several)."""
         if self._interactive:
             text = '\n\n'.join(signals.table(now, title) for signals, title in gloves)
             # Move the cursor up over the previous block and clear to the end of the screen.
