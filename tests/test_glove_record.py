@@ -240,14 +240,14 @@ def test_display_prints_one_line_per_period_without_a_terminal_and_redraws_on_on
     plain = io.StringIO()
     display = SummaryDisplay(plain, interactive=False, line_period=1.0)
     for now in np.arange(0.0, 3.0, 0.25):
-        display.show(signals, now, 'glove')
+        display.show([(signals, 'glove')], now)
     assert len(plain.getvalue().splitlines()) == 3
     assert '\x1b' not in plain.getvalue()
     tty = io.StringIO()
     display = SummaryDisplay(tty, interactive=True)
-    display.show(signals, 0.0, 'glove')
+    display.show([(signals, 'glove')], 0.0)
     lines = len(tty.getvalue().splitlines())
-    display.show(signals, 0.25, 'glove')
+    display.show([(signals, 'glove')], 0.25)
     assert f'\x1b[{lines}F\x1b[J' in tty.getvalue()
 
 

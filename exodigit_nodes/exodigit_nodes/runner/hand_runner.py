@@ -1,37 +1,23 @@
-"""The one runner: a hand of N fingers, with a live summary and a run record per finger.
+"""The one runner of ``python -m exodigit_nodes.glove`` and ``.hand``: a hand of N fingers.
 
-``python -m exodigit_nodes.glove`` and ``python -m exodigit_nodes.hand`` are each a
-:class:`Command` of it: their options come from one table (:func:`..nodes.hand_config
-.command_options`), are read and checked by one set of rules into one :class:`RunConfig`, and
-run by one loop (:func:`.session.run_session`). The glove is the hand of one finger with no
-finger level (:class:`..nodes.hand_config.HandConfig` without fingers): its nodes in the
-namespace itself, no joint prefix, its record at the top of the run directory; finger f of a
-hand has ``<namespace>/f``, the prefix ``f_`` and its record in ``<run>/f/``.
+Each command is a :class:`Command`: its options come from one table
+(:func:`..nodes.hand_config.command_options`), are checked into one :class:`RunConfig` and run by
+:func:`.session.run_session` (a live summary and a run record per finger). A glove is the hand
+of one finger with no finger level: its nodes in the namespace itself, no joint prefix, its
+record at the top of the run directory; finger f of a hand has ``<namespace>/f``, the prefix
+``f_`` and its record in ``<run>/f/``.
 
-The commands differ in how the nodes are laid out in processes (:data:`LAYOUTS`):
+Process layouts (:data:`LAYOUTS`): ``nodes``, each node its own process as
+``launch/glove.launch.py`` starts them (a lone glove only: each plant owns its simulated time);
+``hand_nodes``, every node of every finger in one process as ``launch/hand.launch.py`` starts
+it (one simulated time; docs/running.md, "A whole hand"). The command nodes stop first, so the
+chambers get zero pressure while the plant still runs.
 
-``nodes``
-    Each node its own process (``python -m exodigit_nodes.nodes.<node>``), as
-    ``launch/glove.launch.py`` starts them; stopped command node first, so the chambers get zero
-    pressure while the plant still runs. Only for a lone glove: each plant then owns its own
-    simulated time, and a hand has one.
-``hand_nodes``
-    Every node of every finger in one ``hand_nodes`` process, as ``launch/hand.launch.py``
-    starts it: the fingers share one simulated time, and on one EventsExecutor five fingers keep
-    their pace on two cores, where fifteen processes do not (docs/running.md, "A whole hand").
-    Its stop gives every command node's zero pressure before any node is destroyed
-    (:func:`..nodes.process.serve`).
-
-With ``--hardware`` (a lone glove) the ``hardware`` bridge takes the plant's place, on a board's
-serial port or on ``mcu_emulator`` (``emulated``: started first, stopped last, its pty at
-``<run>/board``).
-
-With ``--record`` one rosbag2 ``recorder`` in the hand's namespace records every glove's topics,
-a lone glove's to ``<run>/bag``, finger f's to ``<run>/bag/f``; it starts first and stops last.
-(One, not one per finger: a five-finger hand with a recorder per finger is eight DDS
-participants on localhost, and in a measured run one of the five recorders never discovered the
-plants' process.) With ``--clock sim`` the plants start paused until every record listens and
-pause again at ``--duration``, so that every record ends exactly there.
+``--hardware``: the ``hardware`` bridge takes the plant's place; ``emulated`` starts
+``mcu_emulator`` first and stops it last, its pty at ``<run>/board``. ``--record``: one rosbag2
+``recorder`` for the whole hand (one per finger left plants undiscovered on a loaded machine),
+to ``<run>/bag`` (finger f's to ``<run>/bag/f``), started first and stopped last. ``--clock
+sim``: the plants start paused and pause at ``--duration``, so every record ends there.
 """
 
 from __future__ import annotations
@@ -184,8 +170,6 @@ def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
             except ParameterError as error:
                 raise UsageError(f'{option}: {" ".join(str(error).split())}') from None
     if hand.clock == 'sim':
-        # Paused until the summary listens (nothing is missed), and again at the end of the
-        # duration, so that every record ends exactly there.
         time = replace(hand.time, start_paused=True, pause_at=options.duration)
         hand = replace(hand, time=time)
     return RunConfig(
@@ -198,18 +182,20 @@ def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
     )
 
 
+def _params_files(paths: Sequence[str]) -> list[str]:
+    return [word for path in paths for word in ('--params-file', path)]
+
+
 def ros_arguments(namespace: str, ros_params: Sequence[str], values: dict) -> list[str]:
     """``--ros-args`` of one node process: its namespace, the ROS parameter files, ``values``.
 
-    A list value is of files (``params_file``): given absolute, as the process may run
-    elsewhere.
+    A list value is of files (``params_file``), made absolute.
     """
     values = {
         name: [str(Path(item).resolve()) for item in value] if isinstance(value, list) else value
         for name, value in values.items()
     }
-    files = [word for path in ros_params for word in ('--params-file', path)]
-    return ros_args(values, namespace, extra=files)
+    return ros_args(values, namespace, extra=_params_files(ros_params))
 
 
 def node_processes(config: RunConfig, emulator_link: str = '') -> dict[str, list[str]]:
@@ -234,10 +220,8 @@ def node_processes(config: RunConfig, emulator_link: str = '') -> dict[str, list
             for entry in hand.node_entries()
         }
     command = [sys.executable, '-m', 'exodigit_nodes.nodes.hand_nodes', *hand.arguments()]
-    ros_args = ['--ros-args'] if config.ros_params else []
-    for path in config.ros_params:
-        ros_args += ['--params-file', path]
-    return {HAND_PROCESS: [*command, *ros_args]}
+    files = _params_files(config.ros_params)
+    return {HAND_PROCESS: [*command, *(['--ros-args', *files] if files else [])]}
 
 
 def nodes_run(config: RunConfig, name: str) -> tuple[str, ...]:
@@ -264,16 +248,12 @@ def recorder_command(config: RunConfig, bag: Path) -> list[str]:
 def emulator_command(config: RunConfig, link: Path) -> list[str]:
     """``mcu_emulator`` serving at ``link``: the glove's plant model (the patient's finger)."""
     (glove,) = config.hand.gloves()
-    files = [word for path in glove.plant_files for word in ('--params-file', path)]
-    return [sys.executable, '-m', 'exodigit_nodes.hardware.emulator', '--link', str(link), *files]
+    emulator = [sys.executable, '-m', 'exodigit_nodes.hardware.emulator', '--link', str(link)]
+    return [*emulator, *_params_files(glove.plant_files)]
 
 
 def session(config: RunConfig, run_dir: Path) -> Session:
-    """The :class:`.session.Session` of the run: its processes, one watched glove per finger.
-
-    With ``--hardware emulated`` ``mcu_emulator`` starts before the bridge and stops after it,
-    its pty at ``<run>/board``.
-    """
+    """The :class:`.session.Session` of the run: its processes, one watched glove per finger."""
     hand = config.hand
     clock = '' if hand.clock == 'wall' else ', simulated time' + ', lockstep' * hand.time.lockstep
     board = f', board {hand.hardware}' if hand.hardware else ''

@@ -1,22 +1,11 @@
-"""Keeps a plant in simulated time at most a few hundred steps ahead of what a runner received.
+"""Keeps a plant in simulated time at most `LEAD_STEPS` ahead of the steps a runner received.
 
-Every glove publisher keeps its last 1,000 samples for readers that have not acknowledged them
-(:data:`.qos.STREAM_QOS`), and a reader that misses one asks for it again within 50 ms (the
-project's Fast DDS profile, :mod:`.dds`). A plant in simulated time at a real-time factor of 0
-takes thousands of steps a second, faster than a Python process records them; without a hold,
-a runner that falls 1,000 steps behind would lose the oldest. Measured on 2026-12-04 with
-``benchmarks/bench_transport.py --case 1 --keep-all --topics 4 --rate 500 --period 4``: a
-reader stopped for 1 s (500 samples behind on each topic) lost none of 20,000 from the
-glove's publishers; stopped for 3 s (1,500 behind) it lost 2,014, and none from keep-all
-publishers, which keep every unacknowledged sample (up to Fast DDS's 5,000, then they block).
-
-So a runner in simulated time holds the plant with its ``run_until`` parameter
-(:class:`.sim_time.SimulatedTime`): it keeps it at most `LEAD_STEPS` past the newest step that
-every glove of the run has received whole (each of its streams: one held back holds the plant),
-and raises it each time `RAISE_STEPS` more have arrived. A message in flight is then always
-among what its publisher keeps, and nothing is lost. The testing kit holds the plant the same
-way: what a user's controller answered, it reads from the plant's ``applied_command``, not from
-the controller's publisher (which may keep only rclpy's usual 10).
+A publisher keeps its last 1,000 samples for a matched reader that has not acknowledged them
+(:data:`.qos.WRITER_DEPTH`; measurements in docs/networking.md), and a plant at a real-time
+factor of 0 steps faster than a Python process records. So the runners and the testing kit hold
+the plant with its ``run_until`` parameter, at most `LEAD_STEPS` past the newest step every glove
+has received whole, raised each time `RAISE_STEPS` more have arrived (docs/spec/ros.md, "The
+session protocol", guarantee 6).
 """
 
 from __future__ import annotations
@@ -28,8 +17,7 @@ from ..nodes.messages import rate_request, set_double_request
 from ..nodes.repeated_call import RepeatedCall
 
 LEAD_STEPS = 400
-"""Most steps the plant may take past the newest one received: fewer than the samples each
-publisher keeps (:data:`.qos.WRITER_DEPTH`; one step in flight beyond them is still kept)."""
+"""Most steps the plant may take past the newest one received (fewer than a publisher keeps)."""
 RAISE_STEPS = 100
 """Steps received between two raises of ``run_until``."""
 RUN_UNTIL = 'run_until'
@@ -50,7 +38,7 @@ class Horizon:
     """
 
     def __init__(self, node: Node, plant: str, *, period: float | None = None) -> None:
-        self._get = None  # asks the rate only if it is not given
+        self._get = None
         if period is None:
             self._get = node.create_client(GetParameters, f'{plant}/get_parameters')
         self._set = node.create_client(SetParameters, f'{plant}/set_parameters')
@@ -105,11 +93,9 @@ class Horizon:
             self._raise(received)
 
     def release(self) -> RepeatedCall:
-        """Set ``run_until`` back to 0 (no limit): the call, in flight.
+        """Set ``run_until`` back to 0 (no limit): the call, in flight; then :meth:`start`.
 
-        Sent on the client that raised it, so it reaches the plant after every raise (one
-        reliable stream keeps its order; a raise held back for a heartbeat on another would
-        land after it and hold the plant again). Then :meth:`start` a new run.
+        Sent on the client that raised it: one reliable stream keeps it after every raise.
         """
         self._pending = None
         self._started = False

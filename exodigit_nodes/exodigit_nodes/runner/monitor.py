@@ -6,18 +6,18 @@ The node only converts messages to arrays; what is joined, shown and recorded is
 
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
-from std_srvs.srv import SetBool
 
 from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
 from exodigit_nodes.nodes.message_info import WithInfo
-from exodigit_nodes.nodes.messages import APPLIED_COMMAND, DIAGNOSTICS, SET_PAUSED
+from exodigit_nodes.nodes.messages import APPLIED_COMMAND, DIAGNOSTICS
 from exodigit_nodes.nodes.qos import RECORD_QOS, record_profile
 from exodigit_nodes.runner.summary import (
     COMMAND_SIGNALS,
@@ -54,11 +54,7 @@ class GloveMonitor(Node):
     namespace : str
         The glove's namespace (absolute).
     on_sample : callable
-        Called with each completed `Sample` (one per plant step). Subscriptions take the DDS
-        message info: its source timestamp (when a message was sent) joins the three messages of
-        a plant step.
-    pause_service : str
-        The ``set_paused`` service of the glove's simulated time (a hand's is the hand's).
+        Called with each completed `Sample` (one per plant step).
     **node_options
         Passed to :class:`rclpy.node.Node` (``context``).
     """
@@ -68,17 +64,15 @@ class GloveMonitor(Node):
         signals: GloveSignals,
         namespace: str,
         on_sample: Callable[[Sample], None],
-        *,
-        pause_service: str = SET_PAUSED,
         **node_options,
-    ):
+    ) -> None:
         super().__init__('glove_monitor', namespace=namespace, **node_options)
         self._signals = signals
         self._on_sample = on_sample
         self.taken = 0
         """Messages this monitor has taken so far (signals and /diagnostics)."""
-        # The command of a step is what the plant applied (its applied_command, kept for late
-        # readers), not what a controller sent: a controller's publisher may match us late.
+        # A step's command is what the plant applied, not what a controller sent
+        # (docs/spec/ros.md, "The session protocol", guarantee 4).
         self.create_subscription(
             Float64MultiArray,
             APPLIED_COMMAND,
@@ -86,44 +80,29 @@ class GloveMonitor(Node):
             record_profile(APPLIED_COMMAND),
         )
         for topic in SIGNALS:
-            if topic == 'joint_states':
-                callback, message_type = self._on_joint_state, JointState
-            elif topic in STAMPED:
-                callback, message_type = self._stamped_callback(topic), JointState
-            elif topic in COMMAND_SIGNALS:
+            if topic in COMMAND_SIGNALS:
                 continue
+            if topic == 'joint_states':
+                message_type, callback = JointState, self._on_joint_state
+            elif topic in STAMPED:
+                message_type, callback = JointState, partial(self._on_estimate, topic)
             else:
-                callback, message_type = self._array_callback(topic), Float64MultiArray
+                message_type, callback = Float64MultiArray, partial(self._on_array, topic)
             self.create_subscription(message_type, topic, WithInfo(callback), RECORD_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
-        self._pause_client = self.create_client(SetBool, pause_service)
 
     def drain(self, spin: Callable[[], None]) -> None:
         """Take what our readers still hold once the nodes stopped (:func:`.take_backlog`).
 
-        ``spin`` is one pass of our executor. A monitor that fell behind holds seconds of the
-        nodes' last steps, the chambers' zero pressure among them.
+        ``spin`` is one pass of our executor.
         """
         take_backlog(spin, lambda: self.taken)
 
-    def resume_plant(self) -> bool:
-        """Ask a plant started paused to run (``set_paused`` false); False if not there yet."""
-        if not self._pause_client.service_is_ready():
-            return False
-        self._pause_client.call_async(SetBool.Request(data=False))
-        return True
+    def _on_array(self, topic: str, message: Float64MultiArray, info: dict) -> None:
+        self._update(topic, message.data, info)
 
-    def _array_callback(self, topic: str) -> Callable[[Float64MultiArray, dict], None]:
-        def callback(message: Float64MultiArray, info: dict) -> None:
-            self._update(topic, message.data, info)
-
-        return callback
-
-    def _stamped_callback(self, topic: str) -> Callable[[JointState, dict], None]:
-        def callback(message: JointState, info: dict) -> None:
-            self._update(topic, message.effort, info, stamp_seconds(message.header.stamp))
-
-        return callback
+    def _on_estimate(self, topic: str, message: JointState, info: dict) -> None:
+        self._update(topic, message.effort, info, stamp_seconds(message.header.stamp))
 
     def _on_applied_command(self, message: Float64MultiArray, info: dict) -> None:
         """Three pressures (a regulator's command) or six openings (valves: shown net)."""

@@ -22,6 +22,8 @@ BAG_DIR_NAME = 'bag'
 MAX_PLOT_POINTS = 20_000
 #: Significant digits written to the CSV (well below the model's solver tolerance).
 CSV_DIGITS = 12
+#: Line styles of the constant references (nominal, patient) beside an identified signal.
+REFERENCE_STYLES = (':', '-.')
 
 
 def csv_columns() -> list[str]:
@@ -51,13 +53,11 @@ class RunRecord:
         Run directory; created if missing. Existing record files in it are replaced.
     """
 
-    def __init__(self, directory: Path):
-        self.directory = Path(directory)
-        self.directory.mkdir(parents=True, exist_ok=True)
-        self.csv_path = self.directory / CSV_NAME
-        self.plot_path = self.directory / PLOT_NAME
-        self.log_dir = self.directory / LOG_DIR_NAME
-        self.bag_path = self.directory / BAG_DIR_NAME
+    def __init__(self, directory: Path) -> None:
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        self.csv_path = directory / CSV_NAME
+        self.plot_path = directory / PLOT_NAME
         self.rows = 0
         self._file = open(self.csv_path, 'w', newline='')  # noqa: SIM115 (closed in close())
         self._writer = csv.writer(self._file)
@@ -104,10 +104,6 @@ def read_csv(path: Path) -> dict[str, np.ndarray]:
         rows = [[float(cell) if cell else np.nan for cell in row] for row in reader]
     data = np.array(rows, dtype=float).reshape(len(rows), len(header))
     return {name: data[:, i] for i, name in enumerate(header)}
-
-
-REFERENCE_STYLES = (':', '-.')
-"""Line styles of the constant reference values (nominal, patient) beside an identification."""
 
 
 def save_plot(table: dict[str, np.ndarray], path: Path, references=None) -> None:

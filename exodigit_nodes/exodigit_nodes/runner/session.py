@@ -1,18 +1,19 @@
 """One runner loop for a glove or a hand: node processes, live summary, run records, clean stop.
 
 :func:`run_session` starts the processes of a :class:`Session`, watches every glove of it with a
-:class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove), and
-stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or the end of the duration: in the
-session's stop order (the commands first, so the chambers get zero pressure), then each record's
-last step is joined and its plot drawn. :mod:`.hand_runner` builds the :class:`Session` of a
-glove or a hand.
+:class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove) and, in
+simulated time, holds the plants to the session protocol (docs/spec/ros.md, "The session
+protocol", guarantees 3 and 6). It stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or
+the end of the duration, in the session's stop order; then each record's last step is joined and
+its plot drawn. :mod:`.hand_runner` builds the :class:`Session` of a glove or a hand.
 """
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,7 +68,7 @@ class Session:
         The node names each glove's summary shows the health of.
     gloves : tuple of WatchedGlove
     pause_service : str
-        ``set_paused`` of the simulated time, absolute (resumed once every glove is watched).
+        ``set_paused`` of the simulated time, absolute.
     simulated : bool
         Simulated time: the plants start paused and pause at ``duration``.
     duration : float
@@ -75,10 +76,8 @@ class Session:
     log_dir : Path
         Where the processes' logs go.
     listeners : tuple of str
-        Nodes (fully qualified) besides the summary whose readers every plant must have matched
-        before the plants resume, as each says on its ``~/ready``: the recorder (a plant in
-        simulated time that ends its session before it knows of a reader takes every sample
-        with it) and the estimators (one the plant does not know yet misses the first states).
+        Nodes (fully qualified) whose ``~/ready`` must say true before the plants resume: the
+        recorder and the estimators (docs/spec/ros.md, "The session protocol", guarantee 2).
     streams : tuple of str
         The topics a glove's step joins in the summary and the record (`.summary.STEP_ORDER`;
         a board's: `.summary.BOARD_STEP_ORDER`).
@@ -119,14 +118,6 @@ def identification_references(nominal_files: list[str], plant_files: list[str] |
     }
 
 
-def log_tail(path: Path | None) -> list[str]:
-    """The last lines of a process's log file (empty if there is none)."""
-    if path is None or not path.is_file():
-        return []
-    lines = path.read_text(errors='replace').splitlines()
-    return lines[-LOG_TAIL_LINES:]
-
-
 def run_session(session: Session, env: dict) -> int:
     """Start, watch, stop and report one session; the exit code (0 clean, 1 a process failed)."""
     stop = StopRequest()  # from here on, Ctrl-C means a clean stop
@@ -151,6 +142,7 @@ def run_session(session: Session, env: dict) -> int:
         )
         for glove in session.gloves
     ]
+    titled = [(s, glove.title) for s, glove in zip(signals, session.gloves, strict=True)]
     executor = None
     monitors = []
     failures, stops = [], []
@@ -161,25 +153,11 @@ def run_session(session: Session, env: dict) -> int:
         rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
         executor = EventsExecutor()
         for glove, glove_signals in zip(session.gloves, signals, strict=True):
-            monitor = GloveMonitor(
-                glove_signals,
-                glove.namespace,
-                glove.record.write,
-                pause_service=session.pause_service,
-            )
-            monitors.append(monitor)
-            executor.add_node(monitor)
-
-        def spin() -> None:
-            executor.spin_once(timeout_sec=0.02)
-
-        def show(now: float) -> None:
-            display.show_many(
-                [(s, glove.title) for s, glove in zip(signals, session.gloves, strict=True)], now
-            )
-
-        failures = _watch(session, stop, supervisor, monitors, signals, spin, show)
-        show(time.monotonic())
+            monitors.append(GloveMonitor(glove_signals, glove.namespace, glove.record.write))
+            executor.add_node(monitors[-1])
+        spin = functools.partial(executor.spin_once, timeout_sec=0.02)
+        failures = _watch(session, stop, supervisor, monitors, signals, spin, display, titled)
+        display.show(titled, time.monotonic())
         unit = 'simulated s' if session.simulated else 's'
         reason = stop.signal_name or (
             'a process exited' if failures else f'{session.duration:g} {unit} elapsed'
@@ -203,64 +181,60 @@ def run_session(session: Session, env: dict) -> int:
     return _report(session, supervisor, signals, failures, stops)
 
 
-def _watch(session: Session, stop, supervisor, monitors, signals, spin, show) -> list:
-    """Hold the plants to the session protocol and show the glove until the session ends.
+def _watch(session: Session, stop, supervisor, monitors, signals, spin, display, titled) -> list:
+    """Show the gloves until the session ends; in simulated time, hold the plants meanwhile.
 
-    The protocol (nodes/handshake.py): every node of every glove has matched the summary's
-    readers once it has answered our handshake, and each listener says on its ``~/ready`` when
-    the nodes it listens to have matched its own; in simulated time the plants start paused
-    until then, and run only a few hundred steps ahead of what the record has received
-    (:mod:`.horizon`). Ends on a stop request, a process that exited (returned) or the end of
-    the session's duration (wall or simulated seconds).
+    The plants, started paused, resume once every node of every glove has answered the
+    summary's handshake and every listener is ready, and run at most `.horizon.LEAD_STEPS`
+    past the newest step every record has whole. Ends on a stop request, a process that exited
+    (returned) or the end of the session's duration (wall or simulated seconds).
     """
+    from std_srvs.srv import SetBool
+
     from ..nodes.catalog import PLANT_NODE
     from ..nodes.handshake import Handshake, ReadyWatch, glove_nodes
     from .horizon import Horizon
 
-    handshake = Handshake(
-        monitors[0], glove_nodes([g.namespace for g in session.gloves], session.nodes)
-    )
-    listeners = ReadyWatch(monitors[0], session.listeners)
-    plant = f'{session.gloves[0].namespace.rstrip("/")}/{PLANT_NODE.executable}'
-    horizon = Horizon(monitors[0], plant) if session.simulated else None
-    if horizon is not None:
+    if session.simulated:
+        node = monitors[0]  # after every monitor's readers (the handshake's rule)
+        namespaces = [glove.namespace for glove in session.gloves]
+        handshake = Handshake(node, glove_nodes(namespaces, session.nodes))
+        listeners = ReadyWatch(node, session.listeners)
+        pause = node.create_client(SetBool, session.pause_service)
+        horizon = Horizon(node, f'{namespaces[0].rstrip("/")}/{PLANT_NODE.executable}')
         horizon.start(session.duration)
     started = time.monotonic()
     next_refresh = started
-    waiting = session.simulated
+    paused = session.simulated
     failures = []
     while not stop.requested:
         spin()
         now = time.monotonic()
-        if waiting and listeners.ready() and not handshake.silent():
-            waiting = not (horizon.ready() and monitors[0].resume_plant())
-        elif horizon is not None and not waiting:
-            horizon.follow(_joined(signals))
+        if paused:
+            present = listeners.ready() and not handshake.silent()
+            if present and horizon.ready() and pause.service_is_ready():
+                pause.call_async(SetBool.Request(data=False))
+                paused = False
+        elif session.simulated:
+            horizon.follow(_earliest(s.stamp for s in signals))
         failures = supervisor.exited()
-        elapsed = now - started if not session.simulated else _simulated(signals)
+        if session.simulated:
+            elapsed = _earliest(s.received_stamp for s in signals) or 0.0
+        else:
+            elapsed = now - started
         if failures or (session.duration and elapsed >= session.duration):
             break
         if now >= next_refresh:
-            show(now)
+            display.show(titled, now)
             for glove in session.gloves:
                 glove.record.flush()
             next_refresh = now + REFRESH_PERIOD
     return failures
 
 
-def _simulated(signals: Sequence[GloveSignals]) -> float:
-    """Simulated time every glove has reached, s (0 before each has a state)."""
-    stamps = [s.received_stamp for s in signals]
-    return 0.0 if None in stamps else min(stamps)
-
-
-def _joined(signals: Sequence[GloveSignals]) -> float | None:
-    """Stamp of the latest step every glove's record has whole, s (None before each has one).
-
-    A step is whole once its pressure, angles and forces and the next step's pressure are in,
-    so a stream held back (any of the three) holds this too.
-    """
-    stamps = [s.stamp for s in signals]
+def _earliest(stamps: Iterable[float | None]) -> float | None:
+    """The earliest of the gloves' stamps, s; None until each has one."""
+    stamps = list(stamps)
     return None if None in stamps else min(stamps)
 
 
@@ -272,16 +246,19 @@ def _report(session: Session, supervisor: Supervisor, signals, failures, stops) 
     def reported(name: str) -> bool:
         return any(s.health[node] is not None for s in signals for node in session.runs[name])
 
-    # A process stopped before any of its nodes reported was still starting (importing):
-    # Ctrl-C that early can end it with any code, and that is no failure of the session.
-    starting = [s for s in unclean if session.runs.get(s.name) and not reported(s.name)]
-    starting = [s for s in starting if not s.forced]
+    # A process stopped by SIGINT before any of its nodes reported was still importing: Ctrl-C
+    # that early can end it with any code, and that is no failure of the session.
+    starting = [
+        s for s in unclean if not s.forced and session.runs.get(s.name) and not reported(s.name)
+    ]
     for exit_ in starting:
         print(f'{session.program}: {exit_.name} was stopped while starting ({exit_.describe()})')
     bad = failures + [s for s in unclean if s not in starting]
     for exit_ in bad:
         print(f'{session.program}: {exit_.describe()}', file=sys.stderr)
-        for line in log_tail(supervisor.log_path(exit_.name)):
+        log = supervisor.log_path(exit_.name)
+        lines = log.read_text(errors='replace').splitlines() if log and log.is_file() else []
+        for line in lines[-LOG_TAIL_LINES:]:
             print(f'  {exit_.name}| {line}', file=sys.stderr)
     for glove in session.gloves:
         plot = glove.record.plot(glove.references)

@@ -61,32 +61,26 @@ SIGNALS = {
     'estimated_rest_angle': Signal('rest est', 'qr_est', 180.0 / math.pi, 'deg', 'deg'),
 }
 COMMAND_SIGNALS = ('pressure_command', 'valve_command')
-"""The signals of the command that drove each step: what the plant applied (its
-``applied_command``), three pressures of a regulator or six openings of valves (shown net)."""
+"""The command that drove a step (the plant's ``applied_command``): three pressures of a
+regulator or six openings of valves (shown net)."""
 
 
 #: Openings of a ``valve_command`` (with actuation valves): inlets MCP, PIP, DIP, then outlets.
 VALVE_OPENINGS = 6
-#: The plant topics a `Sample` joins, in the order the plant publishes them in a step
-#: (``Plant.publish_state``): the first leads (`exodigit_model.stepping.joining`).
+#: The plant topics a `Sample` joins, in the order the plant publishes them in a step.
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
-#: The topics of a step of the ``hardware`` bridge: a board's sample (pressures, then angles).
+#: The topics of a step of the ``hardware`` bridge (a board has no contact forces).
 BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
 #: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
 STAMPED = ('estimated_contact_forces',)
-#: Most joined steps held back for their estimates: an estimator that stops answering holds
-#: no more than this.
+#: Most joined steps held back for their estimates or command.
 ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 
 
 def net_openings(openings) -> np.ndarray | None:
-    """Per joint, u_in − u_out of a ``valve_command`` (the ``valves`` signal: + fills, − vents).
-
-    None for a message of another length (another publisher's malformed one: the plant reports
-    those, not the summary).
-    """
+    """Per joint, u_in − u_out of a ``valve_command`` (+ fills, − vents); None if malformed."""
     values = np.asarray(openings, dtype=float)
     if values.shape != (VALVE_OPENINGS,):
         return None
@@ -130,19 +124,14 @@ class Health:
 class GloveSignals:
     """Latest value of each glove signal, and the samples the plant's steps make of them.
 
-    The plant publishes ``chamber_pressure``, ``joint_states`` and ``contact_forces`` in each
-    step, on three topics without a common stamp. A `Sample` joins the three messages of one
-    step by the times they were sent (DDS source timestamps), with the rule of
-    `exodigit_model.stepping.joining`: each step's pressure leads and the angles and forces sent
-    after it, before the next step's pressure, are its own. So it never mixes two steps, however
-    the messages are delivered or delayed, and a step that lost a message is skipped. A step is
-    joined once the next step's pressure has arrived (or at `flush`). The estimate of `STAMPED`
-    joins the step whose angles carry its stamp: where an estimator runs (``estimated``; else
-    once one has been heard), a joined step waits for its estimate until it, or the estimate of
-    a later step, arrives (the estimator left that step out: None), at most `ESTIMATE_WAIT`
-    steps. The command joins the step it drove: the latest one sent before the step's
-    pressure (``commanded``: a step waits for it). The identified spring joins with its latest
-    value.
+    A `Sample` joins the messages of one plant step (``streams``: topics without a common stamp)
+    by when they were sent (DDS source timestamps), with the rule of
+    `exodigit_model.stepping.joining`: it never mixes two steps, and a step that lost a message
+    is skipped. A step is joined once the next step's pressure has arrived (or at `flush`). It
+    takes the estimate of `STAMPED` stamped with its angles' stamp (None if the estimator left
+    the step out), the command in force when its pressure was sent (:meth:`_command_at`) and the
+    identified spring's latest value. A step waits for its estimate and command at most
+    `ESTIMATE_WAIT` steps.
 
     Parameters
     ----------
@@ -152,15 +141,14 @@ class GloveSignals:
         Constant values shown beside an identified signal, per topic of `SIGNALS`: label ->
         values (SI), e.g. ``{'estimated_finger_stiffness': {'nominal': k, 'patient': k_true}}``.
     estimated : bool
-        An estimator runs: steps wait for their estimates from the first one on.
+        An estimator runs: steps wait for their estimates from the first one on (else once one
+        has been heard).
     commanded : bool
-        Steps wait for the first command (a plant's ``applied_command`` starts with the vent it
-        applies before any command, so it comes), at most `ESTIMATE_WAIT` steps: a record that
-        matched the plant's states before its commands then has a command in every step.
+        Steps wait for their command (the plant's ``applied_command`` starts with its vent, so
+        one comes; docs/spec/ros.md, "The session protocol", guarantee 4).
     streams : sequence of str
-        The topics a step joins, in the order they are sent, ``chamber_pressure`` first and
-        ``joint_states`` among them: `STEP_ORDER` for the plant, `BOARD_STEP_ORDER` for the
-        hardware bridge (a board's sample has no contact forces).
+        The topics a step joins, in the order they are sent: `STEP_ORDER` for the plant,
+        `BOARD_STEP_ORDER` for the hardware bridge.
     """
 
     def __init__(
@@ -241,17 +229,11 @@ class GloveSignals:
         return self._samples(self._joiner.add(signal, published, value))
 
     def flush(self) -> list[Sample]:
-        """Join what has arrived when no more plant messages will come (the end of a run).
-
-        The latest step is otherwise only completed by the first message of the next one.
-        """
+        """Join what has arrived when no more plant messages will come (the end of a run)."""
         return self._samples(self._joiner.flush()) + self._release(every=True)
 
     def _samples(self, steps: list[Joined]) -> list[Sample]:
-        """Hold the `Sample` of each joined plant step, timed by its joint_states stamp.
-
-        Returns the held samples that need not wait for an estimate (:meth:`_release`).
-        """
+        """Hold the `Sample` of each joined step (timed by its angles' stamp); :meth:`_release`."""
         for step in steps:
             angles, stamp = step.values['joint_states']
             if self._first_stamp is None:
@@ -263,7 +245,7 @@ class GloveSignals:
         return self._release()
 
     def _release(self, *, every: bool = False) -> list[Sample]:
-        """The held samples, oldest first, whose estimates are in or will not come."""
+        """The held samples, oldest first, whose estimate and command are in or will not come."""
         samples = []
         while self._held:
             stamp, sent, sample = self._held[0]
@@ -284,11 +266,7 @@ class GloveSignals:
         return samples
 
     def _command_at(self, sent: float, sample: Sample) -> bool:
-        """Put the command in force when a step was sent (s) into its sample; whether known.
-
-        The command of a step is the latest one sent before the step's pressure: what the
-        plant applied in that step (its ``applied_command``), however late it arrived here.
-        """
+        """Put in ``sample`` the last command sent before ``sent`` (s); whether there is one."""
         while len(self._commands) > 1 and self._commands[1][0] <= sent:
             self._commands.popleft()
         if not self._commands or self._commands[0][0] > sent:
@@ -366,12 +344,8 @@ class SummaryDisplay:
         self._drawn_lines = 0
         self._next_line = -math.inf
 
-    def show(self, signals: GloveSignals, now: float, title: str) -> None:
-        """Show the current state of one glove (call a few times per second)."""
-        self.show_many([(signals, title)], now)
-
-    def show_many(self, gloves: list[tuple[GloveSignals, str]], now: float) -> None:
-        """Show several gloves (a hand): one block each, or one line each prefixed by its title."""
+    def show(self, gloves: list[tuple[GloveSignals, str]], now: float) -> None:
+        """Show each (signals, title): a block each, or a line each (titled if several)."""
         if self._interactive:
             text = '\n\n'.join(signals.table(now, title) for signals, title in gloves)
             # Move the cursor up over the previous block and clear to the end of the screen.

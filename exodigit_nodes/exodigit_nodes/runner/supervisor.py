@@ -1,14 +1,11 @@
-"""Start child processes, watch them, and stop them in a given order: the one supervisor.
+"""Start child processes, watch them, and stop them in a given order (plain Python, no ROS).
 
-Each child (:class:`Child`) runs in its own session (process group), so a Ctrl-C on the terminal
-reaches only the process that started it, which then stops the children one by one. Stopping
-escalates as ``ros2 launch`` does: SIGINT (the signal rclpy nodes turn into a clean shutdown),
-after ``grace`` seconds SIGTERM, after another ``grace`` SIGKILL; then the child's whole group
-is killed, with anything the child may have started. Each child is sent SIGINT when the process
-that started it dies (:func:`..logic.lifetime.stop_with_parent`). Plain Python, no ROS: the
-glove and hand runners use :class:`Supervisor` (named children, a stop order), the testing kit
-and the tests :class:`Child` through :class:`..testing.processes.NodeProcess`, and tests use
-either for any command line.
+Each child runs in a process group of its own, so a Ctrl-C on the terminal reaches only the
+runner, which stops the children one by one. A stop escalates as ``ros2 launch`` does:
+SIGINT, after ``grace`` s SIGTERM, after another ``grace`` SIGKILL; then the child's whole group
+is killed. A child gets SIGINT when the process that started it dies
+(:func:`..logic.lifetime.stop_with_parent`). The runners use :class:`Supervisor`, the testing
+kit :class:`Child`.
 """
 
 from __future__ import annotations
@@ -24,8 +21,7 @@ from pathlib import Path
 
 from ..logic.lifetime import STOP_SIGNALS, exit_status, stop_with_parent
 
-#: Seconds a process gets to exit after SIGINT before it is sent SIGTERM, then SIGKILL (as the
-#: default ``sigterm_timeout`` of ``ros2 launch``).
+#: Seconds a process gets after SIGINT, then after SIGTERM (as ``ros2 launch``'s default).
 STOP_GRACE = 5.0
 #: The escalation of a stop, in order.
 ESCALATION = (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)
@@ -51,11 +47,7 @@ class Exit:
 
     @property
     def clean(self) -> bool:
-        """True for a stop as asked, never when it had to be forced.
-
-        Exit code 0, or death by the SIGINT itself: a process still starting (before it took
-        over SIGINT) ends that way.
-        """
+        """Exit code 0 or death by SIGINT (a process still starting), never when forced."""
         return self.returncode in (0, -signal.SIGINT) and not self.forced
 
     def describe(self) -> str:
@@ -67,23 +59,11 @@ class Exit:
 def _child_setup(parent: int, *, defer_sigint: bool) -> Callable[[], None]:
     """A pre-exec hook: SIGINT acts in the child, and reaches it if ``parent`` dies.
 
-    A shell starts background commands with SIGINT ignored, and an ignored signal stays ignored
-    across exec: a node still starting (before it installs its own handler) would then sit out
-    the supervisor's SIGINT. The disposition is reset to the default here. So are blocked stop
-    signals unblocked: a Ray worker blocks SIGINT, a child inherits the blocked signals, and a
-    child of a Ray task (the testing kit's gloves) would take no SIGINT at all, only the SIGTERM
-    that follows it after the grace period.
-
-    With ``defer_sigint`` SIGINT is blocked instead, for a child that unblocks it once it handles
-    it (:meth:`~exodigit_nodes.logic.lifetime.StopRequest.install`): a SIGINT that comes while
-    it still imports waits for that. Python's default handler would raise KeyboardInterrupt
-    wherever the child is, and code that runs during imports can swallow it (``Exception
-    ignored in: <function _get_module_lock.<locals>.cb>``): the child then ran on until SIGTERM.
-
-    The children run in their own sessions, so neither a terminal hang-up nor a killed
-    supervisor would otherwise reach them: on Linux they get SIGINT when ``parent`` dies, even by
-    SIGKILL, instead of running on with nobody watching (or publishing into a ROS domain the
-    next test session may claim).
+    SIGINT's disposition is reset to the default (a shell starts background commands with it
+    ignored, which exec keeps) and the stop signals are unblocked (a Ray worker blocks them, and
+    its children inherit that). With ``defer_sigint`` SIGINT is blocked instead, for a child
+    whose :class:`~exodigit_nodes.logic.lifetime.StopRequest` unblocks it: a SIGINT during its
+    imports waits for that, where a KeyboardInterrupt could be swallowed by import code.
     """
 
     def hook() -> None:
@@ -116,11 +96,10 @@ class Child:
         Working directory (default this process's).
     defer_sigint : bool
         The command handles SIGINT with a :class:`~exodigit_nodes.logic.lifetime.StopRequest`
-        (every exodigit node and runner): SIGINT is held until it does (:func:`_child_setup`).
+        (every exodigit node and runner): SIGINT is held until it does.
     pipes : bool
-        Its standard input and output are pipes to this process (``popen.stdin``,
-        ``popen.stdout``), for a child that is sent work and answers (a trial's worker); its
-        stderr still goes to ``errors`` or ``log``. Otherwise its standard input is empty.
+        Its standard input and output are pipes (``popen.stdin``, ``popen.stdout``); its stderr
+        still goes to ``errors`` or ``log``. Otherwise its standard input is empty.
 
     Notes
     -----
@@ -208,17 +187,14 @@ class Child:
             if self.poll() is not None:
                 break
             forced = signum != signal.SIGINT
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.pid, signum)
+            self.signal(signum)
             if idle is None:
-                with contextlib.suppress(subprocess.TimeoutExpired):
-                    self.popen.wait(grace)
+                self.wait(grace)
                 continue
             deadline = time.monotonic() + grace
             while self.poll() is None and time.monotonic() < deadline:
                 idle()
         self.popen.wait()
-        # Children the process may have started itself go with its group.
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.pid, signal.SIGKILL)
         self._exit = Exit(self.name, self.popen.returncode, forced=forced)
@@ -243,7 +219,7 @@ class Supervisor:
         terminal (so a live display is not interleaved with node logs).
     """
 
-    def __init__(self, env: Mapping[str, str], log_dir: Path | None = None):
+    def __init__(self, env: Mapping[str, str], log_dir: Path | None = None) -> None:
         self._env = dict(env)
         self._log_dir = log_dir
         self._children: dict[str, Child] = {}
@@ -283,9 +259,7 @@ class Supervisor:
         idle: Callable[[], None] | None = None,
         grace: float = STOP_GRACE,
     ) -> list[Exit]:
-        """Stop the processes one after the other, in ``order``, then any others left.
-
-        Each gets :meth:`Child.stop` (SIGINT, SIGTERM, SIGKILL, ``grace`` s apart).
+        """Stop the processes one by one (:meth:`Child.stop`), in ``order``, then the others.
 
         Returns
         -------
