@@ -225,9 +225,9 @@ def sent_seconds(info: dict) -> float:
     return info['source_timestamp'] * 1e-9
 
 
-def stamp_age(stamp_seconds: float, now: float, max_age: float, what: str) -> None:
+def stamp_age(stamp: float, now: float, max_age: float, what: str) -> None:
     """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
-    age = now - stamp_seconds
+    age = now - stamp
     if not math.isfinite(age) or abs(age) > max_age:
         when = f'{age:.3g} s ago' if age > 0 else f'{-age:.3g} s in the future'
         raise InvalidInputError(
