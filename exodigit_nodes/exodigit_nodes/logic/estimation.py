@@ -104,18 +104,18 @@ class StiffnessWindow:
     """
 
     def __init__(self, size: int) -> None:
-        self.size = size
-        self._angles = np.zeros((size, 3))
-        self._torque = np.zeros((size, 3))
-        self.count = 0
-        self._next = 0
+        self._angles: deque[NDArray[np.float64]] = deque(maxlen=size)
+        self._torque: deque[NDArray[np.float64]] = deque(maxlen=size)
+
+    @property
+    def count(self) -> int:
+        """Estimates in the window."""
+        return len(self._angles)
 
     def add(self, angles: NDArray[np.float64], finger_torque: NDArray[np.float64]) -> None:
         """Put in one estimate: angles q (rad) and τ̂_H (N·m); drops the oldest when full."""
-        self._angles[self._next] = angles
-        self._torque[self._next] = finger_torque
-        self._next = (self._next + 1) % self.size
-        self.count = min(self.count + 1, self.size)
+        self._angles.append(angles)
+        self._torque.append(finger_torque)
 
     def fit(self) -> StiffnessFit:
         """The least-squares spring τ̂_H,k = k_k (q_k − q_r,k) over the window.
@@ -125,7 +125,7 @@ class StiffnessWindow:
         ValueError
             If the window is empty or a joint never moved in it.
         """
-        return fit_stiffness(self._angles[: self.count], self._torque[: self.count])
+        return fit_stiffness(np.reshape(self._angles, (-1, 3)), np.reshape(self._torque, (-1, 3)))
 
 
 class ValidityTally:

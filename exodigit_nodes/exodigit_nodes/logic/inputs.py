@@ -36,23 +36,8 @@ MAX_ANGLE = math.pi
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
 
 
-def finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
-    """The values of a vector message as an array: as many as ``names`` lists, all finite.
-
-    Parameters
-    ----------
-    data : sequence of float
-        The ``data`` field of a Float64MultiArray.
-    what : str
-        Name of the topic, for the reason.
-    names : str
-        The values in order, comma-separated (``'MCP, PIP, DIP'``): their count is the length.
-
-    Raises
-    ------
-    InvalidInputError
-        A wrong length or a non-finite value.
-    """
+def _finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
+    """``data`` as an array of finite values, one per name of ``names`` (comma-separated)."""
     size = len(names.split(','))
     if len(data) != size:
         raise InvalidInputError(
@@ -78,7 +63,7 @@ def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> N
     bound : float
         Largest magnitude accepted (in the topic's unit).
     """
-    values = finite_values(data, what, JOINTS)
+    values = _finite_values(data, what, JOINTS)
     if np.abs(values).max() > bound:
         raise InvalidInputError(
             'out of range', f'{what} value beyond ±{bound:g}: {values.tolist()}'
@@ -98,7 +83,7 @@ def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
     what : str
         Name of the topic, for the reason.
     """
-    values = finite_values(data, what, OPENINGS)
+    values = _finite_values(data, what, OPENINGS)
     if ((values < 0.0) | (values > 1.0)).any():
         raise InvalidInputError(
             'out of range', f'{what} opening outside [0, 1]: {values.tolist()}'
