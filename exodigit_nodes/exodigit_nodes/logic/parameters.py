@@ -1,8 +1,8 @@
 """Node parameters as plain data (name, default, unit, range) and their checks.
 
-A node's :class:`ParamSpec` rows (:mod:`.catalog`) give its ``ParameterDescriptor``s, its
-``--help``, its ``config/*.yaml`` and the checks that name the parameter a value breaks (with
-:mod:`exodigit_model.checks`, as the model's own parameters).
+A node's :class:`ParamSpec` rows (:mod:`.catalog`) give its parameter descriptors, its
+``--help``, its ``config/*.yaml`` and the checks that name the parameter a value breaks (those
+of :mod:`exodigit_model.checks`, as for the model's own parameters).
 """
 
 from __future__ import annotations
@@ -67,8 +67,7 @@ class ParamSpec:
         Raises
         ------
         exodigit_model.checks.ParameterError
-            A ValueError ``name = value: must ...``, from the checks the model's own
-            parameters use.
+            A ValueError ``name = value: must ...``.
         """
         kind, name = type(self.default), self.name
         if kind is bool:
