@@ -67,9 +67,9 @@ class SamplePairer:
     ) -> list[Pair]:
         """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``.
 
-        ``state`` (the message they came in) is handed on with the pair they make. Angles
-        follow none lost if they are a publisher's first (number 1) or the first received
-        (what was sent before the node subscribed was not lost to it).
+        ``state`` (the message they came in) is handed on with the pair they make. Angles whose
+        number does not follow one received pair with nothing, but for a publisher's first
+        (number 1) and the first received (what came before the subscription was not lost).
         """
         numbers = self._angle_numbers
         follows = number == 1 or not numbers or number - 1 in numbers
