@@ -1,9 +1,6 @@
-"""What ``pressure_command``'s parameters mean: checked settings, safety limits, valve loop.
+"""``pressure_command``'s parameter values checked together: safety limits and valve loop.
 
-Its parameter values (the node table, ``nodes/catalog.py``) checked together into
-:class:`CommandSettings`: the values, the safety limits and the valve loop's settings. The
-controller of its ``mode`` is :func:`exodigit_model.control.mode_controller`, the controllers of
-in-process trials too.
+The controller of its ``mode`` is :func:`exodigit_model.control.mode_controller`.
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
-"""The estimator's bookkeeping: pairing, an identification window, estimates outside the model.
+"""The estimator's bookkeeping: pairing samples, an identification window, the validity tally.
 
-Angles (``joint_states``) and pressures (``chamber_pressure``) are paired by the times they were
-sent, with the rule of :mod:`exodigit_model.stepping.joining`: each pressure leads, and pairs with
-the first angles sent after it, before the next pressure (the plant publishes a step's pressure
-first, then its angles). Not by sequence numbers (they restart with every publisher: a replayed
-bag, a restarted plant, a recorder that missed the first message of a step), not by arrival order
-or nearest times (a preempted plant sends a step's angles late). A pressure whose angles never
-come, or come too late, is dropped and counted.
-
-Only losses need more than times: a node that falls behind loses messages (keep-last 10), and
-when a step's angles and the next step's pressure are both lost, the time rule would pair that
-step's pressure with the next step's angles. The publisher's numbering shows the loss: angles
-whose number does not follow one received before pair with nothing. Numbers never decide which
-samples pair. Measured on an overloaded machine (three gloves on two busy cores, the estimator
-losing a third of the messages), 8–13 % of the pairs were of two steps without this, none with.
+Angles (``joint_states``) and pressures (``chamber_pressure``) pair by the times they were sent
+(:mod:`exodigit_model.stepping.joining`): a pressure pairs with the first angles sent after it
+and before the next pressure (the plant sends a step's pressure, then its angles). Not by
+sequence numbers (they restart with each publisher), nor by arrival order or nearest time (a
+preempted plant sends a step's angles late). A pressure whose angles never come, or come too
+late, is dropped and counted. Sequence numbers only reveal losses: when a step's angles and the
+next step's pressure are both lost, times alone would pair a pressure with the next step's
+angles, so angles whose number does not follow one received pair with nothing.
 """
 
 from __future__ import annotations
@@ -30,8 +24,7 @@ from exodigit_model import Estimate, Joined, Joiner, StiffnessFit, fit_stiffness
 ANGLES = 'joint_states'
 PRESSURE = 'chamber_pressure'
 RECENT_NUMBERS = 32
-"""Publication numbers remembered to tell that a message follows one received (several
-publishers on one topic each number their own)."""
+"""Publication numbers remembered (several publishers on one topic each number their own)."""
 
 
 @dataclass(frozen=True)
@@ -47,32 +40,12 @@ class Pair:
     state: Any = None
 
 
-class Numbering:
-    """Whether a publisher's message follows the previous one it sent, received (none lost)."""
-
-    def __init__(self) -> None:
-        self._recent: deque[int] = deque(maxlen=RECENT_NUMBERS)
-
-    def follows(self, number: int) -> bool:
-        """Record ``number`` (DDS publication sequence number); whether none was lost before it.
-
-        A publisher's first message (number 1) follows nothing lost, nor does the first message
-        received: what was sent before the node subscribed was not lost to it (a pressure heard
-        before the first angles is followed, before them, by the next pressure, which the node
-        takes first).
-        """
-        follows = number == 1 or not self._recent or number - 1 in self._recent
-        self._recent.append(number)
-        return follows
-
-
 class SamplePairer:
     """Pairs ``joint_states`` and ``chamber_pressure`` samples by the times they were sent.
 
-    A sample the node refused is offered as None: it keeps its place in time, so its partner is
-    not paired with a neighbouring step's sample; pairs with a refused sample are left out, as are
-    angles that follow lost angles (module docstring). Pairs are returned as soon as they are
-    complete (a controller in lockstep waits for them).
+    A sample the node refused is offered as None: it keeps its place in time, so its partner
+    pairs with nothing rather than with a neighbouring step's sample. Pairs are returned as soon
+    as they are complete (a controller in lockstep waits for them).
 
     Parameters
     ----------
@@ -82,7 +55,7 @@ class SamplePairer:
 
     def __init__(self, tolerance: float) -> None:
         self._joiner = Joiner((PRESSURE, ANGLES), tolerance=tolerance)
-        self._angle_numbers = Numbering()
+        self._angle_numbers: deque[int] = deque(maxlen=RECENT_NUMBERS)
 
     @property
     def unpaired(self) -> int:
@@ -94,9 +67,14 @@ class SamplePairer:
     ) -> list[Pair]:
         """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``.
 
-        ``state`` (the message they came in) is handed on with the pair they make.
+        ``state`` (the message they came in) is handed on with the pair they make. Angles whose
+        number does not follow one received pair with nothing, but for a publisher's first
+        (number 1) and the first received (what came before the subscription was not lost).
         """
-        usable = self._angle_numbers.follows(number) and angles is not None
+        numbers = self._angle_numbers
+        follows = number == 1 or not numbers or number - 1 in numbers
+        numbers.append(number)
+        usable = follows and angles is not None
         return self._pairs(self._joiner.add(ANGLES, sent, (angles, state) if usable else None))
 
     def add_pressure(self, pressure: NDArray[np.float64] | None, sent: float) -> list[Pair]:
@@ -117,10 +95,7 @@ class SamplePairer:
 class StiffnessWindow:
     """The last ``size`` estimates (angles and τ̂_H), and the finger stiffness fitted to them.
 
-    Each pair is estimated once, when it arrives (the node publishes that estimate); the window
-    keeps its angles and estimated finger torque, so a fit costs a least-squares solve, not
-    ``size`` force estimates (with extensible segments each is a root-find,
-    docs/spec/model.md §12).
+    A fit is a least-squares solve over kept estimates, not ``size`` new force estimates.
 
     Parameters
     ----------
@@ -129,18 +104,18 @@ class StiffnessWindow:
     """
 
     def __init__(self, size: int) -> None:
-        self.size = size
-        self._angles = np.zeros((size, 3))
-        self._torque = np.zeros((size, 3))
-        self.count = 0
-        self._next = 0
+        self._angles: deque[NDArray[np.float64]] = deque(maxlen=size)
+        self._torque: deque[NDArray[np.float64]] = deque(maxlen=size)
+
+    @property
+    def count(self) -> int:
+        """Estimates in the window."""
+        return len(self._angles)
 
     def add(self, angles: NDArray[np.float64], finger_torque: NDArray[np.float64]) -> None:
         """Put in one estimate: angles q (rad) and τ̂_H (N·m); drops the oldest when full."""
-        self._angles[self._next] = angles
-        self._torque[self._next] = finger_torque
-        self._next = (self._next + 1) % self.size
-        self.count = min(self.count + 1, self.size)
+        self._angles.append(angles)
+        self._torque.append(finger_torque)
 
     def fit(self) -> StiffnessFit:
         """The least-squares spring τ̂_H,k = k_k (q_k − q_r,k) over the window.
@@ -150,15 +125,13 @@ class StiffnessWindow:
         ValueError
             If the window is empty or a joint never moved in it.
         """
-        return fit_stiffness(self._angles[: self.count], self._torque[: self.count])
+        return fit_stiffness(np.reshape(self._angles, (-1, 3)), np.reshape(self._torque, (-1, 3)))
 
 
 class ValidityTally:
-    """Estimates outside the validated model, for the estimator's /diagnostics.
+    """Estimates outside the validated model (docs/spec/ros.md, "Parameters", ``estimator``).
 
-    The robot-side estimate of a state outside the validated fibre stretch or the nominal
-    finger's range of motion (:mod:`exodigit_model.physics.validity`) is still published, but it is
-    an extrapolation: each report since which one came is a WARN that says how many and why.
+    Each report after one came is a WARN that says how many and why.
     """
 
     def __init__(self) -> None:
@@ -177,11 +150,7 @@ class ValidityTally:
             self.latest = estimate.message
 
     def report(self) -> tuple[list[str], dict[str, str]]:
-        """The problems since the last report (a WARN when any) and the values to show.
-
-        Starts the next period: an estimate back inside the model ends the warning at the next
-        report.
-        """
+        """The problems since the last report (a WARN when any) and the values to show."""
         problems = []
         if self.new_outside:
             problems.append(

@@ -1,7 +1,7 @@
 """Checks on incoming messages, as plain functions of their fields, and a rejection tally.
 
-Every subscription of every node passes its message through one of these before using it. A
-message that fails is dropped; the node keeps its last valid input and counts the reason.
+A message that fails a check is dropped; the node keeps its last valid input and counts the
+reason (docs/spec/ros.md, "Safety behaviour").
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 from exodigit_model.control import Trajectory, TrajectoryError
+from exodigit_model.stepping.settings import NANOSECONDS
 from numpy.typing import NDArray
 
 from exodigit_model import JOINT_NAMES
@@ -32,29 +33,11 @@ OPENINGS = 'inlet MCP, inlet PIP, inlet DIP, outlet MCP, outlet PIP, outlet DIP'
 MAX_PRESSURE_READING = 10e6
 """Largest |chamber pressure| accepted as a measurement, Pa."""
 MAX_ANGLE = math.pi
-NANOSECONDS = 10**9
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
 
 
-def finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
-    """The values of a vector message as an array: as many as ``names`` lists, all finite.
-
-    The checks every vector topic shares (pressures, efforts, targets, valve openings).
-
-    Parameters
-    ----------
-    data : sequence of float
-        The ``data`` field of a Float64MultiArray.
-    what : str
-        Name of the topic, for the reason.
-    names : str
-        The values in order, comma-separated (``'MCP, PIP, DIP'``): their count is the length.
-
-    Raises
-    ------
-    InvalidInputError
-        A wrong length or a non-finite value.
-    """
+def _finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
+    """``data`` as an array of finite values, one per name of ``names`` (comma-separated)."""
     size = len(names.split(','))
     if len(data) != size:
         raise InvalidInputError(
@@ -80,7 +63,7 @@ def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> N
     bound : float
         Largest magnitude accepted (in the topic's unit).
     """
-    values = finite_values(data, what, JOINTS)
+    values = _finite_values(data, what, JOINTS)
     if np.abs(values).max() > bound:
         raise InvalidInputError(
             'out of range', f'{what} value beyond ±{bound:g}: {values.tolist()}'
@@ -89,11 +72,9 @@ def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> N
 
 
 def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
-    """Six finite openings in [0, 1] (docs/spec/ros.md, "Valves"), or :class:`InvalidInputError`.
+    """Six finite openings in [0, 1] (:data:`OPENINGS`), or :class:`InvalidInputError`.
 
-    The order of a ``valve_command``: the inlet valves of MCP, PIP, DIP, then their outlet valves
-    (:data:`OPENINGS`). An opening outside [0, 1] is refused, not clipped: no valve opens
-    beyond fully or less than closed, so such a command is a controller's bug.
+    An opening outside [0, 1] is a controller's bug: refused, not clipped.
 
     Parameters
     ----------
@@ -102,7 +83,7 @@ def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
     what : str
         Name of the topic, for the reason.
     """
-    values = finite_values(data, what, OPENINGS)
+    values = _finite_values(data, what, OPENINGS)
     if ((values < 0.0) | (values > 1.0)).any():
         raise InvalidInputError(
             'out of range', f'{what} opening outside [0, 1]: {values.tolist()}'
@@ -137,14 +118,13 @@ def joint_positions(message) -> NDArray[np.float64]:
     InvalidInputError
         Wrong names, mismatched lengths, non-finite or impossible (beyond ±π) positions.
     """
-    names, position = message.name, message.position
-    velocity, effort = message.velocity, message.effort
-    order = joint_order(names)
+    order = joint_order(message.name)
+    position = message.position
     if len(position) != 3:
         raise InvalidInputError(
             'lengths', f'joint_states has 3 names but {len(position)} positions'
         )
-    for field, values in (('velocity', velocity), ('effort', effort)):
+    for field, values in (('velocity', message.velocity), ('effort', message.effort)):
         if len(values) not in (0, 3):
             raise InvalidInputError(
                 'lengths', f'joint_states has 3 names but {len(values)} {field} values'
@@ -230,9 +210,9 @@ def sent_seconds(info: dict) -> float:
     return info['source_timestamp'] * 1e-9
 
 
-def stamp_age(stamp_seconds: float, now: float, max_age: float, what: str) -> None:
+def stamp_age(stamp: float, now: float, max_age: float, what: str) -> None:
     """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
-    age = now - stamp_seconds
+    age = now - stamp
     if not math.isfinite(age) or abs(age) > max_age:
         when = f'{age:.3g} s ago' if age > 0 else f'{-age:.3g} s in the future'
         raise InvalidInputError(

@@ -1,19 +1,8 @@
-"""How a glove process stops: on request, with its parent, and how its end is told (no ROS).
+"""How a glove process stops: on a signal, with its parent, and how its end is told (no ROS).
 
-A glove process does not outlive the process that started it (Linux).
-
-Whoever starts a node (``ros2 launch``, ``ros2 run``, the runners, the testing kit) may die
-without stopping it: killed by SIGKILL, or ``ros2 launch`` sent SIGTERM alone. A node left
-behind keeps the chambers pressurised in the simulation and keeps publishing into a domain the
-next session may use. :func:`stop_with_parent` asks the kernel for a signal when the parent
-dies (prctl PR_SET_PDEATHSIG); the node handles it as Ctrl-C, sending zero pressure first.
-
-The signal comes when the *thread* that started the process ends: a program that starts nodes
-from a worker thread must keep that thread alive while they run.
-
-:class:`StopRequest` is how every node and runner takes SIGINT, SIGTERM and SIGHUP: a flag its loop
-checks. :func:`exit_status` says in words how a child ended, for the runners, the testing kit and
-the launch files alike.
+A node must not outlive whoever started it (``ros2 launch``, the runners, the testing kit), even
+one killed by SIGKILL: left behind, it would keep the chambers pressurised and keep publishing
+into a domain the next session may use (docs/running.md, "Running the glove").
 """
 
 import ctypes
@@ -28,9 +17,10 @@ PR_SET_PDEATHSIG = 1
 def stop_with_parent(signum: int = signal.SIGINT, parent: int | None = None) -> bool:
     """Have ``signum`` sent to this process when its parent dies (Linux; elsewhere nothing).
 
-    ``parent`` is the pid the parent had when it started this process (its current parent when
-    omitted). Returns False when that parent is gone already, so no signal will come: the caller
-    should stop at once.
+    The signal comes when the *thread* that started the process ends: a program that starts
+    nodes from a worker thread must keep that thread alive while they run. ``parent`` is the
+    pid the parent had when it started this process (its current parent when omitted).
+    Returns False when that parent is gone already, so no signal will come: stop at once.
     """
     if not sys.platform.startswith('linux'):
         return True
@@ -45,10 +35,10 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 class StopRequest:
-    """Turns SIGINT, SIGTERM and SIGHUP into a flag a loop checks (every node, the runners).
+    """Turns the stop signals into a flag a loop checks, created installed.
 
-    No exception is thrown into whatever the process is doing (rclpy's C code, a half-written
-    record): the loop sees :attr:`requested` and stops on its own. Created installed.
+    No exception is thrown into what the process is doing (rclpy's C code, a half-written
+    record): the loop sees :attr:`requested` and stops on its own.
 
     Attributes
     ----------
@@ -66,10 +56,8 @@ class StopRequest:
     def install(self) -> None:
         """Handle the stop signals (again: loading rclpy's C extension takes SIGINT over).
 
-        Also when SIGINT was ignored (a shell starts background commands that way) or blocked
-        (a child of a Ray worker inherits its blocked SIGINT; the supervisor holds it blocked
-        in its children until now): they are unblocked in this thread, and a SIGINT that came
-        meanwhile is handled here.
+        Also when they were ignored (a shell's background command) or blocked (inherited from
+        a Ray worker, or by the supervisor until now): a SIGINT that came meanwhile is handled.
         """
         for signum in STOP_SIGNALS:
             signal.signal(signum, self)

@@ -1,9 +1,4 @@
-"""Rules a glove's or a hand's options follow before anything starts (no ROS).
-
-The runners and ``hand_nodes`` check a ``--namespace`` up front (:func:`check_namespace`),
-since a node refuses a bad one only once started, and give each plant its model files with the
-``--patient`` merged over them (:func:`with_patient`).
-"""
+"""Rules a glove's or a hand's options follow, checked before anything starts (no ROS)."""
 
 from __future__ import annotations
 
@@ -18,10 +13,7 @@ class UsageError(ValueError):
 
 
 def check_namespace(namespace: str, examples: str) -> None:
-    """Refuse a ``--namespace`` a node would refuse only once started (UsageError, one line).
-
-    ``examples``: good values to suggest, e.g. ``/glove or /left/index``.
-    """
+    """Refuse a ``--namespace`` a node would refuse once started; ``examples``: good values."""
     if not NAMESPACE_PATTERN.match(namespace):
         raise UsageError(
             f'--namespace {namespace!r}: must be absolute, each name starting with a letter '

@@ -1,10 +1,8 @@
-"""When the next simulated step is due in wall time, at a real-time factor (docs/spec/ros.md).
+"""When the next simulated step is due in wall time, at a real-time factor (no ROS).
 
-Plain Python (no ROS), so the schedule is unit-testable. The schedule is anchored: step times
-are measured from the wall and simulated times of the latest :meth:`Pacer.restart`, so rounding
-never accumulates and simulated time keeps pace with wall time over long runs. A plant that
-falls more than ``MAX_CATCH_UP`` behind its schedule (a loaded machine, a slow controller in
-lockstep) is re-anchored instead of publishing a burst of steps to catch up.
+The schedule is anchored at the latest :meth:`Pacer.restart`, so rounding never accumulates; a
+plant more than ``MAX_CATCH_UP`` behind is re-anchored instead of catching up with a burst of
+steps (docs/spec/ros.md, "Simulated time, faster than real time, lockstep").
 """
 
 from __future__ import annotations
@@ -21,24 +19,7 @@ MAX_CATCH_UP = 0.1
 
 @dataclass(frozen=True)
 class TimeSettings:
-    """How simulated time runs (the plant's parameters of the same names).
-
-    Attributes
-    ----------
-    real_time_factor : float
-        Simulated seconds per wall second; 0 = as fast as possible.
-    lockstep : bool
-        One step in flight: each step waits for every member's answer.
-    lockstep_timeout : float
-        Wall seconds without an answer before the clock unlocks (0 = wait forever).
-    start_paused : bool
-        Start paused (``set_paused`` false, or ``step``, to go).
-    pause_at : float
-        Pause once simulated time reaches this, s (0 = never).
-    run_until : float
-        Take no step past this simulated time, s (0 = no limit): not a pause, raising it lets
-        the steps go on. A runner keeps it a few steps ahead of what its record has received.
-    """
+    """How simulated time runs: the plant's parameters of the same names (:mod:`.catalog`)."""
 
     real_time_factor: float = 1.0
     lockstep: bool = False
@@ -53,14 +34,7 @@ TIME_SETTING_NAMES = frozenset(field.name for field in fields(TimeSettings))
 
 
 class Pacer:
-    """Wall-clock schedule of simulated steps.
-
-    Attributes
-    ----------
-    late_restarts : int
-        How often the plant fell more than ``MAX_CATCH_UP`` behind and the schedule was
-        re-anchored.
-    """
+    """Wall-clock schedule of simulated steps; ``late_restarts`` counts re-anchorings."""
 
     def __init__(self) -> None:
         self._wall = 0.0

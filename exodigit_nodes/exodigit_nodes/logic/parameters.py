@@ -1,10 +1,8 @@
-"""Declared node parameters as plain data: name, default, unit, range, and their validation.
+"""Node parameters as plain data (name, default, unit, range) and their checks.
 
-Each node lists its parameters once as :class:`ParamSpec` rows (in :mod:`.catalog`). The same
-rows give the ROS ``ParameterDescriptor`` (see :mod:`.node_base`), the ``--help`` text, the
-``config/*.yaml`` parameter files, and the checks that refuse a bad value with a reason naming the
-parameter (the model's :mod:`exodigit_model.checks`, one format for every parameter of the
-project). No rclpy here, so the rules are unit-testable.
+A node's :class:`ParamSpec` rows (:mod:`.catalog`) give its parameter descriptors, its
+``--help``, its ``config/*.yaml`` and the checks that name the parameter a value breaks (those
+of :mod:`exodigit_model.checks`, as for the model's own parameters).
 """
 
 from __future__ import annotations
@@ -69,8 +67,7 @@ class ParamSpec:
         Raises
         ------
         exodigit_model.checks.ParameterError
-            A ValueError ``name = value: must ...``, from the checks the model's own
-            parameters use.
+            A ValueError ``name = value: must ...``.
         """
         kind, name = type(self.default), self.name
         if kind is bool:
@@ -105,17 +102,15 @@ class ParamSpec:
             allowed = f'{{{", ".join(self.choices)}}}'
         elif low is not None and high is not None:
             allowed = f'[{low:g} .. {high:g}]'
-        elif low is not None or high is not None:
-            allowed = f'>= {low:g}' if high is None else f'<= {high:g}'
+        elif low is not None:
+            allowed = f'>= {low:g}'
+        elif high is not None:
+            allowed = f'<= {high:g}'
         else:
             allowed = ''
         given = self.required and not self.default  # no default: the user names it
-        return ' '.join(
-            filter(
-                None,
-                (allowed, '(read-only)' if self.read_only else '', '(must be given)' * given),
-            )
-        )
+        notes = (allowed, '(read-only)' * self.read_only, '(must be given)' * given)
+        return ' '.join(filter(None, notes))
 
     def help_line(self) -> str:
         """One entry of ``--help``: name, default and rule, then the meaning on a second line."""

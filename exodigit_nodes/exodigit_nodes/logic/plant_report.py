@@ -1,11 +1,8 @@
 """What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Nodes and topics").
 
-With valves (docs/spec/model.md §14) the report also gives the openings applied and each
-chamber's air mass and volume.
-
-:func:`plant_report` turns the plant's state and counters into the report's problems (each a
-reason for WARN), notes (said, but no reason for WARN) and the key-value pairs shown beside
-them. The plant node adds its simulated time's problems and values and publishes the status.
+:func:`plant_report` turns the plant's state and counters into problems (each a reason for
+WARN), notes (no reason for WARN) and the values shown beside them; the plant node adds its
+simulated time's.
 """
 
 from __future__ import annotations

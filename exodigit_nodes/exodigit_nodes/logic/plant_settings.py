@@ -1,14 +1,14 @@
-"""The plant's run-time settings from its parameter values: plain Python, unit-testable."""
+"""The plant's run-time settings from its checked parameter values (no ROS)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from exodigit_model import SimulationSettings
 
-from .pacing import TimeSettings
+from .pacing import TIME_SETTING_NAMES, TimeSettings
 from .parameters import describe_files
 
 
@@ -16,8 +16,7 @@ from .parameters import describe_files
 class PlantSettings:
     """The plant's run-time settings (SI), from its parameters of the same names.
 
-    ``simulation`` and ``time`` gather the parameters of :class:`exodigit_model.SimulationSettings`
-    and :class:`~exodigit_nodes.logic.pacing.TimeSettings`.
+    ``simulation`` and ``time`` gather those named as the fields of their classes.
     """
 
     simulation: SimulationSettings
@@ -41,27 +40,14 @@ def plant_settings(values: Mapping[str, Any]) -> PlantSettings:
         for name in ('lockstep', 'start_paused'):
             if values[name]:
                 raise ValueError(f'{name} needs clock sim (only simulated time can wait)')
+    simulation_names = (field.name for field in fields(SimulationSettings))
     return PlantSettings(
-        simulation=SimulationSettings(
-            rate_hz=values['rate_hz'],
-            pressure_time_constant=values['pressure_time_constant'],
-            max_supply_pressure=values['max_supply_pressure'],
-            angle_noise_std=values['angle_noise_std'],
-            pressure_noise_std=values['pressure_noise_std'],
-            seed=values['seed'],
-        ),
+        simulation=SimulationSettings(**{name: values[name] for name in simulation_names}),
         command_timeout=values['command_timeout'],
         effort_timeout=values['effort_timeout'],
         frame_id=values['frame_id'],
         marker_rate_hz=values['marker_rate_hz'],
-        time=TimeSettings(
-            real_time_factor=values['real_time_factor'],
-            lockstep=values['lockstep'],
-            lockstep_timeout=values['lockstep_timeout'],
-            start_paused=values['start_paused'],
-            pause_at=values['pause_at'],
-            run_until=values['run_until'],
-        ),
+        time=TimeSettings(**{name: values[name] for name in TIME_SETTING_NAMES}),
     )
 
 

@@ -1,9 +1,8 @@
 """The ROS discovery environment and the ``--ros-args`` every glove process gets.
 
-Fast DDS by default announces itself by multicast on the machine's network interfaces. The glove
-keeps discovery on this machine unless the user opens it on purpose: when
-``ROS_AUTOMATIC_DISCOVERY_RANGE`` is unset it becomes ``LOCALHOST``; a value the user set is kept
-(``SUBNET`` opens the glove to the LAN) and an unknown value is refused.
+Discovery stays on this machine unless the user opens it (docs/networking.md, "Networking"): an
+unset ``ROS_AUTOMATIC_DISCOVERY_RANGE`` becomes ``LOCALHOST``, a value set is kept, an unknown
+one is refused.
 """
 
 from collections.abc import Mapping
