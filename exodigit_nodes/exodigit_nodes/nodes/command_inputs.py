@@ -1,11 +1,10 @@
 """What ``pressure_command`` hears: joint states, contact-force estimates, chamber pressures.
 
-The node (:mod:`.pressure_command`) commands; :class:`CommandInputs` makes its feedback
-subscriptions, keeps the latest valid sample of each with its arrival time (node clock, s), and
-in lockstep hands the node each state to answer once it is complete: in ``force`` mode with the
-estimate stamped with the state's stamp (an estimate of an earlier state is dropped), with valves
-with the ``chamber_pressure`` of the same step (paired by the times they were sent, as the
-estimator pairs them; a refused state keeps its place in the pairing and is not answered).
+:class:`CommandInputs` keeps the latest valid sample of each with its arrival time (node clock,
+s) and, in lockstep, hands the node each state once complete: in ``force`` mode with the estimate
+stamped with its stamp, with valves with the ``chamber_pressure`` of its step, paired as the
+estimator pairs them (a refused state keeps its place in the pairing and is not answered).
+docs/spec/ros.md, "Simulated time, faster than real time, lockstep" and "Valves".
 """
 
 from __future__ import annotations
@@ -78,9 +77,8 @@ class CommandInputs:
         )
         self.estimator_timer = None
         if self.lockstep and node.values['mode'] == 'force':
-            # An answer needs the estimate of the state: listen for states (and so count as a
-            # lockstep controller of the plant) once the estimator's publisher is matched, or
-            # the estimate of the first state could be sent before we can hear it.
+            # Read states (and so count as the plant's lockstep controller) only once the
+            # estimator is matched, or the first state's estimate could come before we hear it.
             self.estimator_timer = node.create_timer(
                 ESTIMATOR_POLL,
                 self.listen_once_estimated,
@@ -96,8 +94,8 @@ class CommandInputs:
     def forget(self) -> None:
         """A new session: forget a state waiting for its estimate or pressure.
 
-        An estimate waiting is kept: it may be the new session's, come before its state (an
-        older one never pairs with a state of the new session: pairing is by stamp).
+        An estimate waiting is kept: it may be the new session's, come before its state (pairing
+        is by stamp, so an older one never pairs with a new session's state).
         """
         self.pending['angles'] = self.pending['pressure'] = None
 
@@ -127,8 +125,8 @@ class CommandInputs:
     def on_joint_states(self, message: JointState, info: dict) -> None:
         """Keep valid, recently stamped joint angles (rad) with their arrival time.
 
-        In lockstep the state's stamp is the time itself (a node that has just started has not
-        heard ``/clock`` yet), so it is not compared with the node clock.
+        In lockstep the stamp is the time itself, not compared with the node clock (which may
+        not have heard ``/clock`` yet).
         """
         stamp = stamp_nanoseconds(message.header.stamp)
         try:
@@ -159,10 +157,7 @@ class CommandInputs:
             self.take_state(pair.state, pair.angles, pair.pressure)
 
     def take_state(self, stamp: int, angles: np.ndarray, pressure: np.ndarray | None) -> None:
-        """Take a valid state stamped ``stamp`` (ns); in lockstep, answer it once complete.
-
-        ``angles`` in rad; ``pressure`` (lockstep valves) the chamber pressures of its step, Pa.
-        """
+        """Take a valid state stamped ``stamp`` (ns); in lockstep, answer it once complete."""
         self.angles = (self.node.now_seconds(), angles)
         if self.lockstep:
             self.pending['angles'] = (stamp, angles)
@@ -170,10 +165,7 @@ class CommandInputs:
             self.complete()
 
     def on_forces(self, message: JointState) -> None:
-        """Keep valid estimated contact forces (N, ``effort``) with their arrival time.
-
-        In lockstep also with the stamp of the state they estimate, which pairs them with it.
-        """
+        """Keep valid estimated forces (N, ``effort``) with their arrival time and stamp."""
         try:
             forces = joint_vector(message.effort, ESTIMATED_CONTACT_FORCES, MAX_FORCE_READING)
             stamp = stamp_nanoseconds(message.header.stamp)
@@ -186,7 +178,7 @@ class CommandInputs:
             self.complete()
 
     def complete(self) -> None:
-        """Lockstep: hand the pending state to :attr:`answer` once it is complete (module text)."""
+        """Lockstep: hand the pending state to :attr:`answer` once it is complete."""
         state, forces = self.pending['angles'], self.pending['forces']
         if self.node.values['mode'] == 'force':
             if state is not None and forces is not None and forces[0] < state[0]:

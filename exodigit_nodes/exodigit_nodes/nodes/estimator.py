@@ -1,17 +1,12 @@
-"""``estimator``: robot-side contact forces and the patient's effective spring (docs/spec/ros.md).
+"""``estimator``: robot-side contact forces and the patient's effective spring.
 
-Pairs each ``chamber_pressure`` with the ``joint_states`` of the same plant step by the times
-they were sent (DDS source timestamps, :mod:`exodigit_model.stepping.joining`; refusing stale or
-unmatched samples) and publishes
-``estimated_contact_forces`` f = (J_R*)^{-T}(τ_s(q) + B_R p) (docs/spec/model.md §7, needs no
-finger model) and ``estimated_finger_torque`` τ̂_H = (J_H*)ᵀ f (§11, the torque the finger resists
-with), each a sensor_msgs/JointState with the stamp, names and angles of the ``joint_states`` it
-was computed from and the values as ``effort``; every ``identification_period``, over the last
-``identification_window`` pairs, it fits the effective linear patient τ̂_H = k (q − q_r) and
-publishes its stiffness as ``estimated_finger_stiffness`` and its rest angle as
-``estimated_rest_angle``, with the fit's RMSE in ``/diagnostics`` (large when a linear spring does
-not explain the finger). ``~/ready`` (:mod:`.handshake`) says when the plant beside it has
-matched its readers.
+Pairs each ``chamber_pressure`` with the ``joint_states`` of its plant step by the times they
+were sent (:mod:`exodigit_model.stepping.joining`) and publishes ``estimated_contact_forces``
+f = (J_R*)^{-T}(τ_s(q) + B_R p) (docs/spec/model.md §7) and ``estimated_finger_torque``
+τ̂_H = (J_H*)ᵀ f (§11), each stamped as the state it comes from; every ``identification_period``
+it fits τ̂_H = k (q − q_r) over the last ``identification_window`` pairs and publishes k and q_r
+(docs/spec/ros.md, "Nodes and topics", "The patient"); ``~/ready`` is "The session protocol",
+guarantee 2.
 
 Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.05``.
 """
@@ -54,7 +49,7 @@ from .qos import BACKLOG_QOS, READER_QOS, STREAM_QOS
 
 
 class Estimator(GloveNode):
-    """The estimator node: wires ROS to :class:`.SamplePairer` and :class:`.StiffnessWindow`."""
+    """Wires ROS to :class:`.SamplePairer` and :class:`.StiffnessWindow`."""
 
     executable = ESTIMATOR_NODE.executable
     table = ESTIMATOR_NODE.table
@@ -84,20 +79,14 @@ class Estimator(GloveNode):
         self.rest_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_REST_ANGLE, STREAM_QOS
         )
-        # The EventsExecutor takes messages in the order they arrived, the order the plant sends
-        # a step in (pressure, then angles), so the pairer knows a step's pressure before its
-        # angles (and a lost sample's partner before the next step's).
-        # In simulated time every state is estimated, also while we are behind a plant that
-        # does not wait for us (lockstep waits for the controller only); on the wall clock
-        # only fresh ones matter.
+        # The executor takes messages in the order they arrived: a step's pressure, then angles.
+        # In simulated time every state is estimated, also while behind (docs/spec/ros.md, QoS).
         simulated = self.get_parameter('use_sim_time').value
         inputs = BACKLOG_QOS if simulated else READER_QOS
         self.create_subscription(
             Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), inputs
         )
         self.create_subscription(JointState, JOINT_STATES, WithInfo(self.on_joint_states), inputs)
-        # says on ~/ready when the plant (or the bridge: glove_node) beside it has matched those
-        # readers (the testing kit waits for it: a state the plant sent before is lost to us)
         self.readiness = Ready(self, [self.values['glove_node']])
         self.identify_timer = self.create_timer(
             self.values['identification_period'], self.identify
@@ -109,11 +98,10 @@ class Estimator(GloveNode):
         )
 
     def warm_up(self) -> None:
-        """Estimate once at rest: the model's compiled kernels load now, not at the first state.
+        """Estimate once at rest, so that the compiled kernels load now, not at the first state.
 
-        Loading them takes a few hundred milliseconds, in which a lockstep plant at real-time
-        factor 0 steps on past the 10 states our readers keep: two run records of a test lacked
-        the estimates of their first 28 and 84 steps.
+        Loading takes a few hundred milliseconds, in which a lockstep plant at real-time factor 0
+        steps on past the states our readers keep, and their estimates would be lost.
         """
         rest, no_pressure = np.zeros(3), np.zeros(3)
         with warnings.catch_warnings():  # whatever it says of this made-up state

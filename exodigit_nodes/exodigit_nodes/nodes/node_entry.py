@@ -1,7 +1,4 @@
-"""What the node table says of one node: :class:`NodeEntry` (:mod:`.catalog` lists them).
-
-No rclpy here: :meth:`NodeEntry.node_class` imports a node's module only when asked.
-"""
+"""One row of the node table (:mod:`.catalog`); no rclpy until :meth:`NodeEntry.node_class`."""
 
 from __future__ import annotations
 
@@ -52,10 +49,7 @@ class NodeEntry:
 
     @property
     def entry_point(self) -> str:
-        """The console script's target in setup.py: ``exodigit_nodes.console:plant``.
-
-        It runs :attr:`module`'s ``main`` (:mod:`exodigit_nodes.console`).
-        """
+        """The console script's target in setup.py (``exodigit_nodes.console:plant``)."""
         return f'{PACKAGE}.console:{self.executable}'
 
     @property

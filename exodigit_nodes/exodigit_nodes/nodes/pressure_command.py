@@ -1,36 +1,14 @@
-"""``pressure_command``: the glove's reference controller and command source (docs/spec/ros.md).
+"""``pressure_command``: the glove's reference controller and command source.
 
-Modes: ``staircase`` (0 → 50 kPa in 10 kPa steps and back, as in the paper's experiments), ``sine``
-(continuous passive motion between two pressures), ``hold``, ``position`` (feed-forward
-``GloveModel.pressure_for`` plus PI on ``joint_states``; targets from the ``joint_targets``
-parameter or topic, or a ``joint_trajectory``: :class:`exodigit_model.control.Setpoint`, each
-command aiming at its target one period ahead, where the step it drives ends) and ``force``
-(target contact forces with PI on ``estimated_contact_forces``). Every command passes the safety
-limiter: within [0, max_pressure], no faster than max_pressure_rate, ramping down when a joint
-leaves its range of motion or a contact force exceeds max_contact_force. On exit (Ctrl-C,
-SIGTERM) it publishes zero pressure.
-
-With ``output:=valves`` (for a plant with ``actuation:=valves``, docs/spec/model.md §14) the
-limited pressures are the targets of a pressure loop on the measured ``chamber_pressure``
-(:class:`exodigit_model.control.ValveLoop`, the loop of in-process trials too), and it publishes
-that loop's ``valve_command`` (six openings) instead: with no fresh ``chamber_pressure`` and on
-exit, a vent (inlets closed, outlets open).
-
-It commands at ``rate_hz`` on its own timer, or, with ``lockstep:=true`` (the plant in lockstep
-simulated time, docs/spec/ros.md Part II), answers each ``joint_states`` with one command computed
-from that state and its stamp (in ``force`` mode: from that state and the estimate stamped with
-the same stamp; with valves: from that state and the ``chamber_pressure`` of the same step,
-paired by the times they were sent as the estimator pairs them).
-
-When its time goes back (a plant's ``reset_simulation``: a new session, e.g. the next patient of
-a trial), it starts over as if just started: no integral, no rate limit carried over, no feedback
-or lockstep state of the old session; its parameters and latest targets (``joint_targets`` or
-trajectory: :meth:`~exodigit_model.control.Setpoint.restart`) stay. Its time is
-the node clock (``/clock`` with ``use_sim_time``: a time-jump callback, the signal tf2's buffers
-clear on), in lockstep the stamps of the states it answers (a state stamped before the last one
-answered). A session's time (what ``staircase`` and ``sine`` follow) starts when the node starts
-or starts over, in lockstep at the first state it answers, as an in-process trial's at its first
-command.
+Runs a mode's controller (:func:`exodigit_model.control.mode_controller`) behind the
+:class:`~exodigit_model.control.SafetyLimiter`; with ``output:=valves`` the limited pressures are
+the targets of a :class:`~exodigit_model.control.ValveLoop` on ``chamber_pressure`` and it
+publishes ``valve_command``. It commands at ``rate_hz``, or with ``lockstep`` answers each
+``joint_states``. A session's time (what ``staircase`` and ``sine`` follow) starts with the node,
+in lockstep at the first state it answers; when time goes back the node starts over, keeping its
+parameters and targets. On exit it sends zero pressure (a vent). docs/spec/ros.md: "Nodes and
+topics", "Safety behaviour", "Simulated time, faster than real time, lockstep", "When time goes
+back", "Valves", "Trajectories".
 
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
@@ -38,6 +16,7 @@ Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=stair
 from __future__ import annotations
 
 import functools
+from collections import Counter
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -107,12 +86,12 @@ class PressureCommand(GloveNode):
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)
         self.params = load_model_params(self.values['params_file'])
-        self.period = 1.0 / self.values['rate_hz']
-        self.period_ns = round(NANOSECONDS / self.values['rate_hz'])
+        rate = self.values['rate_hz']
+        self.period_ns = round(NANOSECONDS / rate)
         self.joint_target = np.array(self.values['joint_targets'])
         """The position mode's latest target, rad (the parameter's until a command)."""
         self.setpoint = Setpoint(self.joint_target)
-        self.limit_counts: dict[str, int] = {}
+        self.limit_counts: Counter[str] = Counter()
         self.last_back_off = ''
         self.back_offs_reported = 0
         self.valves = self.values['output'] == 'valves'
@@ -123,8 +102,7 @@ class PressureCommand(GloveNode):
         self.valve_loop = ValveLoop(self.settings.valve_loop)
         self.lockstep = self.values['lockstep']
         self.last_tick: int | None = None
-        # Subscriptions before the publisher: when the plant sees our commands' publisher, it
-        # has (practically always) seen our joint_states subscription announced first.
+        # Subscriptions before the publisher: the plant then sees our joint_states reader first.
         self.inputs = CommandInputs(self, self.answer)
         self.start_over(self.get_clock().now().nanoseconds)
         if not self.lockstep:  # in lockstep the stamps are the time (answer)
@@ -137,20 +115,16 @@ class PressureCommand(GloveNode):
         self.topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
         self.publisher = self.create_publisher(Float64MultiArray, self.topic, STREAM_QOS)
         if not self.lockstep:
-            self.create_timer(self.period, self.tick)
+            self.create_timer(1.0 / rate, self.tick)
         self.create_timer(self.values['diagnostic_period'], self.report)
-        pace = 'in lockstep with joint_states' if self.lockstep else f'at {self.period**-1:g} Hz'
+        pace = 'in lockstep with joint_states' if self.lockstep else f'at {rate:g} Hz'
         self.get_logger().info(
             f'pressure_command: mode {self.values["mode"]} {pace}, '
             f'max {self.values["max_pressure"]:g} Pa, {self.values["max_pressure_rate"]:g} Pa/s, '
             f'publishing {self.topic}'
         )
 
-    # -- parameters ------------------------------------------------------------------------
-
-    def make_settings(self, values) -> CommandSettings:
-        """Check the parameters together (ValueError naming the parameter)."""
-        return command_settings(values)
+    make_settings = staticmethod(command_settings)
 
     def apply(self, settings: CommandSettings, changed: set[str]) -> None:
         """New limits and valve loop at once; a new controller (session restarts) when its own."""
@@ -161,14 +135,13 @@ class PressureCommand(GloveNode):
                 self.joint_target = np.array(self.values['joint_targets'])
                 self.setpoint.hold(self.joint_target)
             self.loop.controller = self.make_controller()
-            self.started = self.session_start()
+            self.started = None if self.lockstep else self.get_clock().now().nanoseconds
 
     @functools.cached_property
     def model(self) -> GloveModel:
-        """The feed-forward's model, built when a controller first needs it.
+        """The feed-forward's model, built when ``position`` or ``force`` first needs it.
 
-        Only ``position`` and ``force`` do: a node in another mode never imports numba nor
-        loads a kernel, half its start-up CPU (docs/compiled.md).
+        A node in another mode loads no kernel: half its start-up CPU (docs/compiled.md).
         """
         return exodigit_model.GloveModel(self.params)
 
@@ -179,10 +152,6 @@ class PressureCommand(GloveNode):
 
     # -- sessions --------------------------------------------------------------------------
 
-    def session_start(self) -> int | None:
-        """When a session begun now starts: now (ns), or in lockstep None (its first state)."""
-        return None if self.lockstep else self.get_clock().now().nanoseconds
-
     def now_ns(self) -> int:
         """The node's time, ns: in lockstep the last state answered (before one, the clock)."""
         if self.lockstep and self.last_tick is not None:
@@ -190,13 +159,10 @@ class PressureCommand(GloveNode):
         return self.get_clock().now().nanoseconds
 
     def start_over(self, now: int) -> None:
-        """A new session from ``now`` (ns): forget the last one's state.
+        """A new session from ``now`` (ns): a new controller, limiter and valve loop.
 
-        At start, and when time goes back (module text). Kept: the parameters, the latest
-        targets (what the node is told to do: the setpoint starts over, ``restart``) and the
-        diagnostics' counts. A state waiting for its estimate (lockstep force mode) is
-        forgotten; an estimate waiting is kept: it may be the new session's, come before its
-        state (an older one never pairs with a state of the new session: pairing is by stamp).
+        Kept: the parameters, the latest targets (the setpoint restarts) and the diagnostics'
+        counts; :meth:`.CommandInputs.forget` says what of the inputs goes.
         """
         self.setpoint.restart(self.joint_target, now)
         self.loop = CommandLoop(self.make_controller(), SafetyLimiter(self.settings.limits))
@@ -206,7 +172,7 @@ class PressureCommand(GloveNode):
         self.valve_loop.reset()
 
     def on_time_jump(self, jump: TimeJump) -> None:
-        """The node clock went back (``/clock`` jumped back: a new session): start over."""
+        """The node clock went back (a new session): start over."""
         self.start_over(self.get_clock().now().nanoseconds)
         self.get_logger().info(
             f'time went back {-jump.delta.nanoseconds * 1e-9:g} s: a new session, started over'
@@ -258,10 +224,10 @@ class PressureCommand(GloveNode):
         forces: np.ndarray | None,
         pressure: np.ndarray | None,
     ) -> None:
-        """Lockstep: one command for a complete state stamped ``stamp`` (ns, .command_inputs).
+        """Lockstep: one command for a complete state stamped ``stamp`` (ns), its time.
 
-        The stamp is the controller's time (one before the last answered: a new session); dt
-        is the step between two stamps (the node's period for a session's first state).
+        A stamp before the last one answered starts a new session. dt is the step between two
+        stamps (the node's period for a session's first state).
         """
         if self.last_tick is not None and stamp < self.last_tick:
             self.start_over(stamp)  # time went back: a new session, from this state
@@ -293,8 +259,7 @@ class PressureCommand(GloveNode):
                 f'{self.values["feedback_timeout"]:g} s: ramping down to zero',
                 throttle_duration_sec=LOG_THROTTLE,
             )
-        for kind in result.reasons:
-            self.limit_counts[kind] = self.limit_counts.get(kind, 0) + 1
+        self.limit_counts.update(result.reasons.keys())
         if 'back-off' in result.reasons:
             self.last_back_off = result.reasons['back-off']
         if 'back-off' in result.reasons or 'non-finite' in result.reasons:
@@ -327,7 +292,7 @@ class PressureCommand(GloveNode):
         problems = []
         if inputs.fresh(inputs.angles, now) is None:
             problems.append(f'no fresh {JOINT_STATES} (is the plant running?)')
-        backed_off = self.limit_counts.get('back-off', 0) - self.back_offs_reported
+        backed_off = self.limit_counts['back-off'] - self.back_offs_reported
         if backed_off:
             problems.append(f'{backed_off} steps {self.last_back_off}')
             self.back_offs_reported += backed_off

@@ -5,24 +5,13 @@ Usage::
     python -m exodigit_nodes.nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
     python -m exodigit_nodes.nodes.recorder --output DIR --gloves a,b --ros-args -r __ns:=/hand
 
-Subscribes, in its namespace (with ``--gloves``, in each of those sub-namespaces: one recorder
-for a whole hand), to every glove topic of docs/spec/ros.md (``chamber_pressure``,
-``joint_states``, ``pressure_command``, ``applied_command``, ``contact_forces``,
-``segment_lengths``, ``patient_effort``, ``estimated_contact_forces``,
-``estimated_finger_stiffness``, ``estimated_finger_torque``, ``estimated_rest_angle``,
-``joint_targets``, ``joint_trajectory``, ``markers``) and to
-``/diagnostics`` and ``/clock``, and writes the serialized (CDR) messages as they arrive to the
-bag folder ``DIR`` with the ``rosbags`` library, each stamped with the time it was sent (its DDS
-source timestamp, the system clock) or, under ``use_sim_time``, with the node clock (simulated
-time) when it arrived. Send times keep a plant step's messages together in the bag even when
-they arrived late or in bursts: from a recorder behind on a loaded machine, or as the history a
-publisher keeps for a reader that matched late (docs/spec/ros.md, "QoS").
-Once every node of ``--nodes`` of every glove has matched all its readers, it publishes
-``True`` on ``~/ready`` (:mod:`.handshake`): the runners start the plants only then, so that no
-step of a session is sent before those nodes know of the recorder.
-The bag opens in ``ros2 bag``, Foxglove and PlotJuggler, and ``exodigit plot DIR`` draws it.
-Ctrl-C (SIGINT) or SIGTERM, or the end of ``--duration``, closes the bag cleanly (metadata.yaml
-written); a topic nobody publishes is listed with 0 messages.
+Subscribes to every glove topic (:data:`TOPICS`) in its namespace, or in each sub-namespace of
+``--gloves`` (a bag each), and writes the raw CDR messages with the ``rosbags`` library, each
+stamped with the time it was sent (its DDS source timestamp; under ``use_sim_time`` the node
+clock on arrival), so that a step's messages stay together however late they arrived. Its
+``~/ready`` is docs/spec/ros.md, "The session protocol", guarantee 2. The bag opens in ``ros2
+bag``, Foxglove and PlotJuggler (``exodigit plot DIR`` draws it); Ctrl-C, SIGTERM or the end of
+``--duration`` closes it cleanly, a topic nobody published listed with 0 messages.
 """
 
 from __future__ import annotations
@@ -69,10 +58,9 @@ TOPICS = {
 }
 """Recorded topics (relative names resolve in the node's namespace) and their message types.
 
-Subscribed in this order, which the executor keeps when several topics have messages waiting:
-``chamber_pressure`` before ``joint_states``, as the plant publishes a step, so a recorder that
-falls behind still logs a step's pressure before its angles (``exodigit plot`` pairs them by log
-time, :mod:`exodigit_model.stepping.joining`)."""
+Subscribed in this order, which the executor keeps for messages waiting: a recorder behind still
+logs a step's pressure before its angles, as the plant sends them (``exodigit plot`` pairs them
+by log time, :mod:`exodigit_model.stepping.joining`)."""
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
@@ -194,10 +182,9 @@ class Recorder(Node):
         self.readiness = Ready(self, glove_nodes(gloves, nodes))  # after every reader
 
     def _callback_for(self, topic: str):
-        """The subscription callback of ``topic``: its first message is also logged.
+        """The subscription callback of ``topic``.
 
-        That log line says the recorder has matched the topic's publisher (the graph lists a
-        subscriber before its publishers have matched it): a test waits for it.
+        It logs the first message: a sign of a matched publisher, which a test waits for.
         """
         heard = False
 
@@ -269,8 +256,7 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
 def main(args: list[str] | None = None) -> int:
     """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``).
 
-    SIGINT, SIGTERM and SIGHUP only set a flag that the spin loop checks (as every glove node
-    does), so the bag is always closed outside rclpy's C code.
+    A stop signal sets a flag the spin loop checks (:func:`.serve`): the bag closes outside rclpy.
     """
     argv = sys.argv if args is None else ['recorder', *args]
     try:
@@ -279,10 +265,6 @@ def main(args: list[str] | None = None) -> int:
         print(f'recorder: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
     options = parse_arguments(own)
-
-    def last_words(node: Recorder) -> None:
-        node.close()
-
     return serve(
         'recorder',
         argv,
@@ -291,7 +273,7 @@ def main(args: list[str] | None = None) -> int:
             tuple(options.gloves.split(',')),
             tuple(options.nodes.split(',')),
         ),
-        last_words,
+        Recorder.close,
         taken=Recorder.taken,
         duration=options.duration if options.duration > 0 else math.inf,
         refused=(ConfigurationError, RecorderError),
