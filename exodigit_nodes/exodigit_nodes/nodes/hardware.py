@@ -264,15 +264,14 @@ class Hardware(GloveNode):
                 values['sample_rate_hz'] = str(capabilities.sample_rate_hz)
             streaming = link.state is LinkState.STREAMING
             error = link.last_error
-        problems = []
-        level = DiagnosticStatus.OK
         if not streaming:
             level = DiagnosticStatus.ERROR
-            problems.append(f'board link {values["link"]}: {error or "no answer yet"}; vented')
+            text = f'board link {values["link"]}: {error or "no answer yet"}; vented'
         elif self.flags:
-            level = DiagnosticStatus.WARN
-            problems.append(f'board flags {values["board_flags"]}')
-        self.publish_status(level, '; '.join(problems) or 'streaming', values)
+            level, text = DiagnosticStatus.WARN, f'board flags {values["board_flags"]}'
+        else:
+            level, text = DiagnosticStatus.OK, 'streaming'
+        self.publish_status(level, text, values)
 
     def on_shutdown(self) -> None:
         """Vent, then close the port (the link thread stopped first)."""
