@@ -5,7 +5,8 @@ It takes the simulated plant's place behind valves (``plant actuation:=valves``)
 docs/hardware.md, "Safety", and is answered on ``applied_command`` with the openings sent, taken
 or refused, as is every vent. Every sample of the board is published as ``chamber_pressure``
 and, when the board has bend sensors, ``joint_states`` (stamped with the time the board read
-them, on this host's clock). A wall-clock node: a real board has no simulated time.
+them, on this host's clock; without them there is no ``joint_states`` publisher). A wall-clock
+node: a real board has no simulated time.
 
 Run, e.g. with the emulated board::
 

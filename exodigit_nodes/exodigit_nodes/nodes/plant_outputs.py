@@ -41,8 +41,7 @@ class PlantOutputs:
     """
 
     def __init__(self, node: Node, joint_prefix: str, *, valves: bool) -> None:
-        self.joint_state = JointState()
-        self.joint_state.name = [joint_prefix + name for name in JOINT_NAMES]
+        self.joint_state = JointState(name=[joint_prefix + name for name in JOINT_NAMES])
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
         self.length_message = joint_vector_message()
