@@ -256,17 +256,9 @@ class Plant(GloveNode):
         if self._last_wall is not None and wall - self._last_wall > LATE_FACTOR * self.period:
             self.late_cycles += 1
         self._last_wall = wall
-        self.cycles += 1
         stamp = self.get_clock().now()
-        state = self.advance(vent=self.check_watchdog(stamp.nanoseconds * 1e-9))
+        state = self.take_step(vent=self.check_watchdog(stamp.nanoseconds * 1e-9))
         self.publish_state(state, stamp.to_msg())
-
-    def take_step(self, *, vent: bool | None) -> GloveState:
-        """One simulated step, not yet published (``vent`` None: the watchdog decides)."""
-        if vent is None:
-            vent = self.check_watchdog(self.state.t + self.period)
-        self.cycles += 1
-        return self.advance(vent=vent)
 
     def check_watchdog(self, now: float) -> bool:
         """Whether the plant vents at ``now`` (s, node or simulated time); says so once."""
@@ -274,10 +266,16 @@ class Plant(GloveNode):
             self.get_logger().warning(
                 f'no valid {self.command_topic} for over {self.watchdog.timeout:g} s: venting'
             )
-        return self.watchdog.tripped or self.watchdog.last_feed is None
+        return self.watchdog.missing(now)
 
-    def advance(self, *, vent: bool) -> GloveState:
-        """Step the simulation with the latest command (or a vent), logging what went wrong."""
+    def take_step(self, *, vent: bool | None) -> GloveState:
+        """One step with the latest command, or a vent, not yet published.
+
+        ``vent`` None: the watchdog decides at the step's simulated time.
+        """
+        if vent is None:
+            vent = self.check_watchdog(self.state.t + self.period)
+        self.cycles += 1
         state = self.simulation.step(self.vent if vent else self.command, self.current_effort())
         self.state = state
         if state.saturated:
