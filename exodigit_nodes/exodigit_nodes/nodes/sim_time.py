@@ -126,7 +126,7 @@ class SimulatedTime:
             timeout = self.settings.lockstep_timeout
             if timeout == 0.0 or wall - self.waiting_since <= timeout:
                 return
-            for member in self.awaiting:  # none of them silent yet: on_answer, step
+            for member in self.awaiting:  # never silent ones: step leaves them out
                 member.get_logger().warning(
                     f'no {member.command_topic} within lockstep_timeout {timeout:g} s: venting '
                     'and stepping on at real time until a command comes'
