@@ -167,9 +167,8 @@ class Plant(GloveNode):
     def use_simulation(self, simulation: GloveSimulation) -> None:
         """Simulate on ``simulation`` from its state on: no command, effort or failure yet."""
         self.simulation = simulation
-        self.model = simulation.model
         self.state: GloveState = simulation.state
-        self.markers = GloveMarkers(self.model)
+        self.markers = GloveMarkers(simulation.model)
         self.failure_residual = 0.0
         self.failures_reported = 0
         self.forget_inputs()
