@@ -396,7 +396,7 @@ def test_lockstep_starts_only_once_one_node_both_reads_the_states_and_answers(pr
             node.fire_timers()
             assert 'joint_states' not in node.take()
             ours.create_subscription(JointState, plant.published.joints.topic_name, ignore, 10)
-            assert wait_until(plant.controller_present, 10.0)
+            assert wait_until(plant.lockstep_controllers, 10.0)
             node.fire_timers()
             assert len(node.take()['joint_states']) == 1
     finally:
@@ -422,10 +422,10 @@ def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, m
             node.fire_timers()
             assert listed(node) == []  # it publishes only when the list changes
             ours.create_subscription(JointState, plant.published.joints.topic_name, ignore, 10)
-            assert wait_until(plant.controller_present, 10.0)
+            assert wait_until(plant.lockstep_controllers, 10.0)
             node.fire_timers()
             assert listed(node) == [[ours.get_fully_qualified_name()]]
-        assert wait_until(lambda: not plant.controller_present(), 10.0)
+        assert wait_until(lambda: not plant.lockstep_controllers(), 10.0)
         call(node, 'set_paused', SetBool.Request(data=True), SetBool.Response())
         assert listed(node) == [[]]
     finally:
@@ -558,7 +558,7 @@ def test_a_silent_controller_vents_after_the_timeout_and_a_new_answer_locks_step
     node = sim_plant(lockstep='true', lockstep_timeout='0.05')
     node.node.create_publisher(Float64MultiArray, 'pressure_command', 10)
     node.node.create_subscription(JointState, 'joint_states', lambda _: None, 10)
-    assert wait_until(node.node.controller_present, 10.0)
+    assert wait_until(node.node.lockstep_controllers, 10.0)
     pressures = []
 
     def answer(value):

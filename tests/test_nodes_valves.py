@@ -99,7 +99,7 @@ def lockstep_plant(valve_plant):
     node = valve_plant(lockstep='true', lockstep_timeout='0.0')
     node.node.create_publisher(Float64MultiArray, 'valve_command', 10)
     node.node.create_subscription(JointState, 'joint_states', lambda _: None, 10)
-    assert wait_until(node.node.controller_present, 10.0)
+    assert wait_until(node.node.lockstep_controllers, 10.0)
     node.fire_timers()
     return node
 

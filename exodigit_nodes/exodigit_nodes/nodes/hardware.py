@@ -1,23 +1,14 @@
 """``hardware``: the bridge to a glove board over a serial port (docs/hardware.md).
 
-It takes the simulated plant's place behind valves (``plant actuation:=valves``): it subscribes
-``valve_command`` (six openings in [0, 1], inlets MCP, PIP, DIP, then outlets) and sends each
-to the board (docs/spec/hardware.md), and publishes every sample of the board as
-``chamber_pressure`` (Pa) and, when the board has bend sensors, ``joint_states`` (positions, rad,
-stamped with the time the board read them, on this host's clock; a board without them gets no
-``joint_states`` publisher, and its diagnostics say ``bend_sensors: 0``). Each
-``valve_command``, taken or refused, is answered on ``applied_command`` with the openings sent
-(after the safety rules); so is every vent.
+It takes the simulated plant's place behind valves (``plant actuation:=valves``): each
+``valve_command`` goes to the board (docs/spec/hardware.md) after the safety rules of
+docs/hardware.md, "Safety", and is answered on ``applied_command`` with the openings sent, taken
+or refused, as is every vent. Every sample of the board is published as ``chamber_pressure``
+and, when the board has bend sensors, ``joint_states`` (stamped with the time the board read
+them, on this host's clock; without them there is no ``joint_states`` publisher). A wall-clock
+node: a real board has no simulated time.
 
-Safety: the bridge vents at the start of every session with the board, when the samples stop
-for ``sample_timeout`` (ERROR), when ``valve_command`` stops for ``command_timeout``, and before
-it exits; a chamber reading at or above ``max_pressure`` gets its inlet closed and its outlet
-opened whatever is commanded; the board vents by itself when it hears nothing valid for its
-watchdog time. An unplugged port is reopened with backoff (up to ``reconnect_max``) and the
-board is vented on its return. A board that speaks another protocol version is refused at start
-with one line (exit status 2).
-
-A wall-clock node (a real board has no simulated time). Run, e.g. with the emulated board::
+Run, e.g. with the emulated board::
 
     mcu_emulator --link /tmp/glove_board &
     python -m exodigit_nodes.nodes.hardware --ros-args -p port:=/tmp/glove_board
@@ -91,10 +82,9 @@ class Hardware(GloveNode):
         self.link = HostLink(link_settings)
         self.bridge = Bridge(self.link, self.settings)
         self.link_lock = threading.Lock()
-        self.names = [values['joint_prefix'] + name for name in JOINT_NAMES]
         self.pressure_message = joint_vector_message()
         self.applied_message = valve_command_message()
-        self.joint_state = JointState(name=self.names)
+        self.joint_state = JointState(name=[values['joint_prefix'] + n for n in JOINT_NAMES])
         self.flags = Status(0)
         self.notices = 0
         self.pressure_publisher = self.create_publisher(
@@ -103,7 +93,7 @@ class Hardware(GloveNode):
         self.applied_publisher = self.create_publisher(
             Float64MultiArray, APPLIED_COMMAND, APPLIED_QOS
         )
-        # What the board is told before any command, as the plant's record starts.
+        # What the board is told before any command, as a plant's record starts.
         self.applied_publisher.publish(fill(self.applied_message, self.bridge.openings))
         self.joint_publisher = None
         self.first_session()
@@ -126,12 +116,11 @@ class Hardware(GloveNode):
     # -- the link --------------------------------------------------------------------------
 
     def first_session(self) -> None:
-        """Try the board for ``handshake_timeout`` before spinning (a wrong version: no start).
+        """Try the board for ``handshake_timeout`` before spinning.
 
-        A board of another protocol version refuses the start with one line. A port that
-        appears meanwhile (an emulator started beside us, a board being plugged in) is opened
-        at the reconnection backoff. No board by then (absent, silent) is no reason not to
-        start: the link thread goes on trying, and the diagnostics say ERROR meanwhile.
+        A board of another protocol version refuses the start (ConfigurationError). No board
+        by then is no reason not to start: the link thread goes on trying, the diagnostics say
+        ERROR meanwhile.
         """
         deadline = time.monotonic() + self.link.settings.handshake_timeout + POLL_PERIOD
         while time.monotonic() < deadline:
@@ -232,10 +221,7 @@ class Hardware(GloveNode):
     # -- the controller --------------------------------------------------------------------
 
     def on_command(self, message: Float64MultiArray) -> None:
-        """Send valid openings (after the safety rules); refuse and count the rest.
-
-        Either way ``applied_command`` says the openings in force.
-        """
+        """Send valid openings (safety rules first), refuse the rest; publish those in force."""
         try:
             openings = valve_openings(message.data, VALVE_COMMAND)
         except InvalidInputError as error:
@@ -256,6 +242,7 @@ class Hardware(GloveNode):
             counts = link.decoder.counts
             capabilities = link.capabilities
             trip = link.round_trip
+            flags = ', '.join(flag.name for flag in Status if flag in self.flags) or 'none'
             values = {
                 'port': link.settings.port,
                 'link': link.state.value,
@@ -266,7 +253,7 @@ class Hardware(GloveNode):
                 'frames_bad': str(counts.bad + link.undecodable),
                 'round_trip_ms': f'{trip.last * 1e3:.2f} last, {trip.mean * 1e3:.2f} mean, '
                 f'{trip.largest * 1e3:.2f} max',
-                'board_flags': _flag_names(self.flags) if link.samples else 'none yet',
+                'board_flags': flags if link.samples else 'none yet',
                 'bend_sensors': str(capabilities.bend_sensors) if capabilities else 'unknown',
                 'openings': ' '.join(f'{value:.4f}' for value in bridge.openings),
                 'pressure_limited': str(bridge.limited),
@@ -278,15 +265,14 @@ class Hardware(GloveNode):
                 values['sample_rate_hz'] = str(capabilities.sample_rate_hz)
             streaming = link.state is LinkState.STREAMING
             error = link.last_error
-        problems = []
-        level = DiagnosticStatus.OK
         if not streaming:
             level = DiagnosticStatus.ERROR
-            problems.append(f'board link {values["link"]}: {error or "no answer yet"}; vented')
+            text = f'board link {values["link"]}: {error or "no answer yet"}; vented'
         elif self.flags:
-            level = DiagnosticStatus.WARN
-            problems.append(f'board flags {values["board_flags"]}')
-        self.publish_status(level, '; '.join(problems) or 'streaming', values)
+            level, text = DiagnosticStatus.WARN, f'board flags {values["board_flags"]}'
+        else:
+            level, text = DiagnosticStatus.OK, 'streaming'
+        self.publish_status(level, text, values)
 
     def on_shutdown(self) -> None:
         """Vent, then close the port (the link thread stopped first)."""
@@ -301,11 +287,6 @@ class Hardware(GloveNode):
         self.get_logger().info(
             'vented and closed the port' if delivered else 'closed the port (no board to vent)'
         )
-
-
-def _flag_names(flags: Status) -> str:
-    """A sample's status flags by name ('none' when clear)."""
-    return ', '.join(flag.name for flag in Status if flag in flags) or 'none'
 
 
 def _notice_name(code: int) -> str:

@@ -73,18 +73,17 @@ class GloveMarkers:
         """
         pose = self.model.pose(angles, lengths=lengths, arc_samples=ARC_SAMPLES)
         backbone, finger, *arrows = self.array.markers
-        for point, (x, y) in zip(backbone.points, self._backbone(pose), strict=True):
-            point.x, point.y = float(x), float(y)
-        for point, (x, y) in zip(
-            finger.points, pose.finger_joints + self.finger_offset, strict=True
-        ):
-            point.x, point.y = float(x), float(y)
+        lines = [
+            (backbone, self._backbone(pose)),
+            (finger, pose.finger_joints + self.finger_offset),
+        ]
         for arrow, start, normal, force in zip(
             arrows, pose.contact_points, pose.contact_normals, forces, strict=True
         ):
-            end = start + normal * (FORCE_SCALE * float(force))
-            arrow.points[0].x, arrow.points[0].y = float(start[0]), float(start[1])
-            arrow.points[1].x, arrow.points[1].y = float(end[0]), float(end[1])
+            lines.append((arrow, (start, start + normal * (FORCE_SCALE * float(force)))))
+        for marker, rows in lines:
+            for point, (x, y) in zip(marker.points, rows, strict=True):
+                point.x, point.y = float(x), float(y)
         for marker in self.array.markers:
             marker.header.stamp = stamp
             marker.header.frame_id = frame_id

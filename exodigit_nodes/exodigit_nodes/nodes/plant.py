@@ -1,31 +1,17 @@
-"""``plant``: the simulated glove (docs/spec/ros.md).
+"""``plant``: the simulated glove (docs/spec/ros.md, "Nodes and topics").
 
-A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (docs/spec/model.md §13: chambers,
-coupled solve, sensors): each step applies the latest valid ``pressure_command`` and publishes
-``joint_states``, ``chamber_pressure``, ``contact_forces`` and ``segment_lengths`` (ℓ_i, the
-segments' bottom-face arc lengths, m: the rest lengths unless a segment is extensible,
-docs/spec/model.md §12); ``markers`` (the arcs drawn at those lengths) and ``/diagnostics`` at
-lower rates.
-``reset`` (std_srvs/Trigger) puts pressures, angles and lengths back to rest. With no command for
-``command_timeout`` it vents.
+A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (docs/spec/model.md §13): each step
+applies the latest valid command (``pressure_command``, or ``valve_command`` with
+``actuation:=valves``, docs/spec/model.md §14) and publishes the step's outputs
+(:mod:`.plant_outputs`); ``markers`` and ``/diagnostics`` at lower rates. A refused command is
+logged, counted and applied nowhere; with none for ``command_timeout`` the plant vents.
+``applied_command`` says what the next step applies, from the vent at start on
+(docs/spec/ros.md, "The session protocol", guarantee 4).
 
-Actuation (read-only ``actuation``, docs/spec/model.md §14): ``regulator`` (default) takes
-``pressure_command``, the pressures each chamber's regulator makes (after a first-order lag);
-``valves`` takes ``valve_command`` instead, six openings in [0, 1] (inlets MCP, PIP, DIP, then
-outlets) of the valves that fill each chamber from the supply and vent it, whose pressure then
-follows its air mass. A vent (watchdog, reset, no command yet) is zero pressure for a regulator,
-inlets closed and outlets open for valves. Any other command is refused (logged, counted,
-nothing applied). ``applied_command`` says what the next step applies: the vent when the
-plant starts, then the command in force after each command that arrives, taken or refused. It
-is the record of what drove the glove from its first step, which a late reader still gets whole
-(transient-local), whatever the controller's QoS.
+Time: with ``clock:=wall`` it steps on the system clock at ``rate_hz``; with ``clock:=sim`` on
+simulated time (:mod:`.sim_time`, docs/spec/ros.md Part II).
 
-Time (docs/spec/ros.md Part II): with ``clock:=wall`` (default) it steps on the system clock at
-``rate_hz``; with ``clock:=sim`` it owns simulated time (:mod:`.sim_time`: ``/clock``, pacing,
-lockstep, pause; :mod:`.sim_services`: ``set_paused``, ``step``, ``reset_simulation``).
-
-Run: ``python -m exodigit_nodes.nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index`` or,
-for a controller test, ``... -p clock:=sim -p lockstep:=true -p real_time_factor:=0.0``.
+Run: ``python -m exodigit_nodes.nodes.plant --ros-args -p rate_hz:=200 -r __ns:=/left/index``.
 """
 
 from __future__ import annotations
@@ -72,17 +58,20 @@ MAX_EFFORT = 10.0
 
 
 class Plant(GloveNode):
-    """The glove plant node: wires ROS to :class:`exodigit_model.GloveSimulation`."""
+    """The glove plant node: wires ROS to :class:`exodigit_model.GloveSimulation`.
+
+    ``sim_time``: the simulated time this plant shares (a hand's); None: its own with
+    ``clock:=sim``.
+    """
 
     executable = PLANT_NODE.executable
     table = PLANT_NODE.table
     quiet_parameters = frozenset({'run_until'})  # raised every step by the testing kit
 
     def __init__(self, *, sim_time: SimulatedTime | None = None, **node_options) -> None:
-        """``sim_time``: the simulated time this plant shares (the hand's); None: its own."""
         super().__init__(**node_options)
         values, settings = self.values, self.settings
-        self.sim_clock = values['clock'] == 'sim'
+        sim_clock = values['clock'] == 'sim'
         self.lockstep = values['lockstep']
         self.valves = values['actuation'] == 'valves'
         self.command_topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
@@ -97,7 +86,6 @@ class Plant(GloveNode):
 
         self.published = PlantOutputs(self, values['joint_prefix'], valves=self.valves)
         self.outputs = self.published.publishers
-        # What the first steps apply, before any command: the record starts with the vent.
         self.published.publish_applied(self.command)
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, STREAM_QOS)
         self.command_subscription = self.create_subscription(
@@ -106,10 +94,12 @@ class Plant(GloveNode):
         self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, READER_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
         self.marker_timer = None
-        self.wall_clock = Clock(clock_type=ClockType.STEADY_TIME)
-        self.report_clock = self.wall_clock if self.sim_clock else self.get_clock()
+        # With clock sim the reports and markers go on the wall clock: a paused plant reports too.
+        self.report_clock = (
+            Clock(clock_type=ClockType.STEADY_TIME) if sim_clock else self.get_clock()
+        )
         self.time: SimulatedTime | None = None
-        if self.sim_clock:
+        if sim_clock:
             self.time = sim_time or SimulatedTime(self, settings.time)
             self.outputs += (self.time.clock_publisher,)
         else:
@@ -117,18 +107,14 @@ class Plant(GloveNode):
         self.apply(settings, {'marker_rate_hz'})
         if self.time is not None:
             self.time.add(self)
-        # After the step's timer (fired together, the report shows that step). With clock sim on
-        # the wall clock: a paused plant still reports, whatever its use_sim_time.
-        self.create_timer(self.values['diagnostic_period'], self.report, clock=self.report_clock)
+        # Made after the step's timer: when both fire together, the report shows that step.
+        self.create_timer(values['diagnostic_period'], self.report, clock=self.report_clock)
         self.get_logger().info(start_line(values, settings))
 
     # -- parameters ------------------------------------------------------------------------
 
     def make_settings(self, values) -> PlantSettings:
-        """Plant settings from checked parameters (ValueError naming the parameter).
-
-        A new ``params_file`` must load (it is read again at the next ``reset_simulation``).
-        """
+        """Plant settings from checked parameters; a new ``params_file`` must load."""
         if values['params_file'] != self.values['params_file']:
             try:
                 load_model(values['params_file'])
@@ -160,7 +146,7 @@ class Plant(GloveNode):
         if self.time is not None and time_changes:
             # Only what changed: the time may be a hand's, shared with other fingers' plants.
             self.time.configure(**time_changes)
-            for member in self.time.members:  # they show the hand's time settings too
+            for member in self.time.members:
                 if member is not self:
                     member.follow_time(time_changes)
 
@@ -181,9 +167,8 @@ class Plant(GloveNode):
     def use_simulation(self, simulation: GloveSimulation) -> None:
         """Simulate on ``simulation`` from its state on: no command, effort or failure yet."""
         self.simulation = simulation
-        self.model = simulation.model
         self.state: GloveState = simulation.state
-        self.markers = GloveMarkers(self.model)
+        self.markers = GloveMarkers(simulation.model)
         self.failure_residual = 0.0
         self.failures_reported = 0
         self.forget_inputs()
@@ -195,10 +180,9 @@ class Plant(GloveNode):
         self.watchdog.clear()
 
     def follow_time(self, changes: dict) -> None:
-        """Take time settings another plant of our shared (a hand's) time was set to.
+        """Show the time settings another plant of our shared time was set to as our own.
 
-        Our parameters then say what the time does, whichever finger was told; setting them
-        applies nothing new (the time has the values already), so nothing goes round.
+        Setting them applies nothing new (the time has them already), so nothing goes round.
         """
         stale = {name: value for name, value in changes.items() if self.values[name] != value}
         if stale:
@@ -209,9 +193,8 @@ class Plant(GloveNode):
     def on_command(self, message: Float64MultiArray) -> None:
         """Keep a valid command (Pa, or openings) and feed the watchdog; drop and count the rest.
 
-        Either way publish ``applied_command``, the command the next step applies (a refused
-        one keeps the last). In lockstep any command, valid or not, is the answer to the latest
-        step.
+        Either way publish ``applied_command`` (a refused command keeps the last); in lockstep
+        either way it answers the latest step.
         """
         topic = self.command_topic
         try:
@@ -239,7 +222,7 @@ class Plant(GloveNode):
 
     def time_now(self) -> float:
         """The plant's time: simulated (its latest step) with clock sim, else the node clock, s."""
-        return self.state.t if self.sim_clock else self.now_seconds()
+        return self.state.t if self.time is not None else self.now_seconds()
 
     def current_effort(self) -> np.ndarray | None:
         """The latest effort if younger than effort_timeout, else None (no effort)."""
@@ -267,22 +250,14 @@ class Plant(GloveNode):
     # -- the steps -------------------------------------------------------------------------
 
     def on_wall_timer(self) -> None:
-        """Wall clock: one step at the node clock's time."""
+        """Wall clock: one step at the node clock's time, published."""
         wall = time.monotonic()
         if self._last_wall is not None and wall - self._last_wall > LATE_FACTOR * self.period:
             self.late_cycles += 1
         self._last_wall = wall
-        self.cycles += 1
         stamp = self.get_clock().now()
-        vent = self.check_watchdog(stamp.nanoseconds * 1e-9)
-        self.advance(stamp.to_msg(), vent=vent)
-
-    def take_step(self, *, vent: bool | None) -> GloveState:
-        """One simulated step, not yet published (``vent`` None: the watchdog decides)."""
-        if vent is None:
-            vent = self.check_watchdog(self.state.t + self.period)
-        self.cycles += 1
-        return self.advance(None, vent=vent)
+        state = self.take_step(vent=self.check_watchdog(stamp.nanoseconds * 1e-9))
+        self.publish_state(state, stamp.to_msg())
 
     def check_watchdog(self, now: float) -> bool:
         """Whether the plant vents at ``now`` (s, node or simulated time); says so once."""
@@ -290,10 +265,16 @@ class Plant(GloveNode):
             self.get_logger().warning(
                 f'no valid {self.command_topic} for over {self.watchdog.timeout:g} s: venting'
             )
-        return self.watchdog.tripped or self.watchdog.last_feed is None
+        return self.watchdog.missing(now)
 
-    def advance(self, stamp, *, vent: bool) -> GloveState:
-        """Step the simulation with the latest command (or a vent); publish if stamped."""
+    def take_step(self, *, vent: bool | None) -> GloveState:
+        """One step with the latest command, or a vent, not yet published.
+
+        ``vent`` None: the watchdog decides at the step's simulated time.
+        """
+        if vent is None:
+            vent = self.check_watchdog(self.state.t + self.period)
+        self.cycles += 1
         state = self.simulation.step(self.vent if vent else self.command, self.current_effort())
         self.state = state
         if state.saturated:
@@ -309,27 +290,13 @@ class Plant(GloveNode):
                 f'{state.residual:.3g} N·m): keeping the last good state',
                 throttle_duration_sec=LOG_THROTTLE,
             )
-        if stamp is not None:
-            self.publish_state(state, stamp)
         return state
 
     def publish_state(self, state: GloveState, stamp) -> None:
         """Publish the step's outputs (:meth:`.PlantOutputs.publish_state`)."""
         self.published.publish_state(state, stamp)
 
-    # -- lockstep (asked by SimulatedTime) ------------------------------------------------
-
-    def controller_present(self) -> bool:
-        """Lockstep start: a controller (:meth:`lockstep_controllers`) is matched both ways.
-
-        Until then the first step waits, so that the controller cannot miss the state it must
-        answer. Some other reader of the states and some publisher of commands are not enough:
-        a lockstep ``pressure_command`` in force mode subscribes the states only once its
-        estimator is matched, and a hand resumed at once stepped while only the estimator
-        listened (the little finger's controller never heard the first state: the lockstep
-        timeout vented).
-        """
-        return bool(self.lockstep_controllers())
+    # -- asked by SimulatedTime ------------------------------------------------------------
 
     def readers_matched(self) -> bool:
         """Whether each output has matched every subscriber the graph knows of its topic."""
@@ -338,9 +305,9 @@ class Plant(GloveNode):
     def lockstep_controllers(self) -> list[str]:
         """Nodes that publish our commands and subscribe our states, both matched with us.
 
-        What the simulated clock says on ``lockstep_controllers`` (:mod:`.sim_services`), which
-        the testing kit waits on before it publishes a state a controller it has just started
-        must not miss.
+        A lockstep plant's first step waits for one (docs/spec/ros.md, "The session protocol",
+        guarantee 5): another reader of the states or another publisher of commands is not
+        enough, as a controller that subscribes the states late would miss the first.
         """
         if not self.readers_matched():
             return []

@@ -1,8 +1,7 @@
 """What a plant publishes at each step, and ``applied_command`` (docs/spec/ros.md).
 
-:class:`PlantOutputs` makes the plant's output publishers (outputs before any input: a controller
-that sees the plant's command subscription has seen the outputs announced too) and publishes a
-step's messages in the order the readers pair them by.
+Made before the plant's inputs: a controller that sees the plant's command subscription has seen
+its outputs announced too.
 """
 
 from __future__ import annotations
@@ -31,9 +30,6 @@ from .qos import APPLIED_QOS, STREAM_QOS
 class PlantOutputs:
     """A plant's output publishers, with their messages filled and reused.
 
-    ``chamber_pressure``, ``joint_states``, ``contact_forces``, ``segment_lengths`` and
-    ``applied_command``.
-
     Parameters
     ----------
     node : rclpy.node.Node
@@ -45,8 +41,7 @@ class PlantOutputs:
     """
 
     def __init__(self, node: Node, joint_prefix: str, *, valves: bool) -> None:
-        self.joint_state = JointState()
-        self.joint_state.name = [joint_prefix + name for name in JOINT_NAMES]
+        self.joint_state = JointState(name=[joint_prefix + name for name in JOINT_NAMES])
         self.pressure_message = joint_vector_message()
         self.force_message = joint_vector_message()
         self.length_message = joint_vector_message()
@@ -58,7 +53,7 @@ class PlantOutputs:
         self.lengths = node.create_publisher(vector, SEGMENT_LENGTHS, STREAM_QOS)
         self.applied = node.create_publisher(vector, APPLIED_COMMAND, APPLIED_QOS)
         self.publishers = (self.pressures, self.joints, self.forces, self.lengths, self.applied)
-        """Every output publisher (a step waits until they have matched their readers)."""
+        """Every output publisher (:meth:`.Plant.readers_matched` asks about them)."""
 
     def publish_applied(self, command) -> None:
         """``applied_command``: the command the next step applies (Pa, or openings)."""

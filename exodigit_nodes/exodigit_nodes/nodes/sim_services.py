@@ -1,16 +1,10 @@
 """What others ask of simulated time: pause, step, a new session, and whom lockstep waits for.
 
-The owner node of a :class:`.sim_time.SimulatedTime` serves, in its namespace (docs/spec/ros.md
-Part II): ``set_paused`` (std_srvs/SetBool), ``step`` (std_srvs/Trigger, one step while
-paused) and ``reset_simulation`` (std_srvs/Trigger, as Gazebo's), and publishes
-``lockstep_controllers`` (diagnostic_msgs/DiagnosticStatus, latched): the controllers its
-members have matched both ways.
-
-A step a service asks for (``step``, a plant's ``reset``, ``reset_simulation``) must reach a
-subscriber created just before the call. If an output has not yet matched every subscriber the
-graph knows of its topic, the step is left to the clock's loop, which takes it once they have,
-or after `READER_WAIT` wall seconds anyway (saying so). No service callback waits: a hand's
-other fingers step on meanwhile.
+:class:`TimeServices` serves ``set_paused``, ``step`` and ``reset_simulation`` and publishes
+``lockstep_controllers`` in the namespace of a :class:`.sim_time.SimulatedTime`'s owner node
+(docs/spec/ros.md, "Simulated time, faster than real time, lockstep"). A step a service asks
+for waits in the clock's loop until the outputs have matched every subscriber the graph lists,
+at most `READER_WAIT`; no service callback waits.
 """
 
 from __future__ import annotations
@@ -62,10 +56,7 @@ class TimeServices:
     def on_set_paused(
         self, request: SetBool.Request, response: SetBool.Response
     ) -> SetBool.Response:
-        """Pause (data true) or resume simulated time; a resumed lockstep waits for answers.
-
-        The answer and the log say the state and the simulated time.
-        """
+        """Pause (data true) or resume; the answer (and the log, on a change) says the time."""
         clock = self.clock
         changed = clock.set_paused(request.data)
         response.success = True
@@ -79,11 +70,7 @@ class TimeServices:
         return response
 
     def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        """While paused: one step with the latest commands; answered after it is published.
-
-        If new subscribers are not yet matched the answer comes first and says so
-        (:meth:`request_step`).
-        """
+        """While paused: one step with the latest commands (:meth:`request_step`)."""
         clock = self.clock
         if not clock.paused:
             response.success = False
@@ -101,13 +88,8 @@ class TimeServices:
     ) -> Trigger.Response:
         """A new session: every member rebuilt from its parameters at t = 0, step 1 published.
 
-        Each member's simulation is built first: a ``params_file`` that no longer loads refuses
-        the reset (saying why) and changes nothing. Lockstep waits for the answer to the new
-        step 1 (an answer owed to the old session is void, a silent controller is forgiven);
-        paused stays paused; ``pause_at`` and ``run_until`` keep their values (simulated times:
-        set them for the new session). Step 1 is published at once unless a subscriber is not
-        yet matched (:meth:`request_step`), and its ``/clock`` goes back: the other nodes' sign
-        that a new session began.
+        Every simulation is built before any is used: a ``params_file`` that no longer loads
+        refuses the reset and changes nothing.
         """
         clock = self.clock
         try:
@@ -130,10 +112,10 @@ class TimeServices:
 
     def request_step(self) -> bool:
         """A step asked for by a service; whether it was taken at once (else the loop takes it)."""
-        if not self.requested and self.clock.readers_matched():
-            self.clock.step()
-            return True
         if not self.requested:
+            if self.clock.readers_matched():
+                self.clock.step()
+                return True
             self.requested_since = time.monotonic()
         self.requested += 1
         return False
@@ -164,10 +146,8 @@ class TimeServices:
     def publish_controllers(self, wall: float) -> None:
         """Say on ``lockstep_controllers`` whom the members have matched both ways, if it changed.
 
-        A KeyValue per controller, keyed by its fully qualified name
-        (:meth:`.sim_time.Member.lockstep_controllers`): what the testing kit waits for before
-        it publishes a state that a controller it has just started must answer. Looked at while
-        paused (it asks the graph, so not at every step) and at every ``set_paused``.
+        One KeyValue per controller, keyed by its fully qualified name
+        (:meth:`.plant.Plant.lockstep_controllers`).
         """
         self.controllers_seen = wall
         members = self.clock.members

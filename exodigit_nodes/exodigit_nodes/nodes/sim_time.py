@@ -1,84 +1,39 @@
 """Simulated time of a plant or a hand: /clock, pacing, lockstep, pause (docs/spec/ros.md Part II).
 
-:class:`SimulatedTime` owns the simulated clock of one or more plants (its *members*): every
-member takes step k at t_k together, ``/clock`` is published once per step before the members'
-outputs, and the steps are paced at ``real_time_factor`` simulated seconds per wall second
-(0 = as fast as possible, :class:`.pacing.Pacer`). With ``lockstep`` each step waits until every
-member has its answer (a command: ``pressure_command``, or ``valve_command`` with valves); a
-member whose controller stays silent for ``lockstep_timeout`` wall seconds unlocks the clock: the
-silent members vent and every member steps on at real time until the silent ones answer again.
-``pause_at`` pauses once simulated time reaches it, and no step goes past ``run_until`` until it
-is raised. The owner node serves ``set_paused``, ``step`` and ``reset_simulation`` (a new
-session: simulated time back to zero, so ``/clock`` jumps back, the standard signal on which the
-other nodes start over) and says whom lockstep waits for: :mod:`.sim_services`.
-
-A single ``plant`` with ``clock:=sim`` is the owner and the only member of its own; the hand
-(:mod:`.hand`) has one owner node and one member per finger, so its fingers share one time.
-
-A member is a :class:`.plant.Plant`; what is asked of it is :class:`Member`.
+:class:`SimulatedTime` steps its *members* (plants: one, or a hand's fingers) together at t_k,
+publishes ``/clock`` once per step before the members' outputs, paces the steps at
+``real_time_factor`` (:class:`.pacing.Pacer`), and in lockstep waits for every member's answer;
+on ``lockstep_timeout`` the silent members vent and every member steps on at real time until
+they answer again. Its owner node serves the services of :mod:`.sim_services`.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 from builtin_interfaces.msg import Time
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMessage
 
-from exodigit_model import GloveSimulation, GloveState
+from exodigit_model import GloveSimulation
 
 from ..logic.pacing import Pacer, TimeSettings
 from .messages import CLOCK
 from .qos import STREAM_QOS
 from .sim_services import TimeServices
 
+if TYPE_CHECKING:
+    from .plant import Plant
+
 POLL_LIMITS = (0.5e-3, 0.01)
 """Shortest and longest period of the simulated-time loop's wall timer, s."""
 FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 MEASURE_WINDOW = 0.5
-"""Shortest wall time over which the real-time factor is measured, s (every member reports
-about once a second; the reports within one window share one measurement)."""
-
-
-class Member(Protocol):
-    """What simulated time asks of a plant."""
-
-    period: float
-    state: GloveState
-    command_topic: str
-    """The topic of its commands, whose messages answer its steps."""
-
-    def controller_present(self) -> bool:
-        """Lockstep start: a controller publishes commands and every output reader is matched."""
-
-    def readers_matched(self) -> bool:
-        """Whether each output has matched every subscriber the graph knows of its topic."""
-
-    def lockstep_controllers(self) -> list[str]:
-        """Fully qualified names of the matched controllers."""
-
-    def take_step(self, *, vent: bool | None) -> GloveState:
-        """Advance one step (``vent`` None: the member's watchdog decides); do not publish."""
-
-    def publish_state(self, state: GloveState, stamp: Time) -> None:
-        """Publish the step's outputs stamped ``stamp``."""
-
-    def get_logger(self):
-        """The member's rclpy logger."""
-
-    def follow_time(self, changes: dict) -> None:
-        """Show time settings another member was set to (name: value) as its own."""
-
-    def new_simulation(self) -> GloveSimulation:
-        """A simulation of the member's parameters at rest at t = 0 (ConfigurationError)."""
-
-    def use_simulation(self, simulation: GloveSimulation) -> None:
-        """Simulate on ``simulation`` from its state on (no command or effort yet)."""
+"""Shortest wall time over which the real-time factor is measured, s."""
 
 
 class SimulatedTime:
@@ -87,19 +42,19 @@ class SimulatedTime:
     Parameters
     ----------
     owner : rclpy.node.Node
-        Publishes ``/clock``, serves ``set_paused`` and ``step`` (in its namespace) and runs
-        the loop's wall timer.
+        Publishes ``/clock``, serves :mod:`.sim_services` (in its namespace) and runs the
+        loop's wall timer.
     settings : TimeSettings
     """
 
     def __init__(self, owner: Node, settings: TimeSettings) -> None:
         self.owner = owner
         self.settings = settings
-        self.members: list[Member] = []
+        self.members: list[Plant] = []
         self.paused = settings.start_paused
         self.started = False  # lockstep: the first step is published once every controller is here
-        self.awaiting: set[Member] = set()
-        self.silent: set[Member] = set()  # unlocked: the members whose controller went quiet
+        self.awaiting: set[Plant] = set()
+        self.silent: set[Plant] = set()  # unlocked: the members whose controller went quiet
         self.waiting_since = time.monotonic()
         self.pacer = Pacer()
         self.clock_message = ClockMessage()
@@ -112,7 +67,7 @@ class SimulatedTime:
 
     # -- members ---------------------------------------------------------------------------
 
-    def add(self, member: Member) -> None:
+    def add(self, member: Plant) -> None:
         """Step ``member`` with the others from now on (same rate, same simulated time).
 
         Raises
@@ -149,7 +104,7 @@ class SimulatedTime:
 
     # -- events ----------------------------------------------------------------------------
 
-    def on_answer(self, member: Member) -> None:
+    def on_answer(self, member: Plant) -> None:
         """Lockstep: ``member`` has the answer to the latest step; step if everyone has."""
         self.awaiting.discard(member)
         if member in self.silent:
@@ -171,14 +126,13 @@ class SimulatedTime:
             timeout = self.settings.lockstep_timeout
             if timeout == 0.0 or wall - self.waiting_since <= timeout:
                 return
-            newly_silent = self.awaiting - self.silent
-            self.silent |= self.awaiting
-            self.awaiting = set()
-            for member in newly_silent:
+            for member in self.awaiting:  # never silent ones: step leaves them out
                 member.get_logger().warning(
                     f'no {member.command_topic} within lockstep_timeout {timeout:g} s: venting '
                     'and stepping on at real time until a command comes'
                 )
+            self.silent |= self.awaiting
+            self.awaiting = set()
             self.restart_pacing()
         budget = wall + FREE_RUN_BUDGET
         while self.try_step(wall) and wall < budget and not self.awaiting:
@@ -191,12 +145,10 @@ class SimulatedTime:
         if self.paused or not self.members:
             return False
         if self.settings.lockstep and not self.unlocked:
-            ready = self.started or all(m.controller_present() for m in self.members)
+            ready = self.started or all(m.lockstep_controllers() for m in self.members)
             if self.awaiting or not ready:
                 return False
-        if self.held():
-            return False
-        if not self.pacer.due(wall, self.t + self.period, self.pacing_factor()):
+        if self.held() or not self.pacer.due(wall, self.t + self.period, self.pacing_factor()):
             return False
         self.step()
         return True
@@ -290,22 +242,17 @@ class SimulatedTime:
 
     # -- diagnostics -----------------------------------------------------------------------
 
-    def measured_factor(self) -> float:
-        """Simulated seconds per wall second since the measurement before, one per window.
+    def status(self) -> tuple[list[str], dict[str, str]]:
+        """Problems and key/values of simulated time for a /diagnostics report.
 
-        Every member's report asks (a hand: several a second); the first one after
-        ``MEASURE_WINDOW`` measures, the others get the same figure.
+        Every member reports (a hand: several a second); the first report after
+        `MEASURE_WINDOW` measures the real-time factor, the others show the same figure.
         """
         wall = time.monotonic()
         last_wall, last_sim = self._measure_marks
         if wall - last_wall >= MEASURE_WINDOW:
             self._measured = (self.t - last_sim) / (wall - last_wall)
             self._measure_marks = (wall, self.t)
-        return self._measured
-
-    def status(self) -> tuple[list[str], dict[str, str]]:
-        """Problems and key/values of simulated time for a /diagnostics report."""
-        sim, measured = self.t, self.measured_factor()
         if not self.settings.lockstep:
             lockstep = 'off'
         elif self.unlocked:
@@ -317,11 +264,11 @@ class SimulatedTime:
         problems = ['lockstep: no answer, vented, stepping at real time'] if self.unlocked else []
         return problems, {
             'clock': 'sim',
-            'simulated time (s)': f'{sim:.9f}',
+            'simulated time (s)': f'{self.t:.9f}',
             'paused': str(self.paused),
             'held at run_until': str(bool(self.members) and self.held()),
             'real time factor (set)': f'{self.settings.real_time_factor:g}',
-            'real time factor (measured)': f'{measured:.3g}',
+            'real time factor (measured)': f'{self._measured:.3g}',
             'lockstep': lockstep,
             'schedule restarts (late)': str(self.pacer.late_restarts),
         }
