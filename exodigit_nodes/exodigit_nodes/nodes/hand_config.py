@@ -269,21 +269,11 @@ class HandConfig:
 
     def arguments(self) -> list[str]:
         """The command line that gives ``hand_nodes`` this configuration (a hand of fingers)."""
-        values = {
-            'fingers': ','.join(self.fingers),
-            'namespace': self.namespace,
-            'mode': self.mode,
-            'actuation': self.actuation,
-            'patient': self.patient,
-            'estimator': text(self.estimator),
-            'clock': self.clock,
-            **{name: text(getattr(self.time, name)) for name in TIME_OPTIONS},
-        }
-        return [
-            word
-            for option in command_options('hand_nodes')
-            for word in (option.flag, values[option.name])
-        ]
+        words = []
+        for option in command_options('hand_nodes'):
+            value = getattr(self.time if option.name in TIME_OPTIONS else self, option.name)
+            words += [option.flag, ','.join(value) if option.name == 'fingers' else text(value)]
+        return words
 
 
 def hand_config(options: argparse.Namespace) -> HandConfig:

@@ -63,14 +63,9 @@ def controllers_matched(node: Node, commands, states) -> list[str]:
         return []
     publishers = node.get_publishers_info_by_topic(commands.topic_name)
     readers = node.get_subscriptions_info_by_topic(states.topic_name)
-    listening = {(info.node_namespace, info.node_name) for info in readers}
-    return sorted(
-        f'{namespace.rstrip("/")}/{name}'
-        for namespace, name in {
-            (i.node_namespace, i.node_name) for i in publishers if known_node(i)
-        }
-        if (namespace, name) in listening
-    )
+    sending = {(i.node_namespace, i.node_name) for i in publishers if known_node(i)}
+    listening = {(i.node_namespace, i.node_name) for i in readers}
+    return sorted(f'{namespace.rstrip("/")}/{name}' for namespace, name in sending & listening)
 
 
 class Handshake:

@@ -89,9 +89,10 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
 
 def load_model(paths: tuple[str, ...]) -> GloveModel:
     """The model of the ``params_file`` files (none: defaults); one-line ConfigurationError."""
-    try:  # exodigit_model.GloveModel, so that numba loads only in the nodes that use a model
-        return exodigit_model.GloveModel(load_params(paths))
-    except (ParameterError, OSError, ValueError) as error:
+    params = load_model_params(paths)
+    try:  # exodigit_model.GloveModel: numba loads only in the nodes that use a model
+        return exodigit_model.GloveModel(params)
+    except ValueError as error:
         raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
 
 

@@ -148,14 +148,14 @@ def serve(
     return code
 
 
-def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
+def deliver(nodes: list[Node]) -> None:
     """Wait until every reader of the nodes' publishers has acknowledged what they sent.
 
     A publisher that keeps history for late readers (transient-local) first waits for every
-    reader the graph lists to match it. At most ``limit`` s in all; nothing after an external
-    shutdown.
+    reader the graph lists to match it. At most :data:`ACK_LIMIT` s in all; nothing after an
+    external shutdown.
     """
-    deadline = time.monotonic() + limit
+    deadline = time.monotonic() + ACK_LIMIT
     try:
         for node in nodes:
             for publisher in node.publishers:
