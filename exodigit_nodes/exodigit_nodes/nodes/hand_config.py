@@ -243,27 +243,23 @@ class HandConfig:
         port is the board's, or ``emulator_link`` (where the emulated board's pty appears).
         """
         values = time_parameters(executable, self.clock, self.time)
-        if executable == HARDWARE_NODE.executable:
+        bridge = executable == HARDWARE_NODE.executable
+        plant = executable == PLANT_NODE.executable
+        if bridge:
             if self.hardware == EMULATED and not emulator_link:
                 raise ValueError('the bridge to an emulated board needs its emulator_link')
             values['port'] = emulator_link if self.hardware == EMULATED else self.hardware
-            if glove.joint_prefix:
-                values['joint_prefix'] = glove.joint_prefix
-            return values
-        plant = executable == PLANT_NODE.executable
-        files = glove.plant_files if plant else glove.model_files
-        if files:
+        elif files := (glove.plant_files if plant else glove.model_files):
             values['params_file'] = list(files)
-        if plant and glove.joint_prefix:
+        if (bridge or plant) and glove.joint_prefix:
             values['joint_prefix'] = glove.joint_prefix
         if executable == ESTIMATOR_NODE.executable and self.hardware:
             values['glove_node'] = HARDWARE_NODE.executable
-        valves = self.actuation == 'valves'
-        if plant and valves:
-            values['actuation'] = self.actuation
+        if plant and self.actuation == 'valves':
+            values['actuation'] = 'valves'
         if executable == PRESSURE_COMMAND_NODE.executable:
             values['mode'] = self.mode
-            if valves:
+            if self.actuation == 'valves':
                 values['output'] = 'valves'
         return values
 
