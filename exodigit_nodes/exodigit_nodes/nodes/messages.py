@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING
 
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -43,8 +43,8 @@ LOCKSTEP_CONTROLLERS = 'lockstep_controllers'
 
 def set_double_request(name: str, value: float) -> SetParameters.Request:
     """A ``set_parameters`` request that sets the double parameter ``name`` to ``value``."""
-    double = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
-    return SetParameters.Request(parameters=[Parameter(name=name, value=double)])
+    parameter = Parameter(name, value=float(value)).to_parameter_msg()
+    return SetParameters.Request(parameters=[parameter])
 
 
 def rate_request() -> GetParameters.Request:

@@ -18,11 +18,11 @@ from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
     ParameterDescriptor,
-    ParameterType,
     SetParametersResult,
 )
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 import exodigit_model
 from exodigit_model import ParameterError, load_params
@@ -40,14 +40,6 @@ LOG_THROTTLE = 2.0
 DROP_WARNING = 5.0
 """How long after the latest dropped input message the diagnostics stay at WARN, s."""
 
-_TYPES = {
-    bool: ParameterType.PARAMETER_BOOL,
-    int: ParameterType.PARAMETER_INTEGER,
-    float: ParameterType.PARAMETER_DOUBLE,
-    str: ParameterType.PARAMETER_STRING,
-    tuple: ParameterType.PARAMETER_DOUBLE_ARRAY,
-}
-
 
 class ConfigurationError(Exception):
     """A node cannot start with its configuration; the text is the one line the user sees."""
@@ -62,7 +54,7 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     kind = type(spec.default)
     result = ParameterDescriptor(
         name=spec.name,
-        type=_TYPES[kind],
+        type=Parameter.Type.from_parameter_value(spec.default).value,
         description=spec.description,
         read_only=spec.read_only,
         dynamic_typing=True,
