@@ -84,15 +84,12 @@ def serve(
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
 
-    The nodes spin on one rclpy EventsExecutor (about a third less CPU than the
-    SingleThreadedExecutor at 100 Hz), so callbacks that take message info are
-    :class:`.message_info.WithInfo`. SIGINT, SIGTERM and SIGHUP only set a flag
-    (:class:`..logic.lifetime.StopRequest`) checked every ``SPIN_PERIOD``, so no
-    KeyboardInterrupt lands inside rclpy's C code; so does the death of the process that started
-    this one (``ros2 launch`` killed alone leaves no nodes running). Then a node that records
-    (``taken``: how many messages it has taken) takes what its readers still hold
-    (:func:`..logic.backlog.take_backlog`), ``last_words(node)`` runs for each node in the order
-    built, and :func:`deliver` waits for the readers before the nodes are destroyed
+    One EventsExecutor spins them (a third less CPU than the SingleThreadedExecutor at 100 Hz;
+    callbacks that take message info are :class:`.message_info.WithInfo`). A stop signal, or the
+    death of the process that started this one, only sets a flag checked every ``SPIN_PERIOD``
+    (:mod:`..logic.lifetime`): no KeyboardInterrupt lands in rclpy's C code. Then a node that
+    records (``taken``: the messages it has taken) takes its readers' backlog, each node says its
+    ``last_words`` in the order built, and :func:`deliver` waits for their readers
     (docs/spec/ros.md, "The session protocol", guarantee 7).
 
     Returns
