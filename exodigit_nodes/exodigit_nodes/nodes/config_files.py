@@ -23,10 +23,7 @@ CONFIG_WIDTH = 99
 
 
 def config_text(entry: NodeEntry) -> str:
-    """A node's ROS parameter file (``/**: ros__parameters:``), every parameter at its default.
-
-    Each parameter comes after a comment with its meaning (SI unit included) and its rule.
-    """
+    """A node's ROS parameter file (``/**: ros__parameters:``), every parameter at its default."""
     path = f'config/{entry.config_file}'
     lines = [
         *comment(
@@ -63,14 +60,6 @@ def comment(text: str, indent: str = '', hang: str = '') -> list[str]:
     )
 
 
-def write_config(directory: Path) -> list[Path]:
-    """Write every node's :func:`config_text` into ``directory``; the paths written."""
-    paths = [directory / entry.config_file for entry in EXECUTABLES]
-    for entry, path in zip(EXECUTABLES, paths, strict=True):
-        path.write_text(config_text(entry))
-    return paths
-
-
 def main(argv: list[str] | None = None) -> int:
     """``python -m exodigit_nodes.nodes.config_files --write-config DIR``: write the files."""
     parser = argparse.ArgumentParser(
@@ -88,7 +77,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not args.write_config.is_dir():
         parser.error(f'--write-config {args.write_config}: no such directory')
-    for path in write_config(args.write_config):
+    for entry in EXECUTABLES:
+        path = args.write_config / entry.config_file
+        path.write_text(config_text(entry))
         print(f'wrote {path}')
     return 0
 

@@ -1,16 +1,10 @@
 """The Fast DDS profile every exodigit process uses (docs/spec/ros.md, "QoS").
 
-A reliable reader that misses a sample (a process starved of CPU for a moment, a full
-shared-memory port) gets it again only after the writer's next heartbeat, by default 3 s later,
-and only if the writer still keeps the sample by then (:data:`.qos.WRITER_DEPTH`). A service
-server drops an answer when the new client's reply reader has not matched within 100 ms. The
-profile ``fastdds.xml`` beside this module shortens the heartbeat to 50 ms and lets a server
-wait 1 s.
-
-rmw_fastrtps reads the file named by ``FASTRTPS_DEFAULT_PROFILES_FILE`` when a process creates
-its first participant, so every node's ``main``, the runners, the testing kit and the tests set
-it before ``rclpy.init``, unless the user already named a profile of their own. A user's own
-node gets it with::
+``fastdds.xml`` beside this module shortens the writers' heartbeat from 3 s to 50 ms (how soon a
+reader gets a sample it missed) and lets a service server wait 1 s, not 100 ms, for a new
+client's reader. rmw_fastrtps reads it when a process creates its first participant, so every
+process names it before ``rclpy.init``, unless the user named a profile of their own. A user's
+own node gets it with::
 
     export FASTRTPS_DEFAULT_PROFILES_FILE=$(python3 -m exodigit_nodes.nodes.dds)
 """

@@ -1,17 +1,10 @@
 """What a hand is: its gloves, where they live, and the one option table (no rclpy).
 
-A hand is a set of gloves (:class:`Glove`), each a finger's plant, estimator and
-pressure_command. Finger f lives in ``<namespace>/<f>`` with joint names ``f_mcp, f_pip, f_dip``
-and the model file ``config/hand/<f>.yaml`` (its link lengths and stiffness; docs/spec/model.md
-§10). A lone glove (``python -m exodigit_nodes.glove``) is the hand of one finger with no finger
-level: its nodes live in the namespace itself, with no joint prefix, on the model of
-``--params-file`` (none: the built-in one).
-
-One table of options, :func:`command_options`, serves the glove and hand runners, ``hand_nodes``
-(the one process that runs every finger's nodes) and ``launch/hand.launch.py``; its entries and
-checks are in :mod:`.run_options` (the time options are the plant's parameters of the same
-names, ``mode`` is ``pressure_command``'s, ``actuation`` the plant's, with ``pressure_command``'s
-``output`` to match). :func:`hand_config` reads and checks the parsed options of any of them.
+A hand is a set of gloves (:class:`Glove`), one per finger, each in ``<namespace>/<finger>``
+with its model file ``config/hand/<finger>.yaml``; a lone glove is the hand of one finger with
+no finger level (docs/running.md, "A whole hand"). :func:`command_options` is the one table of
+options of the glove and hand runners, ``hand_nodes`` and ``launch/hand.launch.py``;
+:func:`hand_config` reads and checks the parsed options of any of them.
 """
 
 from __future__ import annotations
@@ -28,11 +21,8 @@ from .run_options import (
     TIME_OPTIONS,
     RunOption,
     check_sim_only,
-    namespace_option,
     parameter_option,
-    patient_option,
     text,
-    time_options,
     time_parameters,
     time_settings,
 )
@@ -47,8 +37,7 @@ EMULATED = 'emulated'
 """``--hardware`` value for the emulated board (``mcu_emulator``)."""
 DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
 """The finger the plants simulate by default: the glove's shows the estimator identifying a
-patient who is not the finger it assumes (docs/running.md); a hand's fingers are
-their own files' (docs/running.md, "A whole hand")."""
+patient who is not the finger it assumes; a hand's fingers are their own files'."""
 
 
 def hand_config_dir() -> Path:
@@ -68,19 +57,20 @@ def command_options(command: str) -> tuple[RunOption, ...]:
     ``--params-file`` and two time options; the hand and ``hand_nodes`` have every time option
     (one simulated time for the whole hand); the runners ``--record``.
     """
+    from exodigit_model.physics.params import PATIENT_PRESETS
+
     if command not in COMMANDS:
         raise ValueError(f'command {command!r}: one of {", ".join(COMMANDS)}')
     glove = command == 'glove'
     hand = '' if glove else ' (the whole hand)'
+    whom = 'the glove' if glove else 'the hand; finger f in <namespace>/f'
     options = [
         RunOption(
             'fingers',
             ','.join(FINGERS),
             f'comma-separated fingers, each of {",".join(FINGERS)} at most once',
         ),
-        namespace_option('/glove', 'the glove')
-        if glove
-        else namespace_option('/hand', 'the hand; finger f in <namespace>/f'),
+        RunOption('namespace', '/glove' if glove else '/hand', f'ROS namespace of {whom}'),
         parameter_option('mode', note='' if glove else ' (every finger)'),
         parameter_option(
             'actuation',
@@ -104,14 +94,22 @@ def command_options(command: str) -> tuple[RunOption, ...]:
             'built-in values',
             metavar='FILE',
         ),
-        patient_option(
+        RunOption(
+            'patient',
             DEFAULT_PATIENTS['glove' if glove else 'hand'],
-            'the glove file' if glove else "every plant's finger file",
+            'the finger the plant simulates (docs/spec/model.md §11): a preset '
+            f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal, merged over '
+            + ('the glove file' if glove else "every plant's finger file")
+            + '; the controllers and estimators assume the nominal finger',
+            metavar='NAME|FILE',
         ),
         RunOption(
             'estimator', 'true', 'run an estimator per finger', choices=BOOLEANS, switch=True
         ),
-        *time_options(GLOVE_TIME_OPTIONS if glove else TIME_OPTIONS, note=hand),
+        *(
+            parameter_option(name, note=hand)
+            for name in ('clock', *(GLOVE_TIME_OPTIONS if glove else TIME_OPTIONS))
+        ),
         RunOption(
             'record',
             'false',
@@ -245,47 +243,33 @@ class HandConfig:
         port is the board's, or ``emulator_link`` (where the emulated board's pty appears).
         """
         values = time_parameters(executable, self.clock, self.time)
-        if executable == HARDWARE_NODE.executable:
+        bridge = executable == HARDWARE_NODE.executable
+        plant = executable == PLANT_NODE.executable
+        if bridge:
             if self.hardware == EMULATED and not emulator_link:
                 raise ValueError('the bridge to an emulated board needs its emulator_link')
             values['port'] = emulator_link if self.hardware == EMULATED else self.hardware
-            if glove.joint_prefix:
-                values['joint_prefix'] = glove.joint_prefix
-            return values
-        plant = executable == PLANT_NODE.executable
-        files = glove.plant_files if plant else glove.model_files
-        if files:
+        elif files := (glove.plant_files if plant else glove.model_files):
             values['params_file'] = list(files)
-        if plant and glove.joint_prefix:
+        if (bridge or plant) and glove.joint_prefix:
             values['joint_prefix'] = glove.joint_prefix
         if executable == ESTIMATOR_NODE.executable and self.hardware:
             values['glove_node'] = HARDWARE_NODE.executable
-        valves = self.actuation == 'valves'
-        if plant and valves:
-            values['actuation'] = self.actuation
+        if plant and self.actuation == 'valves':
+            values['actuation'] = 'valves'
         if executable == PRESSURE_COMMAND_NODE.executable:
             values['mode'] = self.mode
-            if valves:
+            if self.actuation == 'valves':
                 values['output'] = 'valves'
         return values
 
     def arguments(self) -> list[str]:
         """The command line that gives ``hand_nodes`` this configuration (a hand of fingers)."""
-        values = {
-            'fingers': ','.join(self.fingers),
-            'namespace': self.namespace,
-            'mode': self.mode,
-            'actuation': self.actuation,
-            'patient': self.patient,
-            'estimator': text(self.estimator),
-            'clock': self.clock,
-            **{name: text(getattr(self.time, name)) for name in TIME_OPTIONS},
-        }
-        return [
-            word
-            for option in command_options('hand_nodes')
-            for word in (option.flag, values[option.name])
-        ]
+        words = []
+        for option in command_options('hand_nodes'):
+            value = getattr(self.time if option.name in TIME_OPTIONS else self, option.name)
+            words += [option.flag, ','.join(value) if option.name == 'fingers' else text(value)]
+        return words
 
 
 def hand_config(options: argparse.Namespace) -> HandConfig:
@@ -295,9 +279,7 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
     The time options on the wall clock are refused naming those the command has. A glove on a
     board (``--hardware``) has valves whatever ``--actuation`` says (the help says so).
     """
-    check_namespace(
-        options.namespace, '/glove, /hand or /left/hand'
-    )  # a node refuses it only started
+    check_namespace(options.namespace, '/glove, /hand or /left/hand')
     names = [name for name in TIME_OPTIONS if hasattr(options, name)]
     time = time_settings({name: getattr(options, name) for name in names})
     check_sim_only(options.clock, time, names)

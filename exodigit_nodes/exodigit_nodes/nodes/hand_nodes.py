@@ -1,29 +1,13 @@
-"""``hand_nodes``: the nodes of every glove of a hand in one process.
+"""``hand_nodes``: every finger's plant, estimator and pressure_command in one process.
 
-For each finger of ``--fingers`` (default the five), in namespace ``<namespace>/<finger>`` with
-joint names ``<finger>_mcp, ...``: a ``plant`` of the finger's model file
-(``config/hand/<finger>.yaml``, with ``--patient`` merged over it), an ``estimator`` and a
-``pressure_command`` in ``--mode``, both assuming the finger's nominal model. Every finger keeps
-its own topics, services, parameters and /diagnostics, exactly as a glove started node by node;
-only the processes differ. ``--estimator false`` leaves the estimators out. The hand runner and
-the launch file start a hand as this one process (docs/running.md, "A whole hand", has its speed).
+docs/running.md, "A whole hand", has what it runs and its speed.
 
-Time: with ``--clock wall`` each plant steps on the system clock. With ``--clock sim`` the hand
-has one simulated time (:class:`.sim_time.SimulatedTime`): every finger steps together, ``/clock``
-is published once per step, ``<namespace>/set_paused`` and ``<namespace>/step`` control the
-whole hand, and with ``--lockstep`` each step waits for every finger's controller.
-
-ROS arguments after ``--ros-args`` apply to every node (``-p rate_hz:=200``, or
-``--params-file`` with ``/**:`` parameters); the per-finger values above win over them.
-Every node spins on one rclpy EventsExecutor (the estimators' message-info callbacks through
-:class:`.message_info.WithInfo`). Ctrl-C / SIGTERM: every command node sends zero pressure, then
-all nodes stop. Exit status 0 after a clean stop, 2 for a refused configuration
-(one line on stderr).
-
-Run: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
-rate_hz:=200`` (``ros2 run exodigit_nodes hand_nodes ...``); ``python -m exodigit_nodes.hand`` adds
-the live
-summary and the run records.
+Each finger keeps its own namespace, topics, services, parameters and /diagnostics, exactly as a
+glove started node by node. With ``--clock sim`` the hand has one simulated time
+(:class:`.sim_time.SimulatedTime`, owned by the node ``<namespace>/hand``). ROS arguments after
+``--ros-args`` apply to every node; the per-finger values (:meth:`.HandConfig.parameters`) win
+over them. Run: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
+rate_hz:=200`` (``ros2 run exodigit_nodes hand_nodes ...``).
 """
 
 from __future__ import annotations
@@ -38,7 +22,7 @@ from rclpy.utilities import remove_ros_args
 from ..logic.options import UsageError
 from .hand_config import HandConfig, command_options, hand_config
 from .plant import Plant
-from .process import freeze_start_up, last_words, serve
+from .process import last_words, serve
 from .run_options import add_options
 from .sim_time import SimulatedTime
 
@@ -89,13 +73,7 @@ def main(args: list[str] | None = None) -> int:
     except (UsageError, RuntimeError) as error:
         print(f'hand_nodes: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
-
-    def make_nodes() -> list[Node]:
-        nodes = build_hand(config)
-        freeze_start_up()
-        return nodes
-
-    return serve('hand_nodes', argv, make_nodes, last_words)
+    return serve('hand_nodes', argv, lambda: build_hand(config), last_words)
 
 
 if __name__ == '__main__':

@@ -1,13 +1,4 @@
-"""Subscription callbacks that take message info on every rclpy executor.
-
-rclpy hands a callback the message info (DDS source timestamp, publication sequence number) when
-the callback takes two arguments, ``(message, info)``. Its SingleThreadedExecutor calls it so;
-the C++ EventsExecutor of rclpy 7.1 (Jazzy) passes the pair as one argument, ``((message,
-info),)``, and a plain two-argument function fails there ("SystemError: null argument to internal
-routine", measured with rclpy 7.1.6). :class:`WithInfo` declares the two arguments rclpy looks
-for and accepts both calls, so a node whose callbacks need the info (the estimator pairs by send
-time) spins on the EventsExecutor too, and keeps working when rclpy passes the two arguments.
-"""
+"""Subscription callbacks that take message info on every rclpy executor (:class:`WithInfo`)."""
 
 from __future__ import annotations
 
@@ -15,26 +6,25 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
-InfoCallback = Callable[[Any, dict], None]
-
-_TWO_ARGUMENTS = inspect.Signature(
-    [
-        inspect.Parameter('message', inspect.Parameter.POSITIONAL_ONLY),
-        inspect.Parameter('info', inspect.Parameter.POSITIONAL_ONLY),
-    ]
-)
-
 
 class WithInfo:
     """``callback(message, info)`` as a subscription callback for any rclpy executor.
 
-    rclpy tells the kinds of callback apart by their signature; this object's is
-    ``(message, info)``, so rclpy takes the info for it.
+    rclpy passes the message info (source timestamp, publication sequence number) to a callback
+    whose signature has two arguments. The SingleThreadedExecutor calls it so; the EventsExecutor
+    of rclpy 7.1 passes the pair as one argument, where a plain two-argument function fails
+    ("SystemError: null argument to internal routine"). This object has the two-argument
+    signature and takes both calls.
     """
 
-    __signature__ = _TWO_ARGUMENTS
+    __signature__ = inspect.Signature(
+        [
+            inspect.Parameter('message', inspect.Parameter.POSITIONAL_ONLY),
+            inspect.Parameter('info', inspect.Parameter.POSITIONAL_ONLY),
+        ]
+    )
 
-    def __init__(self, callback: InfoCallback) -> None:
+    def __init__(self, callback: Callable[[Any, dict], None]) -> None:
         self.callback = callback
 
     def __call__(self, *taken: Any) -> None:

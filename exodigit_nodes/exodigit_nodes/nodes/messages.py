@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING
 
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -40,16 +40,11 @@ SET_PAUSED = 'set_paused'
 STEP = 'step'
 LOCKSTEP_CONTROLLERS = 'lockstep_controllers'
 
-JOINT_DIMENSION = 'joint'
-"""Label of the one layout dimension of every joint-vector topic."""
-VALVE_DIMENSION = 'valve'
-"""Label of the one layout dimension of ``valve_command`` (six openings: inlets, then outlets)."""
-
 
 def set_double_request(name: str, value: float) -> SetParameters.Request:
     """A ``set_parameters`` request that sets the double parameter ``name`` to ``value``."""
-    double = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
-    return SetParameters.Request(parameters=[Parameter(name=name, value=double)])
+    parameter = Parameter(name, value=float(value)).to_parameter_msg()
+    return SetParameters.Request(parameters=[parameter])
 
 
 def rate_request() -> GetParameters.Request:
@@ -66,13 +61,13 @@ def vector_message(label: str, size: int) -> Float64MultiArray:
 
 
 def joint_vector_message() -> Float64MultiArray:
-    """A Float64MultiArray with the ``joint`` layout (size 3), to be filled and reused."""
-    return vector_message(JOINT_DIMENSION, 3)
+    """A joint vector: the one layout dimension ``joint`` (size 3), to be filled and reused."""
+    return vector_message('joint', 3)
 
 
 def valve_command_message() -> Float64MultiArray:
-    """A ``valve_command`` with the ``valve`` layout (size 6), to be filled and reused."""
-    return vector_message(VALVE_DIMENSION, 6)
+    """A ``valve_command``: the one dimension ``valve`` (6: inlets, then outlets), to fill."""
+    return vector_message('valve', 6)
 
 
 def fill(message: Float64MultiArray, values) -> Float64MultiArray:
@@ -106,12 +101,9 @@ def trajectory_message(
 
 
 def estimate_message(state: JointState, effort) -> JointState:
-    """An estimate of ``state``: values per joint as ``effort`` (N or N·m) with its stamp.
+    """An estimate (``effort``: N or N·m per joint) from the ``joint_states`` message ``state``.
 
-    ``state`` is the ``joint_states`` message the estimate was computed from: its stamp, joint
-    names and angles go on the estimate. The type of ``estimated_contact_forces`` and
-    ``estimated_finger_torque`` (docs/spec/ros.md): a reader pairs each estimate with its state
-    by the stamp.
+    It carries ``state``'s stamp, joint names and angles, so a reader pairs it with its state.
     """
     return JointState(
         header=state.header,

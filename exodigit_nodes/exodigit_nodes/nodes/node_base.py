@@ -1,10 +1,8 @@
-"""What every exodigit node shares: parameters in three phases, diagnostics, rejections.
+"""What every glove node shares: its parameters, its diagnostics, the inputs it drops.
 
-A node lists its parameters as a :class:`~.parameters.ParamTable`, builds its plain settings
-from their values in :meth:`GloveNode.make_settings` (raising ``ValueError`` naming the
-parameter), and applies them in :meth:`GloveNode.apply`. The on-set callback only validates;
-the post-set callback applies (ros2/demos, ``set_parameters_callback.py``). A node's process,
-from its command line to its last words, is :mod:`.process`.
+Parameters come in three phases: checked by the node table, made into the node's settings
+(:meth:`GloveNode.make_settings`), applied (:meth:`GloveNode.apply`) only after a set has
+succeeded. A node's process, from its command line to its last words, is :mod:`.process`.
 """
 
 from __future__ import annotations
@@ -20,11 +18,11 @@ from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
     ParameterDescriptor,
-    ParameterType,
     SetParametersResult,
 )
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 import exodigit_model
 from exodigit_model import ParameterError, load_params
@@ -42,17 +40,6 @@ LOG_THROTTLE = 2.0
 DROP_WARNING = 5.0
 """How long after the latest dropped input message the diagnostics stay at WARN, s."""
 
-INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
-"""The ends of an IntegerRange (int64) used where a parameter's range is open on one side."""
-
-_TYPES = {
-    bool: ParameterType.PARAMETER_BOOL,
-    int: ParameterType.PARAMETER_INTEGER,
-    float: ParameterType.PARAMETER_DOUBLE,
-    str: ParameterType.PARAMETER_STRING,
-    tuple: ParameterType.PARAMETER_DOUBLE_ARRAY,
-}
-
 
 class ConfigurationError(Exception):
     """A node cannot start with its configuration; the text is the one line the user sees."""
@@ -61,13 +48,13 @@ class ConfigurationError(Exception):
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     """The ROS ParameterDescriptor of a parameter: description, range, read-only.
 
-    Typing is dynamic so that a wrong type reaches our check, which names the parameter (rclpy's
-    own type error does not), and an integer given for a float is accepted.
+    Typing is dynamic, so that a wrong type reaches the table's check, which names the parameter,
+    and an integer given for a float is accepted.
     """
     kind = type(spec.default)
     result = ParameterDescriptor(
         name=spec.name,
-        type=_TYPES[kind],
+        type=Parameter.Type.from_parameter_value(spec.default).value,
         description=spec.description,
         read_only=spec.read_only,
         dynamic_typing=True,
@@ -82,8 +69,8 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
         return result
     # A range has both ends: an open one is the type's limit (the check refuses non-finite).
     if kind is int:
-        low = INT64_MIN if spec.low is None else int(spec.low)
-        high = INT64_MAX if spec.high is None else int(spec.high)
+        low = -(2**63) if spec.low is None else int(spec.low)
+        high = 2**63 - 1 if spec.high is None else int(spec.high)
         result.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
     else:
         low = -sys.float_info.max if spec.low is None else float(spec.low)
@@ -95,8 +82,7 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
 def load_model(paths: tuple[str, ...]) -> GloveModel:
     """The model of the ``params_file`` files (none: defaults); one-line ConfigurationError."""
     params = load_model_params(paths)
-    try:
-        # The model, and numba with it, only in the nodes that use it (a recorder does not).
+    try:  # exodigit_model.GloveModel: numba loads only in the nodes that use a model
         return exodigit_model.GloveModel(params)
     except ValueError as error:
         raise ConfigurationError('params_file: ' + ' '.join(str(error).split())) from None
@@ -111,11 +97,11 @@ def load_model_params(paths: tuple[str, ...]) -> GloveParams:
 
 
 class GloveNode(Node):
-    """Base of the three nodes: declared parameters, diagnostics and the rejection tally.
+    """Base of the glove nodes: declared parameters, diagnostics and the rejection tally.
 
     A subclass names its executable (also the default node name) and its parameter table as class
     attributes ``executable`` and ``table``. Keyword ``node_options`` go to rclpy's ``Node``
-    (``namespace``, ``parameter_overrides``, ``context``...: several nodes in one process).
+    (``namespace``, ``parameter_overrides``, ``context``...).
 
     Raises
     ------
@@ -126,25 +112,22 @@ class GloveNode(Node):
     executable: str
     table: ParamTable
     quiet_parameters: frozenset[str] = frozenset()
-    """Parameters whose changes are logged at debug level, not info: flow control that a
-    runner sets every few steps (a log line costs the node about 0.5 ms of CPU: rclpy looks
-    up its caller's source file)."""
+    """Parameters whose changes are logged at debug level, not info: flow control set every few
+    steps (an info line costs the node about 0.5 ms of CPU)."""
 
     def __init__(self, **node_options) -> None:
         super().__init__(self.executable, **node_options)
-        table = self.table
         given = {}
         try:
-            for spec in table.specs.values():
+            for spec in self.table.specs.values():
                 default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
                 given[spec.name] = self.declare_parameter(
                     spec.name, default, descriptor(spec)
                 ).value
-            self.values = table.check(given)
-            settings = self.make_settings(self.values)
+            self.values = self.table.check(given)
+            self.settings = self.make_settings(self.values)
         except (ValueError, ParameterException) as error:
             raise ConfigurationError(' '.join(str(error).split())) from None
-        self.settings = settings
         self._pending: tuple[dict[str, Any], Any] | None = None
         self.rejections = RejectionTally()
         self.last_rejection: float | None = None
@@ -153,8 +136,6 @@ class GloveNode(Node):
         )
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
-
-    # -- to be provided by each node -------------------------------------------------------
 
     def make_settings(self, values: dict[str, Any]) -> Any:
         """The node's plain settings from checked parameter values (ValueError if inconsistent)."""
@@ -165,8 +146,6 @@ class GloveNode(Node):
 
     def on_shutdown(self) -> None:
         """Last words before the node is destroyed (e.g. a safe command)."""
-
-    # -- parameters ------------------------------------------------------------------------
 
     def _ours(self, parameters) -> dict[str, Any]:
         """The node's own parameters among ``parameters`` (rclpy's, e.g. use_sim_time, aside)."""
@@ -195,8 +174,6 @@ class GloveNode(Node):
         else:
             self.get_logger().info(text)
 
-    # -- helpers ---------------------------------------------------------------------------
-
     def now_seconds(self) -> float:
         """The node clock (ROS time, so ``use_sim_time`` works), s."""
         return self.get_clock().now().nanoseconds * 1e-9
@@ -211,10 +188,7 @@ class GloveNode(Node):
         )
 
     def pressure_reading(self, data) -> NDArray[np.float64] | None:
-        """The chamber pressures (Pa) of a ``chamber_pressure``'s ``data``; None if refused.
-
-        A refused message is counted and warned about (:meth:`reject`).
-        """
+        """The chamber pressures (Pa) of a ``chamber_pressure``'s ``data``; None if refused."""
         try:
             return joint_vector(data, CHAMBER_PRESSURE, MAX_PRESSURE_READING)
         except InvalidInputError as error:

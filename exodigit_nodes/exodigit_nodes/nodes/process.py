@@ -1,8 +1,7 @@
 """A node's process from its command line to its last words: ``--help``, spin, stop, deliver.
 
 :func:`run` is every glove node's ``main()``; :func:`serve` spins any nodes (the recorder's, a
-hand's) until a stop signal, a shutdown or a duration, and stops them so that nothing they sent
-is lost (:func:`deliver`).
+hand's) and stops them so that nothing they sent is lost.
 """
 
 from __future__ import annotations
@@ -38,61 +37,33 @@ SPIN_PERIOD = 0.05
 """Longest time between two checks for a stop request while spinning, s."""
 
 
-def parse_own_arguments(node_class: type[GloveNode], argv: list[str]) -> None:
-    """A node's own command line: none but ``--help``, which prints its parameter table.
+def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
+    """Every glove node's ``main()``: its command line, then :func:`serve`; the exit status.
 
-    The ROS arguments are left to rclpy (``rclpy.utilities.remove_ros_args``); argparse exits
-    with 0 after the help and with 2 and a usage line for anything else.
+    A node's own command line is none but ``--help``, which prints its parameter table: argparse
+    exits with 0 after the help and with 2 and a usage line for anything else.
     """
+    program = node_class.executable
     parser = argparse.ArgumentParser(
-        prog=node_class.executable,
-        usage=f'{node_class.executable} [-h] [--ros-args -p name:=value ...]',
+        prog=program,
+        usage=f'{program} [-h] [--ros-args -p name:=value ...]',
         description=sys.modules[node_class.__module__].__doc__,
         epilog='parameters:\n' + node_class.table.help(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.parse_args(remove_ros_args(['', *argv])[1:])
-
-
-def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
-    """Start ``node_class``, spin until Ctrl-C / SIGTERM / shutdown, stop cleanly.
-
-    SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
-    spin loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C
-    code; the node then says its last words
-    (:meth:`GloveNode.on_shutdown`) while its context is still up. Returns the exit status: 0
-    after a normal stop, 2 when the configuration is refused (one line on stderr, no traceback).
-    """
     argv = sys.argv[1:] if args is None else list(args)
-    program = node_class.executable
     try:
-        parse_own_arguments(node_class, argv)
+        parser.parse_args(remove_ros_args(['', *argv])[1:])
     except SystemExit as done:  # --help (0), or an argument that is not ours (2)
         return done.code
-
-    def make_node() -> GloveNode:
-        node = node_class()
-        freeze_start_up()
-        return node
-
-    return serve(program, args, make_node, last_words)
-
-
-def freeze_start_up() -> None:
-    """Move the long-lived start-up objects (model tables, messages) out of the collector's way.
-
-    Shorter garbage-collection pauses in the loops; call once the nodes are built.
-    """
-    gc.collect()
-    gc.freeze()
+    return serve(program, args, node_class, last_words)
 
 
 def last_words(node: Node) -> None:
     """A glove node's last words (:meth:`GloveNode.on_shutdown`) while its context is up.
 
-    After an external shutdown (``rclpy.shutdown()`` by the code that embeds the node) nothing
-    can be sent any more, so nothing is tried, and a shutdown that comes while the node speaks
-    ends its words without an error; other nodes have no last words.
+    Nothing is tried after an external shutdown (``rclpy.shutdown()`` by the code that embeds
+    the node), and one that comes while the node speaks ends its words without an error.
     """
     if isinstance(node, GloveNode) and node.context.ok():
         try:
@@ -113,21 +84,20 @@ def serve(
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
 
-    The nodes spin on one rclpy EventsExecutor (C++; about a third less CPU than the Python
-    SingleThreadedExecutor at 100 Hz, measured here) in this thread; callbacks that take message
-    info are :class:`.message_info.WithInfo`.
-    SIGINT, SIGTERM and SIGHUP only set a flag (:class:`..logic.lifetime.StopRequest`) that the
-    loop checks every ``SPIN_PERIOD``, so no KeyboardInterrupt can land inside rclpy's C code;
-    ``last_words(node)`` then runs for each node, in the order built, while every node still
-    exists. A node that records (``taken``: how many messages it has taken) first takes what its
-    readers still hold (:func:`..logic.backlog.take_backlog`). Before the nodes are destroyed,
-    each publisher waits until every reader the graph lists has matched it and acknowledged what
-    it sent (:func:`deliver`, at most ``ACK_LIMIT`` s in all): a reader behind on a loaded
-    machine, or discovered late, still gets the last steps.
-    Returns the exit status: 0 after a normal stop, 2 when the configuration is refused (an
-    exception of ``refused``: one line on stderr, no traceback), 1 when the process that started it
-    is gone already. The process stops as on SIGINT when that process dies (:mod:`.lifetime`):
-    ``ros2 launch`` killed alone does not leave the nodes running.
+    One EventsExecutor spins them (a third less CPU than the SingleThreadedExecutor at 100 Hz;
+    callbacks that take message info are :class:`.message_info.WithInfo`). A stop signal, or the
+    death of the process that started this one, only sets a flag checked every ``SPIN_PERIOD``
+    (:mod:`..logic.lifetime`): no KeyboardInterrupt lands in rclpy's C code. Then a node that
+    records (``taken``: the messages it has taken) takes its readers' backlog, each node says its
+    ``last_words`` in the order built, and :func:`deliver` waits for their readers
+    (docs/spec/ros.md, "The session protocol", guarantee 7).
+
+    Returns
+    -------
+    int
+        0 after a normal stop; 2 when the configuration is refused (an exception of
+        ``refused``: one line on stderr, no traceback); 1 when the process that started it is
+        gone already.
     """
     stop = StopRequest()
     if not stop_with_parent(signal.SIGINT):
@@ -143,6 +113,8 @@ def serve(
             raise ConfigurationError(' '.join(str(error).split())) from None
         made = make_nodes()
         nodes = made if isinstance(made, list) else [made]
+        gc.collect()  # the long-lived start-up objects (model tables) out of the collector's way
+        gc.freeze()
         executor = EventsExecutor()
         for node in nodes:
             executor.add_node(node)
@@ -173,16 +145,14 @@ def serve(
     return code
 
 
-def deliver(nodes: list[Node], limit: float = ACK_LIMIT) -> None:
+def deliver(nodes: list[Node]) -> None:
     """Wait until every reader of the nodes' publishers has acknowledged what they sent.
 
-    A publisher that keeps its history for late readers (``applied_command``, ``~/ready``:
-    transient-local) first waits for every reader the graph lists but it has not matched yet
-    (discovery is per pair of processes), which then gets that history; a stream has nothing
-    for a reader that matches now. At most ``limit`` s in all; nothing after an external
-    shutdown (nothing can be sent then).
+    A publisher that keeps history for late readers (transient-local) first waits for every
+    reader the graph lists to match it. At most :data:`ACK_LIMIT` s in all; nothing after an
+    external shutdown.
     """
-    deadline = time.monotonic() + limit
+    deadline = time.monotonic() + ACK_LIMIT
     try:
         for node in nodes:
             for publisher in node.publishers:

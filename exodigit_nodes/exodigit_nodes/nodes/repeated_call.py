@@ -1,18 +1,18 @@
-"""A service request that may be repeated, sent again until answered (:class:`RepeatedCall`)."""
+"""A service request sent again until answered (:class:`RepeatedCall`)."""
 
 from __future__ import annotations
 
 import time
 
 RESEND = 1.0
-"""Wall seconds without an answer before a request is sent again. rmw_fastrtps drops a service's
-answer when the server has not yet matched the client's reader (it waits 100 ms), which happens
-on a loaded machine. Only a request that may be asked twice is to be repeated (a parameter
-question, ``run_until``), never one that does something each time (the plant's ``step``)."""
+"""Wall seconds without an answer before a request is sent again: rmw_fastrtps drops an answer
+when the server has not matched the client's reader yet (docs/spec/ros.md, "The session
+protocol"). Repeat only a request that may be asked twice (a parameter question,
+``run_until``), never one that acts each time (the plant's ``step``)."""
 
 
 class RepeatedCall:
-    """A request that may be repeated, in flight: sent again every `RESEND` s until answered."""
+    """A request in flight, sent again every :data:`RESEND` s until answered."""
 
     def __init__(self, client, request) -> None:
         self._client, self._request = client, request

@@ -1,14 +1,9 @@
-"""The options of the glove and hand commands: one table of option kinds, one set of checks.
+"""The kinds of option of the glove and hand commands, and their checks (no rclpy).
 
-``python -m exodigit_nodes.glove``, ``python -m exodigit_nodes.hand``, ``hand_nodes`` and
-``launch/hand.launch.py`` build their options from :class:`RunOption` entries made here (one
-table of them: :func:`.hand_config.command_options`): the namespace, the ``pressure_command``
-mode, the plant's actuation, the patient, and the simulated-time options, which are the plant's
-parameters of the same names (:mod:`.catalog`) with their defaults, descriptions and checks.
-Values stay text on the command line (``--lockstep`` alone means true, as does ``--lockstep
-true``; in a launch ``lockstep:=true``); :func:`time_settings` reads and checks them, and
-:func:`check_sim_only` refuses the simulated-time ones with the wall clock. Every refusal is a
-:class:`..logic.options.UsageError` naming the option (no rclpy).
+:func:`.hand_config.command_options` is the one table of the options, made of :class:`RunOption`
+entries. The time options are the plant's parameters of the same names, with their defaults,
+descriptions and checks. Values stay text on the command line (``--lockstep`` alone means true);
+every refusal is a :class:`..logic.options.UsageError` naming the option.
 """
 
 from __future__ import annotations
@@ -25,8 +20,7 @@ BOOLEANS = ('true', 'false')
 TIME_OPTIONS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused', 'pause_at')
 """Plant parameters (:class:`..logic.pacing.TimeSettings` fields) a command may have as options."""
 SIM_ONLY = ('lockstep', 'start_paused', 'real_time_factor')
-"""Time options that mean nothing on the wall clock: a command refuses them without --clock sim
-(in the order its message lists them)."""
+"""Time options refused on the wall clock, in the order the refusal lists them."""
 
 
 @dataclass(frozen=True)
@@ -72,10 +66,7 @@ def text(value) -> str:
 
 
 def parameter_option(name: str, *, note: str = '') -> RunOption:
-    """The option of a plant parameter (``mode``: of pressure_command's), as its table says.
-
-    ``note`` is added to its help.
-    """
+    """The option of a plant parameter (``mode``: pressure_command's); ``note`` ends its help."""
     spec = PRESSURE_COMMAND_NODE.table[name] if name == 'mode' else PLANT_NODE.table[name]
     switch = isinstance(spec.default, bool)
     return RunOption(
@@ -85,30 +76,6 @@ def parameter_option(name: str, *, note: str = '') -> RunOption:
         choices=BOOLEANS if switch else tuple(spec.choices),
         switch=switch,
     )
-
-
-def namespace_option(default: str, whom: str) -> RunOption:
-    """``--namespace``, absolute, with its ``default``; ``whom`` says what lives there."""
-    return RunOption('namespace', default, f'ROS namespace of {whom}')
-
-
-def patient_option(default: str, whom: str) -> RunOption:
-    """``--patient``: the finger the plants simulate, merged over ``whom``'s model files."""
-    from exodigit_model.physics.params import PATIENT_PRESETS
-
-    return RunOption(
-        'patient',
-        default,
-        f'the finger the plant simulates (docs/spec/model.md §11): a preset '
-        f'({", ".join(PATIENT_PRESETS)}), a patient YAML, or nominal, merged over {whom}; the '
-        'controllers and estimators assume the nominal finger',
-        metavar='NAME|FILE',
-    )
-
-
-def time_options(names: Iterable[str], note: str = '') -> tuple[RunOption, ...]:
-    """``--clock`` and the simulated-time options ``names`` (of :data:`TIME_OPTIONS`)."""
-    return tuple(parameter_option(name, note=note) for name in ('clock', *names))
 
 
 def add_options(parser: argparse.ArgumentParser, options: Iterable[RunOption]) -> None:
@@ -138,7 +105,7 @@ def checked_parameter(name: str, value: str):
 def time_settings(values: Mapping[str, str]) -> TimeSettings:
     """The :class:`TimeSettings` of the time options in ``values`` (name to text), checked.
 
-    Options a command does not have keep the plant's defaults.
+    Those not in ``values`` keep the plant's defaults.
     """
     return TimeSettings(
         **{name: checked_parameter(name, values[name]) for name in TIME_OPTIONS if name in values}
@@ -146,9 +113,9 @@ def time_settings(values: Mapping[str, str]) -> TimeSettings:
 
 
 def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None:
-    """Refuse a simulated-time setting of ``names`` on the wall clock (UsageError, one line).
+    """Refuse a simulated-time setting on the wall clock (UsageError, one line).
 
-    The message lists every such option the command has (``names``), e.g. ``--lockstep and
+    The message lists every such option of ``names`` (the command's), e.g. ``--lockstep and
     --real-time-factor need --clock sim``.
     """
     names = set(names)
@@ -163,9 +130,8 @@ def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None
 def time_parameters(executable: str, clock: str, time: TimeSettings) -> dict[str, object]:
     """The simulated-time parameters of one glove node: the same for a glove and every finger.
 
-    The plant gets ``clock`` and, with ``clock`` sim, the settings of ``time`` that are its
-    parameters (:data:`TIME_OPTIONS`); every other node follows the plant's /clock
-    (``use_sim_time``), ``pressure_command`` answers each step in lockstep, and the estimator
+    The plant gets ``clock`` and, with ``clock`` sim, ``time``; every other node follows its
+    /clock (``use_sim_time``), ``pressure_command`` in lockstep with it, and the estimator
     takes states as old as :data:`.catalog.SIMULATED_SAMPLE_AGE` (it may be behind).
     """
     sim = clock == 'sim'
