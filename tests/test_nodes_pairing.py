@@ -163,6 +163,27 @@ def test_angles_after_lost_messages_pair_with_nothing(estimator, model, steps):
     assert estimated_steps(estimator, model, steps) == [0, 1, 2, 5, 6]
 
 
+def test_the_first_angles_heard_pair_with_nothing_when_their_pressure_comes_after_them(
+    estimator, model, steps
+):
+    # The node's two readers met the running plant at different times: the pressure reader
+    # heard it from step 3, the angles reader from step 4 (its step 3 was sent before). Two
+    # readers keep no order between them, and step 4's angles were taken before step 4's
+    # pressure. By time alone step 3's pressure would go with step 4's angles; nothing before
+    # the first angles heard says their predecessor was received.
+    pressure = Publisher(estimator, 'chamber_pressure')
+    angles = Publisher(estimator, 'joint_states')
+    for _ in range(3):
+        pressure.lose()  # steps 0-2: sent before the pressure reader matched
+    for _ in range(4):
+        angles.lose()  # steps 0-3: sent before the angles reader matched
+    pressure.send(steps[3][1], 1000.0 + PERIOD * 3)
+    angles.send(steps[4][0], 1000.0 + PERIOD * 4 + 50e-6)
+    pressure.send(steps[4][1], 1000.0 + PERIOD * 4)
+    send_steps(estimator, steps, range(5, 8), 1000.0, player=(pressure, angles))
+    assert estimated_steps(estimator, model, steps) == [5, 6, 7]
+
+
 @pytest.mark.parametrize(('tolerance', 'estimated'), [(0.1, [0, 1, 2, 3]), (0.02, [0, 1, 3])])
 def test_angles_later_than_the_pairing_tolerance_pair_with_nothing(
     probe, model, steps, tolerance, estimated

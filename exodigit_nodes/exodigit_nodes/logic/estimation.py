@@ -7,7 +7,11 @@ sequence numbers (they restart with each publisher), nor by arrival order or nea
 preempted plant sends a step's angles late). A pressure whose angles never come, or come too
 late, is dropped and counted. Sequence numbers only reveal losses: when a step's angles and the
 next step's pressure are both lost, times alone would pair a pressure with the next step's
-angles, so angles whose number does not follow one received pair with nothing.
+angles, so angles whose number does not follow one received pair with nothing. So do the first
+angles received (but a publisher's first): each reader meets a running plant on its own, so the
+pressure of the step before them may have come without its angles, and nothing orders two
+readers, so they may be taken before their own pressure (a starting node drains one reader's
+backlog, then the other's) and times alone would pair them with that pressure.
 """
 
 from __future__ import annotations
@@ -68,11 +72,11 @@ class SamplePairer:
         """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``.
 
         ``state`` (the message they came in) is handed on with the pair they make. Angles whose
-        number does not follow one received pair with nothing, but for a publisher's first
-        (number 1) and the first received (what came before the subscription was not lost).
+        number does not follow one received pair with nothing, the first received too, but for
+        a publisher's first (number 1: it sent nothing before them).
         """
         numbers = self._angle_numbers
-        follows = number == 1 or not numbers or number - 1 in numbers
+        follows = number == 1 or number - 1 in numbers
         numbers.append(number)
         usable = follows and angles is not None
         return self._pairs(self._joiner.add(ANGLES, sent, (angles, state) if usable else None))
