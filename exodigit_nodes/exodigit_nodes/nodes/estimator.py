@@ -79,7 +79,8 @@ class Estimator(GloveNode):
         self.rest_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_REST_ANGLE, STREAM_QOS
         )
-        # The executor takes messages in the order they arrived: a step's pressure, then angles.
+        # Nothing orders the two subscriptions (a starting node drains one's backlog, then the
+        # other's): the pairer pairs by the times the samples were sent, not taken.
         # In simulated time every state is estimated, also while behind (docs/spec/ros.md, QoS).
         simulated = self.get_parameter('use_sim_time').value
         inputs = BACKLOG_QOS if simulated else READER_QOS
