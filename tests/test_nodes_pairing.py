@@ -13,6 +13,7 @@ import time
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
+from exodigit_nodes.logic.estimation import SamplePairer
 from exodigit_nodes.nodes.estimator import Estimator
 from reliability_inprocess import InProcessNode, wire_copy
 from sensor_msgs.msg import JointState
@@ -182,6 +183,21 @@ def test_the_first_angles_heard_pair_with_nothing_when_their_pressure_comes_afte
     pressure.send(steps[4][1], 1000.0 + PERIOD * 4)
     send_steps(estimator, steps, range(5, 8), 1000.0, player=(pressure, angles))
     assert estimated_steps(estimator, model, steps) == [5, 6, 7]
+
+
+@pytest.mark.parametrize(('trust_first', 'pairs'), [(True, 1), (False, 0)])
+def test_a_node_in_lockstep_pairs_the_first_angles_it_hears(steps, trust_first, pairs):
+    # The plant published its rest state (step 1) before the controller matched; a lockstep
+    # plant then steps only once the controller has matched both topics, so the first angles
+    # heard (number 2) follow their own pressure, and the controller must answer them.
+    pairer = SamplePairer(0.1, trust_first=trust_first)
+    (angles, pressure), sent = steps[1], 1000.0
+    assert pairer.add_pressure(pressure, sent) == []
+    made = pairer.add_angles(angles, sent + 50e-6, 2)
+    assert len(made) == pairs
+    for pair in made:
+        np.testing.assert_array_equal(pair.angles, angles)
+        np.testing.assert_array_equal(pair.pressure, pressure)
 
 
 @pytest.mark.parametrize(('tolerance', 'estimated'), [(0.1, [0, 1, 2, 3]), (0.02, [0, 1, 3])])
