@@ -13,6 +13,7 @@ import time
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
+from exodigit_nodes.logic.estimation import SamplePairer
 from exodigit_nodes.nodes.estimator import Estimator
 from reliability_inprocess import InProcessNode, wire_copy
 from sensor_msgs.msg import JointState
@@ -161,6 +162,42 @@ def test_angles_after_lost_messages_pair_with_nothing(estimator, model, steps):
         else:
             angles.send(steps[k][0], sent + 50e-6)
     assert estimated_steps(estimator, model, steps) == [0, 1, 2, 5, 6]
+
+
+def test_the_first_angles_heard_pair_with_nothing_when_their_pressure_comes_after_them(
+    estimator, model, steps
+):
+    # The node's two readers met the running plant at different times: the pressure reader
+    # heard it from step 3, the angles reader from step 4 (its step 3 was sent before). Two
+    # readers keep no order between them, and step 4's angles were taken before step 4's
+    # pressure. By time alone step 3's pressure would go with step 4's angles; nothing before
+    # the first angles heard says their predecessor was received.
+    pressure = Publisher(estimator, 'chamber_pressure')
+    angles = Publisher(estimator, 'joint_states')
+    for _ in range(3):
+        pressure.lose()  # steps 0-2: sent before the pressure reader matched
+    for _ in range(4):
+        angles.lose()  # steps 0-3: sent before the angles reader matched
+    pressure.send(steps[3][1], 1000.0 + PERIOD * 3)
+    angles.send(steps[4][0], 1000.0 + PERIOD * 4 + 50e-6)
+    pressure.send(steps[4][1], 1000.0 + PERIOD * 4)
+    send_steps(estimator, steps, range(5, 8), 1000.0, player=(pressure, angles))
+    assert estimated_steps(estimator, model, steps) == [5, 6, 7]
+
+
+@pytest.mark.parametrize(('trust_first', 'pairs'), [(True, 1), (False, 0)])
+def test_a_node_in_lockstep_pairs_the_first_angles_it_hears(steps, trust_first, pairs):
+    # The plant published its rest state (step 1) before the controller matched; a lockstep
+    # plant then steps only once the controller has matched both topics, so the first angles
+    # heard (number 2) follow their own pressure, and the controller must answer them.
+    pairer = SamplePairer(0.1, trust_first=trust_first)
+    (angles, pressure), sent = steps[1], 1000.0
+    assert pairer.add_pressure(pressure, sent) == []
+    made = pairer.add_angles(angles, sent + 50e-6, 2)
+    assert len(made) == pairs
+    for pair in made:
+        np.testing.assert_array_equal(pair.angles, angles)
+        np.testing.assert_array_equal(pair.pressure, pressure)
 
 
 @pytest.mark.parametrize(('tolerance', 'estimated'), [(0.1, [0, 1, 2, 3]), (0.02, [0, 1, 3])])

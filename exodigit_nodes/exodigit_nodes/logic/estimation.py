@@ -7,7 +7,12 @@ sequence numbers (they restart with each publisher), nor by arrival order or nea
 preempted plant sends a step's angles late). A pressure whose angles never come, or come too
 late, is dropped and counted. Sequence numbers only reveal losses: when a step's angles and the
 next step's pressure are both lost, times alone would pair a pressure with the next step's
-angles, so angles whose number does not follow one received pair with nothing.
+angles, so angles whose number does not follow one received pair with nothing. So do the first
+angles received, unless the node must answer every state (``trust_first``): a node that joins a
+running plant matches its two publishers one after the other, so it may hear the pressure of
+the step before them without that step's angles, and nothing orders its two readers, so it may
+take them before their own pressure (a starting node drains one reader's backlog, then the
+other's), and times alone would pair them with that pressure.
 """
 
 from __future__ import annotations
@@ -51,11 +56,18 @@ class SamplePairer:
     ----------
     tolerance : float
         Longest time from a pressure to the angles paired with it, s (``Joiner``).
+    trust_first : bool
+        Whether the first angles received pair like any others. False (the module docstring):
+        they pair with nothing, but for a publisher's first (number 1: it sent nothing before
+        them). True for a node in lockstep, which must answer every state it hears and whose
+        plant steps only once it has matched both topics (docs/spec/ros.md, "The session
+        protocol"), so that it hears both from the same step.
     """
 
-    def __init__(self, tolerance: float) -> None:
+    def __init__(self, tolerance: float, *, trust_first: bool = False) -> None:
         self._joiner = Joiner((PRESSURE, ANGLES), tolerance=tolerance)
         self._angle_numbers: deque[int] = deque(maxlen=RECENT_NUMBERS)
+        self._trust_first = trust_first
 
     @property
     def unpaired(self) -> int:
@@ -69,10 +81,11 @@ class SamplePairer:
 
         ``state`` (the message they came in) is handed on with the pair they make. Angles whose
         number does not follow one received pair with nothing, but for a publisher's first
-        (number 1) and the first received (what came before the subscription was not lost).
+        (number 1) and, with ``trust_first``, the first received.
         """
         numbers = self._angle_numbers
-        follows = number == 1 or not numbers or number - 1 in numbers
+        first = self._trust_first and not numbers
+        follows = number == 1 or first or number - 1 in numbers
         numbers.append(number)
         usable = follows and angles is not None
         return self._pairs(self._joiner.add(ANGLES, sent, (angles, state) if usable else None))

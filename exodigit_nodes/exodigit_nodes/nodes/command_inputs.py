@@ -65,8 +65,9 @@ class CommandInputs:
         self.angles: Sample | None = None
         self.forces: Sample | None = None
         self.pressure: Sample | None = None
-        self.pairer = SamplePairer(STEP_TOLERANCE) if self.valves and self.lockstep else None
-        """Lockstep valves: pairs each state with its step's chamber_pressure."""
+        lockstep_valves = self.valves and self.lockstep
+        self.pairer = SamplePairer(STEP_TOLERANCE, trust_first=True) if lockstep_valves else None
+        """Lockstep valves: pairs each state with its step's pressure, the first heard too."""
         self.pending: dict[str, Any] = {'angles': None, 'forces': None, 'pressure': None}
         if self.valves:
             node.create_subscription(

@@ -58,7 +58,10 @@ class Estimator(GloveNode):
         super().__init__(**node_options)
         self.model = load_model(self.values['params_file'])
         self.warm_up()
-        self.pairer = SamplePairer(self.values['pairing_tolerance'])
+        # In simulated time the plant steps only once we have matched both topics ("The session
+        # protocol", docs/spec/ros.md), and a controller in lockstep waits for every estimate.
+        simulated = self.get_parameter('use_sim_time').value
+        self.pairer = SamplePairer(self.values['pairing_tolerance'], trust_first=simulated)
         self.window = StiffnessWindow(self.values['identification_window'])
         self.pairs = 0
         self.validity = ValidityTally()
@@ -79,9 +82,9 @@ class Estimator(GloveNode):
         self.rest_publisher = self.create_publisher(
             Float64MultiArray, ESTIMATED_REST_ANGLE, STREAM_QOS
         )
-        # The executor takes messages in the order they arrived: a step's pressure, then angles.
+        # Nothing orders the two subscriptions (a starting node drains one's backlog, then the
+        # other's): the pairer pairs by the times the samples were sent, not taken.
         # In simulated time every state is estimated, also while behind (docs/spec/ros.md, QoS).
-        simulated = self.get_parameter('use_sim_time').value
         inputs = BACKLOG_QOS if simulated else READER_QOS
         self.create_subscription(
             Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), inputs
