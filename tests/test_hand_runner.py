@@ -271,6 +271,13 @@ def test_a_board_on_simulated_time_is_refused(arguments):
         configured(GLOVE, '--hardware', 'emulated', *arguments)
 
 
+def test_a_board_has_valves_and_refuses_a_regulator():
+    assert configured(GLOVE).hand.actuation == 'regulator'
+    assert configured(GLOVE, '--hardware', 'emulated').hand.actuation == 'valves'
+    with pytest.raises(UsageError, match=r'^--hardware emulated: .*--actuation regulator$'):
+        configured(GLOVE, '--hardware', 'emulated', '--actuation', 'regulator')
+
+
 def test_only_the_lone_glove_has_a_board():
     assert 'hardware' in {option.name for option in command_options('glove')}
     for command in ('hand', 'hand_nodes'):

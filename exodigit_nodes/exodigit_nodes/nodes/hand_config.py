@@ -75,7 +75,10 @@ def command_options(command: str) -> tuple[RunOption, ...]:
         parameter_option(
             'actuation',
             note=' (every finger)' * (not glove) + '; with valves pressure_command publishes '
-            'valve_command from its pressure loop (output valves)',
+            'valve_command from its pressure loop (output valves)'
+            + '; default regulator, valves with --hardware'
+            * glove,
+            default='' if glove else None,
         ),
         RunOption(
             'hardware',
@@ -200,9 +203,10 @@ class HandConfig:
         if self.fingers and self.params_file:
             raise UsageError('--params-file: a lone glove has one; every finger has its own')
         if self.hardware and (self.fingers or self.clock != 'wall' or self.actuation != 'valves'):
+            actuation = '' if self.actuation == 'valves' else f' and --actuation {self.actuation}'
             raise UsageError(
                 f'--hardware {self.hardware}: a lone glove with valves on the wall clock (a board '
-                'has no simulated time): leave out --clock sim'
+                f'has no simulated time): leave out --clock sim{actuation}'
             )
 
     def node_entries(self):
@@ -277,7 +281,8 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
 
     The options a command does not have keep their defaults: no ``--fingers``, a lone glove.
     The time options on the wall clock are refused naming those the command has. A glove on a
-    board (``--hardware``) has valves whatever ``--actuation`` says (the help says so).
+    board (``--hardware``) has valves: ``--actuation`` left out means valves there (regulator
+    elsewhere), and ``--actuation regulator`` is refused.
     """
     check_namespace(options.namespace, '/glove, /hand or /left/hand')
     names = [name for name in TIME_OPTIONS if hasattr(options, name)]
@@ -293,7 +298,7 @@ def hand_config(options: argparse.Namespace) -> HandConfig:
         fingers=fingers,
         namespace=options.namespace,
         mode=options.mode,
-        actuation='valves' if hardware else options.actuation,
+        actuation=options.actuation or ('valves' if hardware else HandConfig.actuation),
         patient=options.patient,
         estimator=getattr(options, 'estimator', 'true') == 'true',
         clock=options.clock,

@@ -65,13 +65,16 @@ def text(value) -> str:
     return str(value).lower() if isinstance(value, bool) else str(value)
 
 
-def parameter_option(name: str, *, note: str = '') -> RunOption:
-    """The option of a plant parameter (``mode``: pressure_command's); ``note`` ends its help."""
+def parameter_option(name: str, *, note: str = '', default: str | None = None) -> RunOption:
+    """The option of a plant parameter (``mode``: pressure_command's); ``note`` ends its help.
+
+    ``default`` (text) replaces the parameter's: '' for "none given", resolved by the command.
+    """
     spec = PRESSURE_COMMAND_NODE.table[name] if name == 'mode' else PLANT_NODE.table[name]
     switch = isinstance(spec.default, bool)
     return RunOption(
         name=name,
-        default=text(spec.default),
+        default=text(spec.default) if default is None else default,
         help=spec.description + note,
         choices=BOOLEANS if switch else tuple(spec.choices),
         switch=switch,
