@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from exodigit_model.checks import check_positive
 from exodigit_model.stepping.settings import VENT
 
 from .link import Connected, Event, HostLink, LinkLost, LinkState, SampleReceived
@@ -37,12 +38,8 @@ class BridgeSettings:
 
     def __post_init__(self) -> None:
         """Refuse values that break a rule, naming the field, the value and the rule."""
-        for name in ('max_pressure', 'command_timeout'):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f'{name} = {value!r}: must be a number')
-            if not math.isfinite(value) or value <= 0:
-                raise ValueError(f'{name} = {value!r}: must be finite and > 0')
+        check_positive('max_pressure', self.max_pressure, 'Pa')
+        check_positive('command_timeout', self.command_timeout, 's')
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
+from exodigit_model.checks import check_flag, check_number, check_range
 
 from .board import BoardProtocol, default_capabilities
 from .messages import ANGLE_UNIT, CHAMBERS, PROTOCOL_VERSION, openings_of
@@ -77,16 +78,11 @@ class EmulatorSettings:
 
     def __post_init__(self) -> None:
         """Refuse values that break a rule, naming the field, the value and the rule."""
+        check_flag('bend_sensors', self.bend_sensors)
         for item in fields(self):
-            value = getattr(self, item.name)
-            if item.name == 'bend_sensors':
-                if not isinstance(value, bool):
-                    raise ValueError(f'bend_sensors = {value!r}: must be true or false')
-                continue
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f'{item.name} = {value!r}: must be a number')
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f'{item.name} = {value!r}: must be finite and >= 0')
+            if item.name != 'bend_sensors':
+                value = getattr(self, item.name)
+                check_range(item.name, check_number(item.name, value), 0.0, None)
         rules = (
             ('rate_hz', 1 <= self.rate_hz <= 2000 and self.rate_hz == int(self.rate_hz),
              'a whole number in [1, 2000]'),

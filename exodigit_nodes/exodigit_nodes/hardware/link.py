@@ -15,6 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields
 from enum import Enum
 
+from exodigit_model.checks import ParameterError, check_positive
+
 from .framing import FrameDecoder, encode_frame
 from .messages import (
     CHAMBERS,
@@ -88,15 +90,12 @@ class LinkSettings:
     def __post_init__(self) -> None:
         """Refuse values that break a rule, naming the field, the value and the rule."""
         if not isinstance(self.port, str) or not self.port:
-            raise ValueError(f'port = {self.port!r}: must name a serial port')
+            raise ParameterError(f'port = {self.port!r}: must name a serial port')
         for item in fields(self)[1:]:
-            value = getattr(self, item.name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ValueError(f'{item.name} = {value!r}: must be a number')
-            if not math.isfinite(value) or value <= 0:
-                raise ValueError(f'{item.name} = {value!r}: must be finite and > 0')
+            unit = 'bit/s' if item.name == 'baud_rate' else 's'
+            check_positive(item.name, getattr(self, item.name), unit)
         if self.reconnect_max < self.reconnect_min:
-            raise ValueError(
+            raise ParameterError(
                 f'reconnect_max = {self.reconnect_max!r}: must be >= reconnect_min '
                 f'({self.reconnect_min!r})'
             )
