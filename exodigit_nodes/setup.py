@@ -12,7 +12,7 @@ setup(
     packages=find_packages(exclude=['test']),
     # The Fast DDS profile every process of the package names (exodigit_nodes/nodes/dds.py),
     # and the testing kit's for a target run (exodigit_nodes/testing/target_run.py).
-    package_data={f'{PACKAGE}.nodes': ['fastdds.xml'], f'{PACKAGE}.testing': ['fastdds_kit.xml']},
+    package_data={f'{PACKAGE}.nodes': ['fastdds.xml']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),

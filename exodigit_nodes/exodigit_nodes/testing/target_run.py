@@ -25,7 +25,6 @@ node did with the trajectory; the record holds its targets at each step's time.
 from __future__ import annotations
 
 import math
-import os
 import shlex
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -41,7 +40,6 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..logic.lifetime import exit_status
 from ..logic.ros_env import ros_args
-from ..nodes.dds import PROFILE, PROFILE_VARIABLE
 from ..nodes.handshake import Handshake, matched_every_listed
 from ..nodes.messages import JOINT_TRAJECTORY, trajectory_message
 from ..nodes.qos import STREAM_QOS
@@ -49,21 +47,6 @@ from ..runner.supervisor import Child
 from .client import GloveSim
 from .driving import POLL, GloveSimError
 from .records import SimState, StateHistory, state_arrays
-
-KIT_PROFILE = Path(__file__).with_name('fastdds_kit.xml')
-"""Fast DDS profile of the kit's process and your controller's during a target run."""
-
-
-def kit_profile(environ: Mapping[str, str]) -> dict[str, str]:
-    """``environ`` naming :data:`KIT_PROFILE` where it names the project's profile or none.
-
-    A profile of your own (``FASTRTPS_DEFAULT_PROFILES_FILE``) is kept: the run is then as
-    exact, but each target waits for your profile's heartbeat (the project's: up to 50 ms).
-    """
-    env = dict(environ)
-    if env.get(PROFILE_VARIABLE, str(PROFILE)) == str(PROFILE):
-        env[PROFILE_VARIABLE] = str(KIT_PROFILE)
-    return env
 
 
 @dataclass(frozen=True)
@@ -157,7 +140,7 @@ class TargetGloveSim(GloveSim):
         self._controller = ControllerProcess(
             command,
             parameters or {},
-            env=kit_profile(self.env),
+            env=self.env,
             namespace=self.namespace,
             log_dir=self.log_dir,
         )
@@ -168,22 +151,6 @@ class TargetGloveSim(GloveSim):
         if self._controller is not None:
             self._controller.stop()
         super().close()
-
-    def _connect(self, estimator: bool) -> None:
-        """:meth:`GloveSim._connect` with :data:`KIT_PROFILE` for this process's participant.
-
-        Fast DDS reads the profile once, when a process makes its first participant: a process
-        that made one before keeps the profile it read (slower targets, same results).
-        """
-        before = os.environ.get(PROFILE_VARIABLE)
-        os.environ[PROFILE_VARIABLE] = kit_profile(os.environ)[PROFILE_VARIABLE]
-        try:
-            super()._connect(estimator)
-        finally:
-            if before is None:
-                del os.environ[PROFILE_VARIABLE]
-            else:
-                os.environ[PROFILE_VARIABLE] = before
 
     def _check_alive(self, what: str) -> None:
         super()._check_alive(what)

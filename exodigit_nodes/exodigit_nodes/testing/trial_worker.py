@@ -5,8 +5,7 @@ process of its own (``python -m exodigit_nodes.testing.trial_worker``) that read
 :class:`PatientJob`s on its standard input, runs each on its :class:`WorkerGlove` and writes the
 :class:`PatientRun` back on its standard output. The glove, with the controller node, is kept
 from one patient to the next: each run is a new session of its plant (docs/trials.md, "A ROS node
-as the controller"). A fresh process reads the kit's Fast DDS profile
-(:data:`.target_run.KIT_PROFILE`) and shares no interpreter lock; plain subprocesses, not
+as the controller"). A process of its own shares no interpreter lock; plain subprocesses, not
 :mod:`multiprocessing`'s, so a script that runs a trial needs no
 ``if __name__ == '__main__'`` guard.
 """
