@@ -315,6 +315,9 @@ class KitEngine:
             finally:
                 # Each worker stops its glove and exits before its pool thread ends: a worker
                 # gets SIGINT when the thread that started it ends (Child's parent-death signal).
+                # All are told first, so that they stop their gloves at once.
+                for worker in workers:
+                    worker.end()
                 for worker in workers:
                     worker.close()
                 pool.shutdown(wait=True)

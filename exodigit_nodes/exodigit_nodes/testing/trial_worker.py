@@ -167,14 +167,18 @@ class Worker:
                 time.monotonic() - started,
             )
 
+    def end(self) -> None:
+        """No more jobs: it stops its glove and exits after the current one (see :meth:`close`)."""
+        with contextlib.suppress(OSError):
+            self.child.popen.stdin.close()
+
     def close(self, *, at_once: bool = False) -> None:
         """End the worker: no more jobs, then SIGINT (it stops its glove), SIGTERM, SIGKILL.
 
         Without more jobs it exits after the current one; SIGINT comes after
         :data:`WORKER_STOP`, or at once with ``at_once``.
         """
-        with contextlib.suppress(OSError):
-            self.child.popen.stdin.close()
+        self.end()
         if at_once or self.child.wait(WORKER_STOP) is None:
             self.child.stop(grace=WORKER_STOP)
         self.child.popen.stdout.close()
