@@ -159,6 +159,8 @@ def test_step_times_follow_the_rounded_grid_without_drift(rate_hz):
     times = [simulation.step(np.zeros(3)).time_ns for _ in range(500)]
     assert times == [round(k * 1e9 / rate_hz) for k in range(1, 501)]
     assert simulation.state.t == times[-1] / 1e9
+    run = GloveSimulation(MODEL, ideal(rate_hz=rate_hz)).run(np.zeros((500, 3)))
+    assert run.time_ns.tolist() == times  # computed for the whole run at once
 
 
 def test_saturated_commands_are_clipped_and_flagged():

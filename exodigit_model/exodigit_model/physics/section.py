@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,8 +47,16 @@ def pressure_area(segment: Segment) -> float:
     return 0.5 * math.pi * r * r + 2.0 * r * h
 
 
-def _gauss(order: int, low: float, high: float) -> tuple[NDArray, NDArray]:
+@cache
+def _legendre(order: int) -> tuple[NDArray, NDArray]:
+    """Gauss-Legendre nodes and weights of ``order`` on [-1, 1], computed once (read-only)."""
     nodes, weights = np.polynomial.legendre.leggauss(order)
+    nodes.flags.writeable = weights.flags.writeable = False
+    return nodes, weights
+
+
+def _gauss(order: int, low: float, high: float) -> tuple[NDArray, NDArray]:
+    nodes, weights = _legendre(order)
     half = 0.5 * (high - low)
     return low + half * (nodes + 1.0), half * weights
 

@@ -31,7 +31,13 @@ VENT.flags.writeable = CLOSED.flags.writeable = False
 
 
 def step_time_ns(step: int, rate_hz: float) -> int:
-    """t_k = round(k·10⁹/rate_hz) ns: the time of step k, without drift at any rate."""
+    """t_k = round(k·10⁹/rate_hz) ns: the time of step k, without drift at any rate.
+
+    ``step`` may also be an integer array: then an int64 array of the same values (rounded half
+    to even, as :func:`round`).
+    """
+    if isinstance(step, np.ndarray):
+        return np.rint(step * 1e9 / rate_hz).astype(np.int64)
     return round(step * 1e9 / rate_hz)
 
 

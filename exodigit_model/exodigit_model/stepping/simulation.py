@@ -399,7 +399,7 @@ class GloveSimulation:
         self.solver_failures += int(np.count_nonzero(~converged))
         steps = np.arange(self.step_count + 1, self.step_count + 1 + rows.shape[0])
         self.step_count = int(steps[-1])
-        time_ns = np.array([step_time_ns(k, self.settings.rate_hz) for k in steps.tolist()])
+        time_ns = step_time_ns(steps, self.settings.rate_hz)
         q = x[:, :3]
         run = GloveState(
             step=steps,
