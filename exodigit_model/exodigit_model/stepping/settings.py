@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..checks import check_integer
 from .chambers import ChamberSettings
@@ -30,7 +31,7 @@ CLOSED = np.zeros(OPENINGS)
 VENT.flags.writeable = CLOSED.flags.writeable = False
 
 
-def step_time_ns(step: int, rate_hz: float) -> int:
+def step_time_ns(step: int | NDArray[np.integer], rate_hz: float) -> int | NDArray[np.int64]:
     """t_k = round(k·10⁹/rate_hz) ns: the time of step k, without drift at any rate.
 
     ``step`` may also be an integer array: then an int64 array of the same values (rounded half
