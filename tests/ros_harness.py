@@ -66,6 +66,8 @@ from std_srvs.srv import SetBool
 
 DISCOVERY_TIMEOUT = 10.0
 """Longest wait for two processes to discover each other, s (median here is 0.45 s)."""
+SPIN_PERIOD = 0.05
+"""Longest a probe's spin waits before it looks whether it is to stop, s."""
 NodeNameNonExistentError = rclpy_implementation.NodeNameNonExistentError
 """What rclpy raises when a graph query names a node that has left (not in its public API)."""
 REPEATABLE = (ListParameters, DescribeParameters, GetParameters, SetParameters, SetBool)
@@ -219,22 +221,26 @@ class RosProbe:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._lock = threading.Lock()
+        self._stop = threading.Event()
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
         with contextlib.suppress(ExternalShutdownException):
-            self.executor.spin()
+            while not self._stop.is_set():
+                self.executor.spin_once(timeout_sec=SPIN_PERIOD)
 
     def close(self) -> None:
-        """Stop spinning, then shut the context down.
+        """Stop spinning, then shut the executor and the context down.
 
-        The spinning thread ends before the context does: a context shut down under an executor
-        still in its wait (a loaded machine takes longer than the shutdown's 1 s) raised RCLError
-        in that thread.
+        The spinning thread ends before anything it waits on is destroyed: a context shut down
+        under an executor still in its wait raised RCLError in that thread, and an executor shut
+        down under it (its own 1 s wait for the spin to end ran out on a loaded machine) left
+        that thread an executor guard condition without a handle (AttributeError).
         """
-        self.executor.shutdown(timeout_sec=1.0)
-        self._thread.join(timeout=2.0)
+        self._stop.set()
+        self._thread.join()
+        self.executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
