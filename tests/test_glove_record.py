@@ -150,6 +150,9 @@ def test_a_step_with_a_lost_message_is_skipped_and_the_others_join():
     assert [s.values['chamber_pressure'][0] for s in samples] == [1000.0, 4000.0]
     for sample in samples:
         assert_one_step(sample)
+    # what the runner reports: the other two messages of each of the two broken steps
+    assert [s.values['chamber_pressure'][0] for s in signals.flush()] == [5000.0]
+    assert signals.unjoined == 4
 
 
 def test_a_summary_started_between_two_publications_of_a_step_joins_from_the_next_step():

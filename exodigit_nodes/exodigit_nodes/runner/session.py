@@ -260,9 +260,11 @@ def _report(session: Session, supervisor: Supervisor, signals, failures, stops) 
         lines = log.read_text(errors='replace').splitlines() if log and log.is_file() else []
         for line in lines[-LOG_TAIL_LINES:]:
             print(f'  {exit_.name}| {line}', file=sys.stderr)
-    for glove in session.gloves:
+    for glove, glove_signals in zip(session.gloves, signals, strict=True):
         plot = glove.record.plot(glove.references)
         print(f'run record: {glove.record.csv_path} ({glove.record.rows} samples)')
+        if session.simulated and glove_signals.unjoined:  # every step is whole in simulated time
+            print(f'  {glove_signals.unjoined} plant messages joined no step: steps are missing')
         print(f'plot: {plot}' if plot else 'plot: none (no sample was received)')
     print(f'node logs: {session.log_dir}/')
     return 1 if bad else 0

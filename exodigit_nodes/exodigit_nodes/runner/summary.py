@@ -228,6 +228,11 @@ class GloveSignals:
         value = (values, stamp) if signal == 'joint_states' else values
         return self._samples(self._joiner.add(signal, published, value))
 
+    @property
+    def unjoined(self) -> int:
+        """Plant messages joined into no step so far: a step that lost one of them is left out."""
+        return self._joiner.unpaired
+
     def flush(self) -> list[Sample]:
         """Join what has arrived when no more plant messages will come (the end of a run)."""
         return self._samples(self._joiner.flush()) + self._release(every=True)
