@@ -414,9 +414,11 @@ def test_a_timed_session_exits_0_and_says_where_its_record_plot_and_logs_are(loc
     assert f'ROS_DOMAIN_ID={lockstep_run.domain}' in lockstep_run.stdout
     assert f'stopping ({LOCKSTEP_DURATION:g} simulated s elapsed)' in lockstep_run.stdout
     record = lockstep_run.out / 'signals.csv'
+    # a record short of steps: the whole output, with the runner's count of messages that
+    # joined no step and the nodes' logs' paths
     assert (
         f'run record: {record} ({round(100 * LOCKSTEP_DURATION)} samples)' in lockstep_run.stdout
-    )
+    ), lockstep_run.output()
     assert f'plot: {lockstep_run.out / "signals.png"}' in lockstep_run.stdout
     width, height = png_size(lockstep_run.out / 'signals.png')
     assert width >= 400 and height >= 400
