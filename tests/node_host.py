@@ -88,10 +88,14 @@ def main() -> int:
     from exodigit_nodes.nodes.dds import use_profile
     from exodigit_nodes.nodes.node_base import ConfigurationError
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from ros_harness import SPIN_PERIOD
 
-    def spin() -> None:
+    stop = threading.Event()
+
+    def spin() -> None:  # ends before the executor is shut down (ros_harness.RosProbe.close)
         with contextlib.suppress(ExternalShutdownException):
-            executor.spin()
+            while not stop.is_set():
+                executor.spin_once(timeout_sec=SPIN_PERIOD)
 
     classes = {entry.executable: entry for entry in NODES}
     use_profile()
@@ -113,8 +117,9 @@ def main() -> int:
             executor.add_node(node)
             print(f'started {node.get_fully_qualified_name()}', flush=True)
     finally:
-        executor.shutdown()
+        stop.set()
         spinner.join(STOP_TIMEOUT)
+        executor.shutdown()
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()

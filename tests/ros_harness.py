@@ -234,9 +234,9 @@ class RosProbe:
         """Stop spinning, then shut the executor and the context down.
 
         The spinning thread ends before anything it waits on is destroyed: a context shut down
-        under an executor still in its wait raised RCLError in that thread, and an executor shut
-        down under it (its own 1 s wait for the spin to end ran out on a loaded machine) left
-        that thread an executor guard condition without a handle (AttributeError).
+        under an executor still in its wait raised RCLError in that thread, and rclpy 7.1's
+        ``Executor.shutdown`` does not wait for a spin in another thread (its wait is skipped)
+        before it destroys the guard conditions that spin waits on (AttributeError there).
         """
         self._stop.set()
         self._thread.join()
