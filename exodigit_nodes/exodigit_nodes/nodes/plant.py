@@ -2,11 +2,10 @@
 
 A thin ROS wrapper around ``exodigit_model.GloveSimulation`` (docs/spec/model.md §13): each step
 applies the latest valid command (``pressure_command``, or ``valve_command`` with
-``actuation:=valves``, docs/spec/model.md §14) and publishes the step's outputs
-(:mod:`.plant_outputs`); ``markers`` and ``/diagnostics`` at lower rates. A refused command is
-logged, counted and applied nowhere; with none for ``command_timeout`` the plant vents.
-``applied_command`` says what the next step applies, from the vent at start on
-(docs/spec/ros.md, "The session protocol", guarantee 4).
+``actuation:=valves``, docs/spec/model.md §14) and publishes the step's outputs; ``markers`` and
+``/diagnostics`` at lower rates. A refused command is logged, counted and applied nowhere; with
+none for ``command_timeout`` the plant vents. ``applied_command`` says what the next step
+applies, from the vent at start on (docs/spec/ros.md, "The session protocol", guarantee 4).
 
 Time: with ``clock:=wall`` it steps on the system clock at ``rate_hz``; with ``clock:=sim`` on
 simulated time (:mod:`.sim_time`, docs/spec/ros.md Part II).
@@ -17,17 +16,19 @@ Run: ``python -m exodigit_nodes.nodes.plant --ros-args -p rate_hz:=200 -r __ns:=
 from __future__ import annotations
 
 import time
+from array import array
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from exodigit_model.stepping.settings import VENT
 from rclpy.clock import Clock, ClockType
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
-from exodigit_model import GloveSimulation, GloveState
+from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState
 
 from ..logic.inputs import InvalidInputError, joint_vector, valve_openings
 from ..logic.pacing import TIME_SETTING_NAMES
@@ -38,16 +39,23 @@ from .catalog import PLANT_NODE
 from .handshake import controllers_matched, matched_every_listed
 from .markers import GloveMarkers
 from .messages import (
+    APPLIED_COMMAND,
+    CHAMBER_PRESSURE,
+    CONTACT_FORCES,
+    JOINT_STATES,
     MARKERS,
     PATIENT_EFFORT,
     PRESSURE_COMMAND,
     RESET,
+    SEGMENT_LENGTHS,
     VALVE_COMMAND,
+    fill,
+    joint_vector_message,
+    valve_command_message,
 )
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model
-from .plant_outputs import PlantOutputs
 from .process import run
-from .qos import READER_QOS, STREAM_QOS
+from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
 from .sim_services import WAITING
 from .sim_time import SimulatedTime
 
@@ -84,9 +92,26 @@ class Plant(GloveNode):
         self.late_cycles = 0
         self._last_wall: float | None = None
 
-        self.published = PlantOutputs(self, values['joint_prefix'], valves=self.valves)
-        self.outputs = self.published.publishers
-        self.published.publish_applied(self.command)
+        # Outputs before inputs: a controller that sees our command subscription has seen them.
+        self.joint_state = JointState(name=[values['joint_prefix'] + n for n in JOINT_NAMES])
+        self.pressure_message = joint_vector_message()
+        self.force_message = joint_vector_message()
+        self.length_message = joint_vector_message()
+        self.applied_message = valve_command_message() if self.valves else joint_vector_message()
+        vector = Float64MultiArray
+        self.pressure_publisher = self.create_publisher(vector, CHAMBER_PRESSURE, STREAM_QOS)
+        self.joint_publisher = self.create_publisher(JointState, JOINT_STATES, STREAM_QOS)
+        self.force_publisher = self.create_publisher(vector, CONTACT_FORCES, STREAM_QOS)
+        self.length_publisher = self.create_publisher(vector, SEGMENT_LENGTHS, STREAM_QOS)
+        self.applied_publisher = self.create_publisher(vector, APPLIED_COMMAND, APPLIED_QOS)
+        self.outputs = (
+            self.pressure_publisher,
+            self.joint_publisher,
+            self.force_publisher,
+            self.length_publisher,
+            self.applied_publisher,
+        )
+        self.publish_applied()
         self.marker_publisher = self.create_publisher(MarkerArray, MARKERS, STREAM_QOS)
         self.command_subscription = self.create_subscription(
             Float64MultiArray, self.command_topic, self.on_command, READER_QOS
@@ -207,7 +232,7 @@ class Plant(GloveNode):
         else:
             if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{topic} again: venting stopped')
-        self.published.publish_applied(self.command)
+        self.publish_applied()
         if self.lockstep:
             self.time.on_answer(self)
 
@@ -219,6 +244,10 @@ class Plant(GloveNode):
             self.reject(PATIENT_EFFORT, error)
             return
         self.effort = (self.time_now(), effort)
+
+    def publish_applied(self) -> None:
+        """``applied_command``: the command the next step applies (Pa, or openings)."""
+        self.applied_publisher.publish(fill(self.applied_message, self.command))
 
     def time_now(self) -> float:
         """The plant's time: simulated (its latest step) with clock sim, else the node clock, s."""
@@ -293,8 +322,19 @@ class Plant(GloveNode):
         return state
 
     def publish_state(self, state: GloveState, stamp) -> None:
-        """Publish the step's outputs (:meth:`.PlantOutputs.publish_state`)."""
-        self.published.publish_state(state, stamp)
+        """Publish the step's chamber_pressure, joint_states, contact_forces, segment_lengths."""
+        message = self.joint_state
+        message.header.stamp = stamp
+        message.position = array('d', state.q_measured)
+        message.velocity = array('d', state.qdot)
+        message.effort = array('d', state.finger_torque)
+        # Pressure first, then the rest, back to back: the estimator, the live summary and
+        # exodigit plot pair a step's messages by the times they were sent, each with the
+        # chamber_pressure sent before it (exodigit_model.stepping.joining).
+        self.pressure_publisher.publish(fill(self.pressure_message, state.pressure_measured))
+        self.joint_publisher.publish(message)
+        self.force_publisher.publish(fill(self.force_message, state.forces))
+        self.length_publisher.publish(fill(self.length_message, state.lengths))
 
     # -- asked by SimulatedTime ------------------------------------------------------------
 
@@ -311,7 +351,7 @@ class Plant(GloveNode):
         """
         if not self.readers_matched():
             return []
-        return controllers_matched(self, self.command_subscription, self.published.joints)
+        return controllers_matched(self, self.command_subscription, self.joint_publisher)
 
     def stamp(self):
         """The stamp of what the plant publishes now: simulated time, or the node clock."""
