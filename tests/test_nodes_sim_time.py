@@ -382,20 +382,18 @@ def test_lockstep_starts_only_once_one_node_both_reads_the_states_and_answers(pr
     plant = node.node
     try:
         with probe.local_node('estimator') as estimator, probe.local_node('controller') as ours:
-            estimator.create_subscription(
-                JointState, plant.published.joints.topic_name, ignore, 10
-            )
+            estimator.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
             ours.create_publisher(Float64MultiArray, plant.command_subscription.topic_name, 10)
             assert wait_until(
                 lambda: (
                     plant.command_subscription.get_publisher_count() == 1
-                    and plant.published.joints.get_subscription_count() == 1
+                    and plant.joint_publisher.get_subscription_count() == 1
                 ),
                 10.0,
             )
             node.fire_timers()
             assert 'joint_states' not in node.take()
-            ours.create_subscription(JointState, plant.published.joints.topic_name, ignore, 10)
+            ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
             assert wait_until(plant.lockstep_controllers, 10.0)
             node.fire_timers()
             assert len(node.take()['joint_states']) == 1
@@ -421,7 +419,7 @@ def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, m
             ours.create_publisher(Float64MultiArray, plant.command_subscription.topic_name, 10)
             node.fire_timers()
             assert listed(node) == []  # it publishes only when the list changes
-            ours.create_subscription(JointState, plant.published.joints.topic_name, ignore, 10)
+            ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
             assert wait_until(plant.lockstep_controllers, 10.0)
             node.fire_timers()
             assert listed(node) == [[ours.get_fully_qualified_name()]]
