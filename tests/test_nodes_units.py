@@ -8,7 +8,6 @@ import sys
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
-from exodigit_nodes.logic.estimation import StiffnessWindow
 from exodigit_nodes.logic.inputs import (
     InvalidInputError,
     RejectionTally,
@@ -23,7 +22,6 @@ from exodigit_nodes.nodes.catalog import NODES
 from exodigit_nodes.nodes.node_base import descriptor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from test_control import stiffer_finger_model
 
 from exodigit_model import GloveModel, load_params, params_from_dict
 
@@ -187,24 +185,6 @@ def test_a_parameter_with_one_bound_is_described_listed_and_checked(
         accepted = node.set_parameters([Parameter('gain', value=kind(open_side))])[0]
     assert not refused.successful and 'out of range' in refused.reason, refused.reason
     assert accepted.successful, accepted.reason
-
-
-# -- estimator bookkeeping -----------------------------------------------------------------
-
-
-def test_window_identifies_the_finger_stiffness_and_slides(model):
-    other = stiffer_finger_model(2.0)
-    window = StiffnessWindow(50)
-    with pytest.raises(ValueError, match='at least two'):
-        window.fit()
-    rng = np.random.default_rng(1)
-    for plant in (model, other):
-        for _ in range(50):
-            pressure = rng.uniform(5e3, 50e3, 3)
-            angles = plant.solve(pressure).q
-            window.add(angles, model.estimate_finger_torque(angles, pressure))
-        stiffness = np.array([j.stiffness for j in plant.params.finger.joints])
-        np.testing.assert_allclose(window.fit().stiffness, stiffness, rtol=1e-9)
 
 
 # -- markers -------------------------------------------------------------------------------

@@ -1,13 +1,15 @@
-"""The estimator's tally of estimates outside the validated model (its /diagnostics WARN)."""
+"""The estimator's bookkeeping: estimates outside the validated model (its /diagnostics WARN)
+and the window its stiffness is identified over."""
 
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
-from exodigit_nodes.logic.estimation import Pair, ValidityTally
+from exodigit_nodes.logic.estimation import Pair
 from exodigit_nodes.nodes.estimator import Estimator
 from reliability_inprocess import InProcessNode
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
+from test_control import stiffer_finger_model
 
 from exodigit_model import GloveModel
 
@@ -21,22 +23,6 @@ def inside_and_outside():
     past = q.copy()
     past[0] = MODEL.params.finger.joints[0].rom_max + 0.1  # rad, from the parameters
     return MODEL.estimate(q, p), MODEL.estimate(past, p)
-
-
-def test_an_estimate_outside_the_model_warns_until_a_report_has_said_so():
-    inside, outside = inside_and_outside()
-    tally = ValidityTally()
-    tally.add(inside)
-    assert tally.report() == ([], {'estimates outside the model': '0'})
-    tally.add(outside)
-    tally.add(inside)
-    tally.add(outside)
-    problems, values = tally.report()
-    assert len(problems) == 1
-    assert problems[0].startswith('2 estimates outside the validated model')
-    assert "a joint is outside the finger's range of motion" in problems[0]
-    assert values == {'estimates outside the model': '2'}
-    assert tally.report() == ([], {'estimates outside the model': '2'})  # said once
 
 
 def test_the_estimator_node_publishes_an_estimate_outside_the_model_and_warns_once(probe):
@@ -53,17 +39,45 @@ def test_the_estimator_node_publishes_an_estimate_outside_the_model_and_warns_on
             made.node.publish_estimate(Pair(estimate.q, estimate.pressure, state))
         made.node.report()
         made.node.report()  # nothing outside since the last report
+        for estimate in (outside, inside, outside):
+            made.node.publish_estimate(Pair(estimate.q, estimate.pressure, states[0]))
+        made.node.report()
         published = made.published['estimated_contact_forces']
         np.testing.assert_allclose(
-            [m.effort for m in published], [inside.forces, outside.forces], rtol=1e-12
+            [m.effort for m in published[:2]], [inside.forces, outside.forces], rtol=1e-12
         )
-        assert [m.header.stamp.sec for m in published] == [1, 2]  # each its own state's
-        first, second = (m.status[0] for m in made.published['/diagnostics'])
+        assert [m.header.stamp.sec for m in published[:2]] == [1, 2]  # each its own state's
+        first, second, third = (m.status[0] for m in made.published['/diagnostics'])
         assert first.level == DiagnosticStatus.WARN
         assert '1 estimates outside the validated model' in first.message
         assert "a joint is outside the finger's range of motion" in first.message
         assert second.level == DiagnosticStatus.OK
         values = {kv.key: kv.value for kv in second.values}
         assert values['estimates outside the model'] == '1'
+        assert third.level == DiagnosticStatus.WARN
+        assert '2 estimates outside the validated model since the last report' in third.message
+        values = {kv.key: kv.value for kv in third.values}
+        assert values['estimates outside the model'] == '3'
+    finally:
+        made.close()
+
+
+def test_the_window_identifies_the_finger_stiffness_and_slides(probe):
+    """The estimator fits the last identification_window pairs, whichever finger made them."""
+    made = InProcessNode(Estimator, {'identification_window': '50'}, probe)
+    try:
+        made.node.identify()  # nothing to fit yet: no estimate published
+        assert 'at least two' in made.node.fit_problem
+        state = JointState(name=['mcp', 'pip', 'dip'])
+        rng = np.random.default_rng(1)
+        fitted = []
+        for plant in (MODEL, stiffer_finger_model(2.0)):
+            for _ in range(50):
+                pressure = rng.uniform(5e3, 50e3, 3)
+                made.node.publish_estimate(Pair(plant.solve(pressure).q, pressure, state))
+            made.node.identify()
+            fitted.append(np.array([j.stiffness for j in plant.params.finger.joints]))
+        published = made.published['estimated_finger_stiffness']
+        np.testing.assert_allclose([m.data for m in published], fitted, rtol=1e-9)
     finally:
         made.close()

@@ -1,4 +1,4 @@
-"""The estimator's bookkeeping: pairing samples, an identification window, the validity tally.
+"""Pairing ``joint_states`` with the ``chamber_pressure`` of the same plant step (no ROS).
 
 Angles (``joint_states``) and pressures (``chamber_pressure``) pair by the times they were sent
 (:mod:`exodigit_model.stepping.joining`): a pressure pairs with the first angles sent after it
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from exodigit_model import Estimate, Joined, Joiner, StiffnessFit, fit_stiffness
+from exodigit_model import Joined, Joiner
 
 ANGLES = 'joint_states'
 PRESSURE = 'chamber_pressure'
@@ -103,72 +103,3 @@ class SamplePairer:
                 angles, state = offered
                 pairs.append(Pair(angles, pressure, state))
         return pairs
-
-
-class StiffnessWindow:
-    """The last ``size`` estimates (angles and τ̂_H), and the finger stiffness fitted to them.
-
-    A fit is a least-squares solve over kept estimates, not ``size`` new force estimates.
-
-    Parameters
-    ----------
-    size : int
-        Number of estimates kept (the oldest is dropped first).
-    """
-
-    def __init__(self, size: int) -> None:
-        self._angles: deque[NDArray[np.float64]] = deque(maxlen=size)
-        self._torque: deque[NDArray[np.float64]] = deque(maxlen=size)
-
-    @property
-    def count(self) -> int:
-        """Estimates in the window."""
-        return len(self._angles)
-
-    def add(self, angles: NDArray[np.float64], finger_torque: NDArray[np.float64]) -> None:
-        """Put in one estimate: angles q (rad) and τ̂_H (N·m); drops the oldest when full."""
-        self._angles.append(angles)
-        self._torque.append(finger_torque)
-
-    def fit(self) -> StiffnessFit:
-        """The least-squares spring τ̂_H,k = k_k (q_k − q_r,k) over the window.
-
-        Raises
-        ------
-        ValueError
-            If the window is empty or a joint never moved in it.
-        """
-        return fit_stiffness(np.reshape(self._angles, (-1, 3)), np.reshape(self._torque, (-1, 3)))
-
-
-class ValidityTally:
-    """Estimates outside the validated model (docs/spec/ros.md, "Parameters", ``estimator``).
-
-    Each report after one came is a WARN that says how many and why.
-    """
-
-    def __init__(self) -> None:
-        self.outside = 0
-        """Estimates outside the model since the node started."""
-        self.new_outside = 0
-        """Of those, how many since the last report."""
-        self.latest = ''
-        """The latest such estimate's message (empty before any)."""
-
-    def add(self, estimate: Estimate) -> None:
-        """Count ``estimate`` if it lies outside the validated model."""
-        if estimate.status != 0:
-            self.outside += 1
-            self.new_outside += 1
-            self.latest = estimate.message
-
-    def report(self) -> tuple[list[str], dict[str, str]]:
-        """The problems since the last report (a WARN when any) and the values to show."""
-        problems = []
-        if self.new_outside:
-            problems.append(
-                f'{self.new_outside} estimates outside the validated model since the last '
-                f'report (latest: {self.latest})'
-            )
-        self.new_outside = 0
-        return problems, {'estimates outside the model': str(self.outside)}

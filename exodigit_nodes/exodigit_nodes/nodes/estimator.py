@@ -14,13 +14,16 @@ Run: ``python -m exodigit_nodes.nodes.estimator --ros-args -p max_sample_age:=0.
 from __future__ import annotations
 
 import warnings
+from collections import deque
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from ..logic.estimation import Pair, SamplePairer, StiffnessWindow, ValidityTally
+from exodigit_model import fit_stiffness
+
+from ..logic.estimation import Pair, SamplePairer
 from ..logic.inputs import (
     InvalidInputError,
     joint_positions,
@@ -49,7 +52,7 @@ from .qos import BACKLOG_QOS, READER_QOS, STREAM_QOS
 
 
 class Estimator(GloveNode):
-    """Wires ROS to :class:`.SamplePairer` and :class:`.StiffnessWindow`."""
+    """Wires ROS to :class:`.SamplePairer`, the model's estimate and its stiffness fit."""
 
     executable = ESTIMATOR_NODE.executable
     table = ESTIMATOR_NODE.table
@@ -62,9 +65,14 @@ class Estimator(GloveNode):
         # protocol", docs/spec/ros.md), and a controller in lockstep waits for every estimate.
         simulated = self.get_parameter('use_sim_time').value
         self.pairer = SamplePairer(self.values['pairing_tolerance'], trust_first=simulated)
-        self.window = StiffnessWindow(self.values['identification_window'])
+        self.window = deque(maxlen=self.values['identification_window'])
+        """The latest (angles q, rad; τ̂_H, N·m) pairs: a fit solves over them, no new estimate."""
         self.pairs = 0
-        self.validity = ValidityTally()
+        self.outside = 0
+        """Estimates outside the validated model (docs/spec/ros.md, "Parameters", estimator)."""
+        self.new_outside = 0
+        """Of those, how many since the last report (each report after one is a WARN)."""
+        self.latest_outside = ''
         self.forces = np.zeros(3)
         self.fit = None
         self.fit_problem = 'no identification yet'
@@ -115,7 +123,7 @@ class Estimator(GloveNode):
     def apply(self, settings, changed: set[str]) -> None:
         """Use a new window size or identification period (max_sample_age is read live)."""
         if 'identification_window' in changed:
-            self.window = StiffnessWindow(self.values['identification_window'])
+            self.window = deque(maxlen=self.values['identification_window'])
         if 'identification_period' in changed:
             self.destroy_timer(self.identify_timer)
             self.identify_timer = self.create_timer(
@@ -161,16 +169,20 @@ class Estimator(GloveNode):
                 'non-finite result', f'no finite force estimate at q={pair.angles.tolist()}'
             )
         self.pairs += 1
-        self.validity.add(estimate)
+        if estimate.status != 0:
+            self.outside += 1
+            self.new_outside += 1
+            self.latest_outside = estimate.message
         self.forces = forces
         self.force_publisher.publish(estimate_message(pair.state, forces))
         self.torque_publisher.publish(estimate_message(pair.state, torque))
-        self.window.add(pair.angles, torque)
+        self.window.append((pair.angles, torque))
 
     def identify(self) -> None:
         """Fit the effective spring over the window; publish k (N·m/rad) and q_r (rad)."""
+        rows = np.reshape(self.window, (-1, 2, 3))
         try:
-            fit = self.window.fit()
+            fit = fit_stiffness(rows[:, 0], rows[:, 1])
         except ValueError as error:
             self.fit_problem = str(error)
             return
@@ -186,15 +198,21 @@ class Estimator(GloveNode):
     def report(self) -> None:
         """One /diagnostics status: pairs made, latest forces, identified stiffness.
 
-        WARN while estimates leave the validated model (:class:`.ValidityTally`).
+        WARN when estimates left the validated model since the last report.
         """
-        problems, validity = self.validity.report()
+        problems = []
+        if self.new_outside:
+            problems.append(
+                f'{self.new_outside} estimates outside the validated model since the last '
+                f'report (latest: {self.latest_outside})'
+            )
+            self.new_outside = 0
         values = {
             'pairs estimated': str(self.pairs),
             'estimated contact forces (N)': str(self.forces.tolist()),
-            'window samples': str(self.window.count),
+            'window samples': str(len(self.window)),
             'unpaired samples': str(self.pairer.unpaired),
-            **validity,
+            'estimates outside the model': str(self.outside),
         }
         if self.fit is not None:
             values['finger stiffness (N·m/rad)'] = str(self.fit.stiffness.tolist())
