@@ -18,32 +18,6 @@ from .watchdog import Watchdog
 
 
 @dataclass(frozen=True)
-class StepCounts:
-    """The plant's counters since it started.
-
-    Attributes
-    ----------
-    cycles, late_cycles : int
-        Steps taken, and wall-clock steps that came late (the plant's ``LATE_FACTOR``).
-    failures : int
-        Solves that did not converge.
-    new_failures : int
-        Of those, how many since the last report.
-    failure_residual : float
-        Residual of the latest that did not converge, N·m.
-    saturation : Saturation
-        Commands clipped to the supply range.
-    """
-
-    cycles: int
-    late_cycles: int
-    failures: int
-    new_failures: int
-    failure_residual: float
-    saturation: Saturation
-
-
-@dataclass(frozen=True)
 class PlantReport:
     """:func:`plant_report`'s result: ``problems`` (WARN when any), ``notes``, ``values``."""
 
@@ -53,16 +27,31 @@ class PlantReport:
 
 
 def plant_report(
-    state: GloveState, watchdog: Watchdog, now: float, counts: StepCounts
+    state: GloveState,
+    watchdog: Watchdog,
+    now: float,
+    *,
+    cycles: int,
+    late_cycles: int,
+    failures: int,
+    new_failures: int,
+    failure_residual: float,
+    saturation: Saturation,
 ) -> PlantReport:
-    """The report of ``state`` at ``now`` (s, the plant's time) with the watchdog's view."""
+    """The report of ``state`` at ``now`` (s, the plant's time) with the watchdog's view.
+
+    The plant's counters since it started: ``cycles`` steps, ``late_cycles`` wall-clock steps
+    that came late (its ``LATE_FACTOR``), ``failures`` solves that did not converge (of them
+    ``new_failures`` since the last report, the latest with residual ``failure_residual``, N·m),
+    and the commands clipped to the supply range (``saturation``).
+    """
     problems = []
     if watchdog.tripped:
         problems.append(f'watchdog: no command for {watchdog.age(now):.2f} s, vented')
-    if counts.new_failures:
+    if new_failures:
         problems.append(
-            f'solver did not converge {counts.new_failures} times '
-            f'(last residual {counts.failure_residual:.3g} N·m), kept the last good state'
+            f'solver did not converge {new_failures} times '
+            f'(last residual {failure_residual:.3g} N·m), kept the last good state'
         )
     problems += state_warnings(True, state.in_valid_range, state.in_range_of_motion)
     if state.saturated:
@@ -78,7 +67,7 @@ def plant_report(
         'chamber pressure (Pa)': str(state.pressure.tolist()),
         'solver iterations': str(state.iterations),
         'solver residual (N·m)': f'{state.residual:.3g}',
-        'solver failures': str(counts.failures),
+        'solver failures': str(failures),
         'in valid range': str(bool(state.in_valid_range)),
         'in range of motion': str(bool(state.in_range_of_motion)),
         'contact forces (N)': str(state.forces.tolist()),
@@ -87,10 +76,10 @@ def plant_report(
         'watchdog': command,
         'command age (s)': f'{watchdog.age(now):.3f}',
         'watchdog trips': str(watchdog.trips),
-        'saturated below 0': str(counts.saturation.below_zero),
-        'saturated above supply': str(counts.saturation.above_supply),
-        'cycles': str(counts.cycles),
-        'late cycles': str(counts.late_cycles),
+        'saturated below 0': str(saturation.below_zero),
+        'saturated above supply': str(saturation.above_supply),
+        'cycles': str(cycles),
+        'late cycles': str(late_cycles),
     }
     if state.mass is not None:  # valves (docs/spec/model.md §14): the air in each chamber
         values['valve openings (in, then out)'] = str(state.command.tolist())

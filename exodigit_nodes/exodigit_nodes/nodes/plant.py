@@ -32,7 +32,7 @@ from exodigit_model import JOINT_NAMES, GloveSimulation, GloveState
 
 from ..logic.inputs import InvalidInputError, joint_vector, valve_openings
 from ..logic.pacing import TIME_SETTING_NAMES
-from ..logic.plant_report import StepCounts, plant_report
+from ..logic.plant_report import plant_report
 from ..logic.plant_settings import PlantSettings, plant_settings, start_line
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
@@ -375,7 +375,10 @@ class Plant(GloveNode):
     def report(self) -> None:
         """One /diagnostics status: solver, validity, watchdog, saturation, timing."""
         failures = self.simulation.solver_failures
-        counts = StepCounts(
+        report = plant_report(
+            self.state,
+            self.watchdog,
+            self.time_now(),
             cycles=self.cycles,
             late_cycles=self.late_cycles,
             failures=failures,
@@ -384,7 +387,6 @@ class Plant(GloveNode):
             saturation=self.simulation.chambers.saturation,
         )
         self.failures_reported = failures
-        report = plant_report(self.state, self.watchdog, self.time_now(), counts)
         if self.time is None:
             problems, time_values = [], {'clock': 'wall'}
         else:
