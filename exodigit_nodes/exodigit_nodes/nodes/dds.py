@@ -30,8 +30,7 @@ def with_profile(environ: Mapping[str, str]) -> dict[str, str]:
 
 def use_profile() -> None:
     """Name the exodigit profile in this process's environment (call before ``rclpy.init``)."""
-    if not os.environ.get(PROFILE_VARIABLE):
-        os.environ[PROFILE_VARIABLE] = str(PROFILE)
+    os.environ[PROFILE_VARIABLE] = with_profile(os.environ)[PROFILE_VARIABLE]
 
 
 if __name__ == '__main__':

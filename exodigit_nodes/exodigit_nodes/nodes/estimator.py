@@ -48,7 +48,7 @@ from .messages import (
 )
 from .node_base import GloveNode, load_model
 from .process import run
-from .qos import BACKLOG_QOS, READER_QOS, STREAM_QOS
+from .qos import READER_QOS, STREAM_QOS
 
 
 class Estimator(GloveNode):
@@ -93,7 +93,7 @@ class Estimator(GloveNode):
         # Nothing orders the two subscriptions (a starting node drains one's backlog, then the
         # other's): the pairer pairs by the times the samples were sent, not taken.
         # In simulated time every state is estimated, also while behind (docs/spec/ros.md, QoS).
-        inputs = BACKLOG_QOS if simulated else READER_QOS
+        inputs = STREAM_QOS if simulated else READER_QOS
         self.create_subscription(
             Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), inputs
         )
