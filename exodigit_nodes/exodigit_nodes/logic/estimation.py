@@ -48,9 +48,8 @@ class Pair:
 class SamplePairer:
     """Pairs ``joint_states`` and ``chamber_pressure`` samples by the times they were sent.
 
-    A sample the node refused is offered as None: it keeps its place in time, so its partner
-    pairs with nothing rather than with a neighbouring step's sample. Pairs are returned as soon
-    as they are complete (a controller in lockstep waits for them).
+    A sample the node refused is offered as None (it keeps its place: ``Joiner``). Pairs are
+    returned as soon as they are complete (a controller in lockstep waits for them).
 
     Parameters
     ----------
@@ -79,9 +78,7 @@ class SamplePairer:
     ) -> list[Pair]:
         """Offer the angles sent at ``sent`` (s, source timestamp), publication ``number``.
 
-        ``state`` (the message they came in) is handed on with the pair they make. Angles whose
-        number does not follow one received pair with nothing, but for a publisher's first
-        (number 1) and, with ``trust_first``, the first received.
+        ``state`` (the message they came in) is handed on with the pair they make.
         """
         numbers = self._angle_numbers
         first = self._trust_first and not numbers
