@@ -1,18 +1,14 @@
 """Pairing ``joint_states`` with the ``chamber_pressure`` of the same plant step (no ROS).
 
-Angles (``joint_states``) and pressures (``chamber_pressure``) pair by the times they were sent
-(:mod:`exodigit_model.stepping.joining`): a pressure pairs with the first angles sent after it
-and before the next pressure (the plant sends a step's pressure, then its angles). Not by
-sequence numbers (they restart with each publisher), nor by arrival order or nearest time (a
-preempted plant sends a step's angles late). A pressure whose angles never come, or come too
-late, is dropped and counted. Sequence numbers only reveal losses: when a step's angles and the
-next step's pressure are both lost, times alone would pair a pressure with the next step's
-angles, so angles whose number does not follow one received pair with nothing. So do the first
-angles received, unless the node must answer every state (``trust_first``): a node that joins a
-running plant matches its two publishers one after the other, so it may hear the pressure of
-the step before them without that step's angles, and nothing orders its two readers, so it may
-take them before their own pressure (a starting node drains one reader's backlog, then the
-other's), and times alone would pair them with that pressure.
+By the times they were sent (docs/running.md, "How signals are paired";
+:mod:`exodigit_model.stepping.joining`). Sequence numbers only reveal losses: when a step's
+angles and the next step's pressure are both lost, times alone would pair a pressure with the
+next step's angles, so angles whose number does not follow one received pair with nothing. So
+do the first angles received, unless the node must answer every state (``trust_first``): a node
+that joins a running plant matches its two publishers one after the other, so it may hear the
+pressure of the step before them without that step's angles, and nothing orders its two
+readers, so it may take them before their own pressure (a starting node drains one reader's
+backlog, then the other's), and times alone would pair them with that pressure.
 """
 
 from __future__ import annotations

@@ -1,12 +1,4 @@
-"""The QoS profiles of the exodigit topics; docs/spec/ros.md, "QoS", has why each is so.
-
-Every topic is reliable. Streams are volatile, as ROS streams are: a subscriber gets the glove as
-it is now, not a replay. History is kept for late readers only in the plant's record of
-commands (:data:`APPLIED_QOS`) and a latched state (:data:`HANDED_OVER_QOS`). The glove's own
-recorders lose nothing of a stream because no plant steps before they are present (the session
-protocol, :mod:`.handshake`), and they keep deep queues (:data:`RECORD_QOS`) for when they fall
-behind.
-"""
+"""The QoS profiles of the exodigit topics; docs/spec/ros.md, "QoS", has why each is so."""
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
