@@ -32,7 +32,7 @@ def _marker(namespace: str, ident: int, kind: int, width: float, colour: ColorRG
 
 
 class GloveMarkers:
-    """A MarkerArray built once and updated in place from the glove's pose.
+    """A MarkerArray built once and updated from the glove's pose.
 
     Parameters
     ----------
@@ -50,10 +50,6 @@ class GloveMarkers:
         arrows = [
             _marker('contact_force', 2 + i, Marker.ARROW, 0.001, _FORCE_COLOUR) for i in range(3)
         ]
-        backbone.points = [Point() for _ in range(len(self._backbone(rest)))]
-        finger.points = [Point() for _ in range(4)]
-        for arrow in arrows:
-            arrow.points = [Point(), Point()]
         self.array = MarkerArray(markers=[backbone, finger, *arrows])
 
     @staticmethod
@@ -82,8 +78,7 @@ class GloveMarkers:
         ):
             lines.append((arrow, (start, start + normal * (FORCE_SCALE * float(force)))))
         for marker, rows in lines:
-            for point, (x, y) in zip(marker.points, rows, strict=True):
-                point.x, point.y = float(x), float(y)
+            marker.points = [Point(x=float(x), y=float(y)) for x, y in rows]
         for marker in self.array.markers:
             marker.header.stamp = stamp
             marker.header.frame_id = frame_id
