@@ -1,9 +1,4 @@
-"""What the plant's /diagnostics say about its latest step (docs/spec/ros.md, "Nodes and topics").
-
-:func:`plant_report` turns the plant's state and counters into problems (each a reason for
-WARN), notes (no reason for WARN) and the values shown beside them; the plant node adds its
-simulated time's.
-"""
+"""The plant's /diagnostics report of its latest step (docs/spec/ros.md, "Nodes and topics")."""
 
 from __future__ import annotations
 
@@ -19,7 +14,11 @@ from .watchdog import Watchdog
 
 @dataclass(frozen=True)
 class PlantReport:
-    """:func:`plant_report`'s result: ``problems`` (WARN when any), ``notes``, ``values``."""
+    """:func:`plant_report`'s result.
+
+    ``problems`` (each a reason for WARN), ``notes`` (no reason for WARN) and the ``values``
+    shown beside them (the plant node adds its simulated time's).
+    """
 
     problems: list[str]
     notes: list[str]
