@@ -80,7 +80,6 @@ class Plant(GloveNode):
         super().__init__(**node_options)
         values, settings = self.values, self.settings
         sim_clock = values['clock'] == 'sim'
-        self.lockstep = values['lockstep']
         self.valves = values['actuation'] == 'valves'
         self.command_topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
         self.vent = VENT if self.valves else np.zeros(3)
@@ -233,7 +232,7 @@ class Plant(GloveNode):
             if self.watchdog.feed(self.time_now()):
                 self.get_logger().info(f'{topic} again: venting stopped')
         self.publish_applied()
-        if self.lockstep:
+        if self.values['lockstep']:
             self.time.on_answer(self)
 
     def on_effort(self, message: Float64MultiArray) -> None:
