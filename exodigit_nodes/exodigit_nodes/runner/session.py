@@ -17,6 +17,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..logic.backlog import take_backlog
 from ..logic.lifetime import StopRequest
 from ..nodes.dds import use_profile
 from .run_record import RunRecord
@@ -164,8 +165,7 @@ def run_session(session: Session, env: dict) -> int:
         )
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(session.stop_order, idle=spin)
-        for monitor in monitors:
-            monitor.drain(spin)
+        take_backlog(spin, lambda: sum(monitor.taken for monitor in monitors))
         for glove, glove_signals in zip(session.gloves, signals, strict=True):
             for sample in glove_signals.flush():  # the nodes are gone: the last step is complete
                 glove.record.write(sample)

@@ -7,7 +7,6 @@ SI inside; kPa, degrees and the unit labels appear only in the text this module 
 import math
 from collections import deque
 from dataclasses import dataclass
-from enum import IntEnum
 from typing import TextIO
 
 import numpy as np
@@ -77,6 +76,8 @@ STAMPED = ('estimated_contact_forces',)
 ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
+#: diagnostic_msgs/DiagnosticStatus level names, by level.
+LEVELS = ('OK', 'WARN', 'ERROR', 'STALE')
 
 
 def net_openings(openings) -> np.ndarray | None:
@@ -85,15 +86,6 @@ def net_openings(openings) -> np.ndarray | None:
     if values.shape != (VALVE_OPENINGS,):
         return None
     return values[:3] - values[3:]
-
-
-class Level(IntEnum):
-    """diagnostic_msgs/DiagnosticStatus levels."""
-
-    OK = 0
-    WARN = 1
-    ERROR = 2
-    STALE = 3
 
 
 @dataclass(frozen=True)
@@ -114,9 +106,9 @@ class Sample:
 
 @dataclass(frozen=True)
 class Health:
-    """Latest diagnostic of one node: worst level over its statuses, their messages, when."""
+    """Latest diagnostic of one node: worst level (its name) over its statuses, message, when."""
 
-    level: Level
+    level: str
     message: str
     received: float
 
@@ -284,7 +276,7 @@ class GloveSignals:
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""
         if node in self.health:
-            self.health[node] = Health(Level(min(int(level), Level.STALE)), message, now)
+            self.health[node] = Health(LEVELS[min(int(level), len(LEVELS) - 1)], message, now)
 
     def health_text(self, now: float) -> list[str]:
         """``name LEVEL (message)`` per node; silent nodes say how long they have been."""
@@ -294,10 +286,10 @@ class GloveSignals:
                 texts.append(f'{node} (no diagnostics yet)')
             elif now - health.received > HEALTH_TIMEOUT:
                 texts.append(f'{node} SILENT for {now - health.received:.0f} s')
-            elif health.level == Level.OK:
+            elif health.level == 'OK':
                 texts.append(f'{node} OK')
             else:
-                texts.append(f'{node} {health.level.name} ({health.message})')
+                texts.append(f'{node} {health.level} ({health.message})')
         return texts
 
     def table(self, now: float, title: str) -> str:
