@@ -256,7 +256,7 @@ def _report(session: Session, supervisor: Supervisor, signals, failures, stops) 
     bad = failures + [s for s in unclean if s not in starting]
     for exit_ in bad:
         print(f'{session.program}: {exit_.describe()}', file=sys.stderr)
-        log = supervisor.log_path(exit_.name)
+        log = supervisor.children[exit_.name].log_path
         lines = log.read_text(errors='replace').splitlines() if log and log.is_file() else []
         for line in lines[-LOG_TAIL_LINES:]:
             print(f'  {exit_.name}| {line}', file=sys.stderr)
