@@ -105,17 +105,16 @@ def identification_references(nominal_files: list[str], plant_files: list[str] |
     """
     from exodigit_model import load_params
 
-    files = {'nominal': nominal_files}
-    if plant_files is not None:
-        files['patient'] = plant_files
-    joints = {label: load_params(paths).finger.joints for label, paths in files.items()}
+    files = {'nominal': nominal_files, 'patient': plant_files}
+    joints = {
+        label: load_params(paths).finger.joints
+        for label, paths in files.items()
+        if paths is not None
+    }
+    fields = {'estimated_finger_stiffness': 'stiffness', 'estimated_rest_angle': 'rest_angle'}
     return {
-        'estimated_finger_stiffness': {
-            label: [j.stiffness for j in rows] for label, rows in joints.items()
-        },
-        'estimated_rest_angle': {
-            label: [j.rest_angle for j in rows] for label, rows in joints.items()
-        },
+        topic: {label: [getattr(j, field) for j in rows] for label, rows in joints.items()}
+        for topic, field in fields.items()
     }
 
 
