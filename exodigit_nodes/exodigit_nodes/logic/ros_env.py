@@ -5,8 +5,11 @@ unset ``ROS_AUTOMATIC_DISCOVERY_RANGE`` becomes ``LOCALHOST``, a value set is ke
 one is refused.
 """
 
+import math
 from collections.abc import Mapping
 from typing import Any
+
+import yaml
 
 #: Values ROS 2 Jazzy accepts for ROS_AUTOMATIC_DISCOVERY_RANGE.
 DISCOVERY_RANGES = ('LOCALHOST', 'SUBNET', 'OFF', 'SYSTEM_DEFAULT')
@@ -57,15 +60,11 @@ def discovery_environment(environ: Mapping[str, str]) -> tuple[dict[str, str], s
     )
 
 
-def format_value(value: Any) -> str:
-    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, str):
-        return "'" + value.replace("'", "''") + "'"
-    if isinstance(value, list | tuple):
-        return '[' + ','.join(format_value(v) for v in value) + ']'
-    return repr(value)
+def yaml_value(value: Any) -> str:
+    """``value`` (a tuple as a list) as one line of YAML: a ``-p`` override, a parameter file's."""
+    plain = list(value) if isinstance(value, tuple) else value
+    # Flow style on one line; a plain scalar's document end marker ('...') follows it.
+    return yaml.safe_dump(plain, default_flow_style=True, width=math.inf).splitlines()[0]
 
 
 def ros_args(
@@ -81,7 +80,7 @@ def ros_args(
     """
     args = ['--ros-args', *(extra or [])]
     for key, value in (parameters or {}).items():
-        args += ['-p', f'{key}:={format_value(value)}']
+        args += ['-p', f'{key}:={yaml_value(value)}']
     if namespace:
         args += ['-r', f'__ns:={namespace}']
     if name:
