@@ -20,9 +20,9 @@ from exodigit_nodes.nodes.messages import APPLIED_COMMAND, DIAGNOSTICS
 from exodigit_nodes.nodes.qos import RECORD_QOS, record_profile
 from exodigit_nodes.runner.summary import (
     COMMAND_SIGNALS,
+    ESTIMATE,
     JOINT_LABELS,
     SIGNALS,
-    STAMPED,
     VALVE_OPENINGS,
     GloveSignals,
     Sample,
@@ -83,7 +83,7 @@ class GloveMonitor(Node):
                 continue
             if topic == 'joint_states':
                 message_type, callback = JointState, partial(self._on_state, topic, 'position')
-            elif topic in STAMPED:
+            elif topic == ESTIMATE:
                 message_type, callback = JointState, partial(self._on_state, topic, 'effort')
             else:
                 message_type, callback = Float64MultiArray, partial(self._on_array, topic)

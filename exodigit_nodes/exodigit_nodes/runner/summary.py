@@ -70,8 +70,8 @@ VALVE_OPENINGS = 6
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
 #: The topics of a step of the ``hardware`` bridge (a board has no contact forces).
 BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
-#: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
-STAMPED = ('estimated_contact_forces',)
+#: The signal stamped with the stamp of the state it estimates: a `Sample` takes its own step's.
+ESTIMATE = 'estimated_contact_forces'
 #: Most joined steps held back for their estimates or command.
 ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
@@ -120,7 +120,7 @@ class GloveSignals:
     by when they were sent (DDS source timestamps), with the rule of
     `exodigit_model.stepping.joining`: it never mixes two steps, and a step that lost a message
     is skipped. A step is joined once the next step's pressure has arrived (or at `flush`). It
-    takes the estimate of `STAMPED` stamped with its angles' stamp (None if the estimator left
+    takes the estimate of `ESTIMATE` stamped with its angles' stamp (None if the estimator left
     the step out), the command in force when its pressure was sent (:meth:`_command_at`) and the
     identified spring's latest value. A step waits for its estimate and command at most
     `ESTIMATE_WAIT` steps.
@@ -166,12 +166,10 @@ class GloveSignals:
         self._first_stamp: float | None = None
         self._streams = tuple(streams)
         self._joiner = Joiner(self._streams, confirm=True)
-        self._stamped: dict[str, dict[float, np.ndarray]] = {signal: {} for signal in STAMPED}
-        """Per `STAMPED` signal, the values received for steps not yet handed on, by stamp."""
-        self._newest: dict[str, float | None] = dict.fromkeys(
-            STAMPED, -math.inf if estimated else None
-        )
-        """Per `STAMPED` signal, the newest stamp received (None: steps need not wait)."""
+        self._estimates: dict[float, np.ndarray] = {}
+        """The estimates received for steps not yet handed on, by stamp."""
+        self._newest_estimate: float | None = -math.inf if estimated else None
+        """The newest estimate's stamp (None: steps need not wait for theirs)."""
         self._held: deque[tuple[float, float, Sample]] = deque()
         """Joined steps waiting for their estimates or command: (stamp, sent, sample)."""
         self._commanded = commanded
@@ -193,7 +191,7 @@ class GloveSignals:
         published : float
             When the message was sent (DDS source timestamp), s; joins plant steps.
         stamp : float, optional
-            Header stamp in seconds (``joint_states``: the sample's time; a `STAMPED` signal:
+            Header stamp in seconds (``joint_states``: the sample's time; `ESTIMATE`:
             the stamp of the state it belongs to).
 
         Returns
@@ -205,10 +203,10 @@ class GloveSignals:
             raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
         values = np.array(values, dtype=float)
         self.latest[signal] = values
-        if signal in STAMPED and stamp is not None:
-            self._stamped[signal][stamp] = values
-            newest = self._newest[signal]
-            self._newest[signal] = stamp if newest is None else max(stamp, newest)
+        if signal == ESTIMATE and stamp is not None:
+            self._estimates[stamp] = values
+            newest = self._newest_estimate
+            self._newest_estimate = stamp if newest is None else max(stamp, newest)
             return self._release()
         if signal in COMMAND_SIGNALS:
             self._commands.append((published, signal, values))
@@ -248,17 +246,14 @@ class GloveSignals:
             stamp, sent, sample = self._held[0]
             known = self._command_at(sent, sample)
             hold = not every and len(self._held) <= ESTIMATE_WAIT
-            waiting = any(
-                newest is not None and newest < stamp and stamp not in self._stamped[signal]
-                for signal, newest in self._newest.items()
-            )
+            newest = self._newest_estimate
+            waiting = newest is not None and newest < stamp and stamp not in self._estimates
             if hold and (waiting or (self._commanded and not known)):
                 break
             self._held.popleft()
-            for signal, by_stamp in self._stamped.items():
-                sample.values[signal] = by_stamp.pop(stamp, None)
-                for older in [s for s in by_stamp if s < stamp]:  # of steps never joined
-                    del by_stamp[older]
+            sample.values[ESTIMATE] = self._estimates.pop(stamp, None)
+            for older in [s for s in self._estimates if s < stamp]:  # of steps never joined
+                del self._estimates[older]
             samples.append(sample)
         return samples
 
