@@ -1,11 +1,7 @@
 """One runner loop for a glove or a hand: node processes, live summary, run records, clean stop.
 
-:func:`run_session` starts the processes of a :class:`Session`, watches every glove of it with a
-:class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove) and, in
-simulated time, holds the plants to the session protocol (docs/spec/ros.md, "The session
-protocol", guarantees 3 and 6). It stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or
-the end of the duration, in the session's stop order; then each record's last step is joined and
-its plot drawn. :mod:`.hand_runner` builds the :class:`Session` of a glove or a hand.
+:mod:`.hand_runner` builds the :class:`Session` of a glove or a hand, :func:`run_session` runs
+it: a :class:`.monitor.GloveMonitor` per glove feeds its summary and run record.
 """
 
 from __future__ import annotations
@@ -181,12 +177,10 @@ def run_session(session: Session, env: dict) -> int:
 
 
 def _watch(session: Session, stop, supervisor, monitors, signals, spin, display, titled) -> list:
-    """Show the gloves until the session ends; in simulated time, hold the plants meanwhile.
+    """Show the gloves until a stop request, a process that exited (returned) or the duration.
 
-    The plants, started paused, resume once every node of every glove has answered the
-    summary's handshake and every listener is ready, and run at most `.horizon.LEAD_STEPS`
-    past the newest step every record has whole. Ends on a stop request, a process that exited
-    (returned) or the end of the session's duration (wall or simulated seconds).
+    In simulated time, hold the plants meanwhile to docs/spec/ros.md, "The session protocol",
+    guarantees 3 and 6 (:class:`.horizon.Horizon`).
     """
     from std_srvs.srv import SetBool
 
