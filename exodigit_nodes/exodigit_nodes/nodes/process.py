@@ -84,7 +84,6 @@ def serve(
     make_nodes: Callable[[], Node | list[Node]],
     last_words: Callable[[Node], None],
     duration: float = math.inf,
-    refused: tuple[type[Exception], ...] = (ConfigurationError,),
     taken: Callable[[Node], int] | None = None,
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
@@ -100,9 +99,8 @@ def serve(
     Returns
     -------
     int
-        0 after a normal stop; 2 when the configuration is refused (an exception of
-        ``refused``: one line on stderr, no traceback); 1 when the process that started it is
-        gone already.
+        0 after a normal stop; 2 when the configuration is refused (a ConfigurationError: one
+        line on stderr, no traceback); 1 when the process that started it is gone already.
     """
     stop = StopRequest()
     if not stop_with_parent(signal.SIGINT):
@@ -131,7 +129,7 @@ def serve(
                 lambda: executor.spin_once(timeout_sec=0.0),
                 lambda: sum(taken(node) for node in nodes),
             )
-    except refused as error:
+    except ConfigurationError as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
     except ExternalShutdownException:
