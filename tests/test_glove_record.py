@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from exodigit_nodes.logic.ros_env import discovery_environment
 from exodigit_nodes.runner.run_record import RunRecord, csv_columns, new_run_directory, read_csv
-from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay, net_openings
+from exodigit_nodes.runner.summary import (
+    JOINT_LABELS,
+    SIGNALS,
+    GloveSignals,
+    SummaryDisplay,
+    net_openings,
+)
 from png_files import png_size
 
 NODES = ('plant', 'estimator', 'pressure_command')
@@ -236,6 +242,17 @@ def test_summary_table_and_line_show_values_in_display_units():
     assert 'plant SILENT' in signals.line(now=20.0)
     for signal in SIGNALS.values():
         assert signal.label in table
+
+
+def test_the_table_s_values_line_up_under_their_joints_whatever_the_row_label():
+    signals = GloveSignals(NODES, {'estimated_rest_angle': {'patient': [0.4, 0.6, 0.4]}})
+    signals.update('estimated_rest_angle', [0.2, 0.3, 0.1])
+    lines = signals.table(now=0.0, title='glove').splitlines()
+    ends = [lines[1].index(joint) + len(joint) for joint in JOINT_LABELS]
+    rows = [line for line in lines if line.startswith(('rest est ', 'rest patient '))]
+    assert len(rows) == 2, lines
+    for row in rows:  # each value's last digit under its joint label's last letter
+        assert [row[end - 1] != ' ' and row[end] == ' ' for end in ends] == [True] * 3, lines
 
 
 def test_display_prints_one_line_per_period_without_a_terminal_and_redraws_on_one():

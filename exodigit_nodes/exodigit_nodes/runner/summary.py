@@ -289,23 +289,28 @@ class GloveSignals:
 
     def table(self, now: float, title: str) -> str:
         """The multi-line summary for a terminal: one row per signal, one column per joint."""
-        clock = '-' if self.time is None else f'{self.time:7.2f} s'
-        lines = [f'{title}   t = {clock}', f'{"":10}' + ''.join(f'{j:>9}' for j in JOINT_LABELS)]
+        rows = [('', ' '.join(f'{joint:>9}' for joint in JOINT_LABELS), '')]
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal, width=9)
-            lines.append(f'{signal.label:<10}{cells}  {signal.unit}')
+            rows.append((signal.label, _cells(self.latest[topic], signal, 9), signal.unit))
             for label, values in self.references.get(topic, {}).items():
                 row = f'{signal.label.split()[0]} {label}'
-                lines.append(f'{row:<10}{_cells(values, signal, width=9)}  {signal.unit}')
-        lines.append('nodes: ' + ', '.join(self.health_text(now)))
-        return '\n'.join(lines)
+                rows.append((row, _cells(values, signal, 9), signal.unit))
+        width = max(len(label) for label, _, _ in rows)
+        clock = '-' if self.time is None else f'{self.time:7.2f} s'
+        return '\n'.join(
+            [
+                f'{title}   t = {clock}',
+                *(f'{label:<{width}} {cells}  {unit}'.rstrip() for label, cells, unit in rows),
+                'nodes: ' + ', '.join(self.health_text(now)),
+            ]
+        )
 
     def line(self, now: float) -> str:
         """The one-line summary for logs: ``t=… command_kPa=[…] angle_deg=[…] … nodes: …``."""
         clock = '-' if self.time is None else f'{self.time:.2f}s'
         parts = [f't={clock}']
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal, width=0)
+            cells = _cells(self.latest[topic], signal, 0)
             parts.append(f'{signal.column}_{signal.unit_tag}=[{cells}]')
         return ' '.join(parts) + ' nodes: ' + '; '.join(self.health_text(now))
 
