@@ -147,13 +147,9 @@ class Child:
         """Its process id, also its process group's."""
         self._exit: Exit | None = None
 
-    def poll(self) -> int | None:
-        """Its exit code, or None while it runs."""
-        return self.popen.poll()
-
     def alive(self) -> bool:
         """Whether it is still running."""
-        return self.poll() is None
+        return self.popen.poll() is None
 
     def signal(self, signum: int) -> None:
         """Send ``signum`` to its process group (nothing once it has been reaped)."""
@@ -170,7 +166,7 @@ class Child:
 
     def exit(self) -> Exit | None:
         """How it ended (None while it runs)."""
-        if self._exit is None and self.poll() is not None:
+        if self._exit is None and not self.alive():
             self._exit = Exit(self.name, self.popen.returncode)
         return self._exit
 
@@ -184,12 +180,12 @@ class Child:
             return self._exit
         forced = False
         for signum in ESCALATION:
-            if self.poll() is not None:
+            if not self.alive():
                 break
             forced = signum != signal.SIGINT
             self.signal(signum)
             deadline = time.monotonic() + grace
-            while self.poll() is None and (left := deadline - time.monotonic()) > 0:
+            while self.alive() and (left := deadline - time.monotonic()) > 0:
                 if idle is None:
                     self.wait(left)
                 else:
