@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
-from exodigit_nodes.logic.ros_env import format_value, ros_args  # noqa: F401 (public)
+from exodigit_nodes.logic.ros_env import ros_args  # noqa: F401 (public)
 from exodigit_nodes.nodes.dds import use_profile
 from exodigit_nodes.nodes.handshake import Handshake
 from exodigit_nodes.nodes.repeated_call import RepeatedCall

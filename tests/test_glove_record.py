@@ -6,9 +6,15 @@ from datetime import datetime
 
 import numpy as np
 import pytest
-from exodigit_nodes.logic.ros_env import discovery_settings
+from exodigit_nodes.logic.ros_env import discovery_environment
 from exodigit_nodes.runner.run_record import RunRecord, csv_columns, new_run_directory, read_csv
-from exodigit_nodes.runner.summary import SIGNALS, GloveSignals, SummaryDisplay, net_openings
+from exodigit_nodes.runner.summary import (
+    JOINT_LABELS,
+    SIGNALS,
+    GloveSignals,
+    SummaryDisplay,
+    net_openings,
+)
 from png_files import png_size
 
 NODES = ('plant', 'estimator', 'pressure_command')
@@ -238,6 +244,17 @@ def test_summary_table_and_line_show_values_in_display_units():
         assert signal.label in table
 
 
+def test_the_table_s_values_line_up_under_their_joints_whatever_the_row_label():
+    signals = GloveSignals(NODES, {'estimated_rest_angle': {'patient': [0.4, 0.6, 0.4]}})
+    signals.update('estimated_rest_angle', [0.2, 0.3, 0.1])
+    lines = signals.table(now=0.0, title='glove').splitlines()
+    ends = [lines[1].index(joint) + len(joint) for joint in JOINT_LABELS]
+    rows = [line for line in lines if line.startswith(('rest est ', 'rest patient '))]
+    assert len(rows) == 2, lines
+    for row in rows:  # each value's last digit under its joint label's last letter
+        assert [row[end - 1] != ' ' and row[end] == ' ' for end in ends] == [True] * 3, lines
+
+
 def test_display_prints_one_line_per_period_without_a_terminal_and_redraws_on_one():
     signals = GloveSignals(NODES)
     plain = io.StringIO()
@@ -255,14 +272,18 @@ def test_display_prints_one_line_per_period_without_a_terminal_and_redraws_on_on
 
 
 def test_discovery_defaults_to_localhost_and_keeps_what_the_user_set():
-    default = discovery_settings({})
-    assert (default.discovery_range, default.domain_id) == ('LOCALHOST', 0)
-    assert default.range_defaulted and default.domain_defaulted
-    env = default.apply({'PATH': '/bin'})
-    assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST' and env['PATH'] == '/bin'
-    lan = discovery_settings({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET', 'ROS_DOMAIN_ID': '42'})
-    assert (lan.discovery_range, lan.domain_id, lan.range_defaulted) == ('SUBNET', 42, False)
-    assert 'SUBNET (from the environment)' in lan.describe()
+    env, line = discovery_environment({'PATH': '/bin'})
+    assert env == {
+        'PATH': '/bin',
+        'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+        'ROS_DOMAIN_ID': '0',
+    }
+    assert 'LOCALHOST (default)' in line and 'ROS_DOMAIN_ID=0 (default)' in line
+    env, line = discovery_environment(
+        {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'subnet', 'ROS_DOMAIN_ID': '42'}
+    )
+    assert (env['ROS_AUTOMATIC_DISCOVERY_RANGE'], env['ROS_DOMAIN_ID']) == ('SUBNET', '42')
+    assert 'SUBNET (from the environment)' in line and '=42 (from the environment)' in line
 
 
 @pytest.mark.parametrize(
@@ -276,7 +297,7 @@ def test_discovery_defaults_to_localhost_and_keeps_what_the_user_set():
 )
 def test_discovery_refuses_unknown_values(environ, message):
     with pytest.raises(ValueError, match=message):
-        discovery_settings(environ)
+        discovery_environment(environ)
 
 
 def test_flush_joins_the_last_step_once_nothing_more_will_come():

@@ -51,7 +51,7 @@ from exodigit_nodes.runner.supervisor import Supervisor
 log_dir, child_code, order_log = sys.argv[1:]
 supervisor = Supervisor(os.environ, log_dir=Path(log_dir))
 supervisor.start('plant', [sys.executable, '-c', child_code, 'plant', order_log])
-print(supervisor.pid('plant'), flush=True)
+print(supervisor.children['plant'].pid, flush=True)
 time.sleep(600)
 """
 STARTING = """
@@ -108,7 +108,7 @@ def alive(pid):
 
 
 def ready(supervisor, name):
-    return 'ready' in supervisor.log_path(name).read_text()
+    return 'ready' in supervisor.children[name].log_path.read_text()
 
 
 def test_processes_stop_in_the_given_order_with_sigint_and_idle_runs_meanwhile(tmp_path):
@@ -116,8 +116,8 @@ def test_processes_stop_in_the_given_order_with_sigint_and_idle_runs_meanwhile(t
     supervisor = Supervisor(os.environ, log_dir=tmp_path / 'logs')
     for name in ('plant', 'estimator', 'pressure_command'):
         supervisor.start(name, [sys.executable, '-c', WAITS_FOR_IDLE, name, str(order_log), go])
-    assert wait_until(lambda: all(ready(supervisor, n) for n in supervisor.names), WAIT)
-    pids = [supervisor.pid(name) for name in supervisor.names]
+    assert wait_until(lambda: all(ready(supervisor, n) for n in supervisor.children), WAIT)
+    pids = [child.pid for child in supervisor.children.values()]
     # each child leads its own session, apart from the test's
     assert all(os.getsid(pid) == pid != os.getsid(0) for pid in pids)
     idle_calls = []
@@ -207,7 +207,7 @@ def test_an_unexpected_exit_is_seen_with_its_code_and_log(tmp_path):
     (exit_,) = supervisor.exited()
     assert (exit_.name, exit_.returncode) == ('plant', 3)
     assert exit_.describe() == 'plant exited with code 3'
-    assert 'bad params_file' in supervisor.log_path('plant').read_text()
+    assert 'bad params_file' in supervisor.children['plant'].log_path.read_text()
     assert supervisor.running() == ['estimator']
     supervisor.stop(['estimator'], grace=0.5)
     assert supervisor.running() == []

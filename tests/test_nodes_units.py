@@ -278,3 +278,11 @@ def test_help_lists_every_parameter_and_exits_0(node, capsys):
     # ``__main__`` line runs in every test that starts a node process.
     assert importlib.import_module(node.module).main(['--help']) == 0
     assert 'parameters:\n' + node.table.help() in capsys.readouterr().out
+
+
+def test_malformed_ros_arguments_are_one_usage_error_not_a_traceback(capsys):
+    plant = importlib.import_module(NODES[0].module)
+    assert plant.main(['--ros-args', '-p']) == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert len(errors) == 2 and errors[0].startswith('usage: '), errors
+    assert errors[1].startswith(f'{NODES[0].executable}: error: ') and 'ROS arguments' in errors[1]

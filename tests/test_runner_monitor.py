@@ -8,6 +8,7 @@ import os
 
 import numpy as np
 import pytest
+from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.runner.monitor import GloveMonitor
 from exodigit_nodes.runner.summary import GloveSignals
 from rclpy.duration import Duration
@@ -19,7 +20,7 @@ NAMESPACE = f'/monitor_drain_{os.getpid()}'
 STEPS = 300
 
 
-def test_drain_hands_on_every_step_the_stopped_nodes_left(ros_context):
+def test_taking_the_backlog_hands_on_every_step_the_stopped_nodes_left(ros_context):
     signals, samples = GloveSignals(['plant']), []
     monitor = GloveMonitor(signals, NAMESPACE, samples.append, context=ros_context)
     executor = SingleThreadedExecutor(context=ros_context)
@@ -33,7 +34,7 @@ def test_drain_hands_on_every_step_the_stopped_nodes_left(ros_context):
     for publisher in publishers.values():
         assert publisher.wait_for_all_acked(Duration(seconds=DISCOVERY_TIMEOUT))
     plant.destroy_node()  # the plant is gone, its steps wait in the monitor's readers
-    monitor.drain(lambda: executor.spin_once(timeout_sec=0.02))
+    take_backlog(lambda: executor.spin_once(timeout_sec=0.02), lambda: monitor.taken)
     samples += signals.flush()  # the last step: no next pressure completes it
     executor.shutdown()
     monitor.destroy_node()

@@ -5,9 +5,11 @@ unset ``ROS_AUTOMATIC_DISCOVERY_RANGE`` becomes ``LOCALHOST``, a value set is ke
 one is refused.
 """
 
+import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
+
+import yaml
 
 #: Values ROS 2 Jazzy accepts for ROS_AUTOMATIC_DISCOVERY_RANGE.
 DISCOVERY_RANGES = ('LOCALHOST', 'SUBNET', 'OFF', 'SYSTEM_DEFAULT')
@@ -17,44 +19,10 @@ DEFAULT_DISCOVERY_RANGE = 'LOCALHOST'
 MAX_DOMAIN_ID = 232
 
 
-@dataclass(frozen=True)
-class DiscoverySettings:
-    """Discovery range and domain id the glove's processes use.
+def discovery_environment(environ: Mapping[str, str]) -> tuple[dict[str, str], str]:
+    """``environ`` with its discovery settings (safe defaults filled in), and a line saying so.
 
-    Attributes
-    ----------
-    discovery_range : str
-        One of `DISCOVERY_RANGES`.
-    domain_id : int
-        ROS domain id, 0 to `MAX_DOMAIN_ID`.
-    range_defaulted, domain_defaulted : bool
-        True where the value was not set by the caller.
-    """
-
-    discovery_range: str
-    domain_id: int
-    range_defaulted: bool
-    domain_defaulted: bool
-
-    def describe(self) -> str:
-        """One line saying what is used and where it came from."""
-        range_source = 'default' if self.range_defaulted else 'from the environment'
-        domain_source = 'default' if self.domain_defaulted else 'from the environment'
-        return (
-            f'ROS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE={self.discovery_range} '
-            f'({range_source}), ROS_DOMAIN_ID={self.domain_id} ({domain_source})'
-        )
-
-    def apply(self, environ: Mapping[str, str]) -> dict[str, str]:
-        """A copy of ``environ`` carrying these settings."""
-        env = dict(environ)
-        env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = self.discovery_range
-        env['ROS_DOMAIN_ID'] = str(self.domain_id)
-        return env
-
-
-def discovery_settings(environ: Mapping[str, str]) -> DiscoverySettings:
-    """Read the discovery settings from ``environ``, filling in the safe defaults.
+    The line names the range and domain id used and where each came from.
 
     Raises
     ------
@@ -78,18 +46,25 @@ def discovery_settings(environ: Mapping[str, str]) -> DiscoverySettings:
         raise ValueError(
             f'ROS_DOMAIN_ID={raw_domain!r} must be an integer from 0 to {MAX_DOMAIN_ID}'
         )
-    return DiscoverySettings(discovery_range, domain_id, not raw_range, not raw_domain)
+    env = {
+        **environ,
+        'ROS_AUTOMATIC_DISCOVERY_RANGE': discovery_range,
+        'ROS_DOMAIN_ID': str(domain_id),
+    }
+    range_source, domain_source = (
+        'from the environment' if raw else 'default' for raw in (raw_range, raw_domain)
+    )
+    return env, (
+        f'ROS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE={discovery_range} ({range_source}), '
+        f'ROS_DOMAIN_ID={domain_id} ({domain_source})'
+    )
 
 
-def format_value(value: Any) -> str:
-    """A Python value as the text of a ``-p name:=value`` override (YAML)."""
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, str):
-        return "'" + value.replace("'", "''") + "'"
-    if isinstance(value, list | tuple):
-        return '[' + ','.join(format_value(v) for v in value) + ']'
-    return repr(value)
+def yaml_value(value: Any) -> str:
+    """``value`` (a tuple as a list) as one line of YAML: a ``-p`` override, a parameter file's."""
+    plain = list(value) if isinstance(value, tuple) else value
+    # Flow style on one line; a plain scalar's document end marker ('...') follows it.
+    return yaml.safe_dump(plain, default_flow_style=True, width=math.inf).splitlines()[0]
 
 
 def ros_args(
@@ -105,7 +80,7 @@ def ros_args(
     """
     args = ['--ros-args', *(extra or [])]
     for key, value in (parameters or {}).items():
-        args += ['-p', f'{key}:={format_value(value)}']
+        args += ['-p', f'{key}:={yaml_value(value)}']
     if namespace:
         args += ['-r', f'__ns:={namespace}']
     if name:

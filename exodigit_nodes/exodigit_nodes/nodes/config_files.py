@@ -13,8 +13,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-import yaml
-
+from ..logic.ros_env import yaml_value
 from .catalog import EXECUTABLES
 from .node_entry import NodeEntry
 
@@ -39,10 +38,7 @@ def config_text(entry: NodeEntry) -> str:
     ]
     for spec in entry.table.specs.values():
         lines += comment(' '.join(filter(None, (spec.description, spec.rule()))), '    ', '  ')
-        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
-        # Flow style on one line; a plain scalar's document end marker ('...') follows it.
-        value = yaml.safe_dump(default, default_flow_style=True).splitlines()[0]
-        lines.append(f'    {spec.name}: {value}')
+        lines.append(f'    {spec.name}: {yaml_value(spec.default)}')
     return '\n'.join(lines) + '\n'
 
 

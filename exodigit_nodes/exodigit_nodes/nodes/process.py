@@ -41,7 +41,8 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     """Every glove node's ``main()``: its command line, then :func:`serve`; the exit status.
 
     A node's own command line is none but ``--help``, which prints its parameter table: argparse
-    exits with 0 after the help and with 2 and a usage line for anything else.
+    exits with 0 after the help and with 2 and a usage line for anything else, or malformed
+    ``--ros-args``.
     """
     program = node_class.executable
     parser = argparse.ArgumentParser(
@@ -53,8 +54,12 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
     )
     argv = sys.argv[1:] if args is None else list(args)
     try:
-        parser.parse_args(remove_ros_args(['', *argv])[1:])
-    except SystemExit as done:  # --help (0), or an argument that is not ours (2)
+        try:
+            own = remove_ros_args(['', *argv])[1:]
+        except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError: malformed --ros-args
+            parser.error(' '.join(str(error).split()))
+        parser.parse_args(own)
+    except SystemExit as done:  # --help (0), or arguments that are not ours or malformed (2)
         return done.code
     return serve(program, args, node_class, last_words)
 
@@ -79,7 +84,6 @@ def serve(
     make_nodes: Callable[[], Node | list[Node]],
     last_words: Callable[[Node], None],
     duration: float = math.inf,
-    refused: tuple[type[Exception], ...] = (ConfigurationError,),
     taken: Callable[[Node], int] | None = None,
 ) -> int:
     """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
@@ -95,9 +99,8 @@ def serve(
     Returns
     -------
     int
-        0 after a normal stop; 2 when the configuration is refused (an exception of
-        ``refused``: one line on stderr, no traceback); 1 when the process that started it is
-        gone already.
+        0 after a normal stop; 2 when the configuration is refused (a ConfigurationError: one
+        line on stderr, no traceback); 1 when the process that started it is gone already.
     """
     stop = StopRequest()
     if not stop_with_parent(signal.SIGINT):
@@ -126,7 +129,7 @@ def serve(
                 lambda: executor.spin_once(timeout_sec=0.0),
                 lambda: sum(taken(node) for node in nodes),
             )
-    except refused as error:
+    except ConfigurationError as error:
         print(f'{program}: error: {error}', file=sys.stderr)
         code = 2
     except ExternalShutdownException:

@@ -66,10 +66,6 @@ BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
 
 
-class RecorderError(Exception):
-    """The recorder cannot start; the text is the one line the user sees."""
-
-
 def type_name(message_class: type) -> str:
     """ROS 2 type name of an rclpy message class, e.g. ``std_msgs/msg/Float64MultiArray``."""
     package = message_class.__module__.split('.')[0]
@@ -92,18 +88,20 @@ class BagWriter:
             from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
             from rosbags.typesys import Stores, get_typestore
         except ImportError:
-            raise RecorderError(
+            raise ConfigurationError(
                 'rosbags is not installed; install it with: pip install rosbags'
             ) from None
         if path.exists():
-            raise RecorderError(f'--output {path}: exists already; the bag needs a new folder')
+            raise ConfigurationError(
+                f'--output {path}: exists already; the bag needs a new folder'
+            )
         typestore = get_typestore(Stores.ROS2_JAZZY)
         self.path = path
         self._writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
         try:
             self._writer.open()
         except (WriterError, OSError) as error:
-            raise RecorderError(f'--output {path}: cannot create the bag ({error})') from None
+            raise ConfigurationError(f'--output {path}: cannot create the bag ({error})') from None
         self._connections = {
             topic: self._writer.add_connection(topic, msgtype, typestore=typestore)
             for topic, msgtype in topics.items()
@@ -145,9 +143,9 @@ class Recorder(Node):
         super().__init__('recorder', **node_options)
         if gloves != ('',):
             if '' in gloves or len(set(gloves)) != len(gloves):
-                raise RecorderError(f'--gloves {",".join(gloves)}: give distinct names')
+                raise ConfigurationError(f'--gloves {",".join(gloves)}: give distinct names')
             if output.exists():
-                raise RecorderError(
+                raise ConfigurationError(
                     f'--output {output}: exists already; the bags need a new folder'
                 )
             output.mkdir(parents=True)
@@ -276,7 +274,6 @@ def main(args: list[str] | None = None) -> int:
         Recorder.close,
         taken=Recorder.taken,
         duration=options.duration if options.duration > 0 else math.inf,
-        refused=(ConfigurationError, RecorderError),
     )
 
 

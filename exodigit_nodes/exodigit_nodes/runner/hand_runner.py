@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..logic.options import UsageError
-from ..logic.ros_env import discovery_settings, ros_args
+from ..logic.ros_env import discovery_environment, ros_args
 from ..nodes.catalog import ESTIMATOR_NODE
 from ..nodes.hand_config import EMULATED, HandConfig, command_options, hand_config
 from ..nodes.messages import SET_PAUSED
@@ -325,11 +325,10 @@ def main(command: Command, argv: Sequence[str] | None = None) -> int:
     options = build_parser(command).parse_args(argv)
     try:
         config = run_config(command, options)
-        settings = discovery_settings(os.environ)
+        env, discovery = discovery_environment(os.environ)
     except ValueError as error:  # UsageError
         print(f'{command.name}: {error}', file=sys.stderr)
         return 2
-    env = settings.apply(os.environ)
     os.environ.update(env)  # this process's own ROS context reads the same settings
     try:
         run_dir = Path(options.out) if options.out else new_run_directory(Path('runs'))
@@ -337,6 +336,6 @@ def main(command: Command, argv: Sequence[str] | None = None) -> int:
     except OSError as error:
         print(f'{command.name}: cannot write the run record: {error}', file=sys.stderr)
         return 2
-    print(settings.describe())
+    print(discovery)
     print(banner(config, started))
     return run_session(started, env)

@@ -14,16 +14,15 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from exodigit_nodes.logic.backlog import take_backlog
 from exodigit_nodes.logic.inputs import sent_seconds, stamp_seconds
 from exodigit_nodes.nodes.message_info import WithInfo
 from exodigit_nodes.nodes.messages import APPLIED_COMMAND, DIAGNOSTICS
 from exodigit_nodes.nodes.qos import RECORD_QOS, record_profile
 from exodigit_nodes.runner.summary import (
     COMMAND_SIGNALS,
+    ESTIMATE,
     JOINT_LABELS,
     SIGNALS,
-    STAMPED,
     VALVE_OPENINGS,
     GloveSignals,
     Sample,
@@ -83,26 +82,21 @@ class GloveMonitor(Node):
             if topic in COMMAND_SIGNALS:
                 continue
             if topic == 'joint_states':
-                message_type, callback = JointState, self._on_joint_state
-            elif topic in STAMPED:
-                message_type, callback = JointState, partial(self._on_estimate, topic)
+                message_type, callback = JointState, partial(self._on_state, topic, 'position')
+            elif topic == ESTIMATE:
+                message_type, callback = JointState, partial(self._on_state, topic, 'effort')
             else:
                 message_type, callback = Float64MultiArray, partial(self._on_array, topic)
             self.create_subscription(message_type, topic, WithInfo(callback), RECORD_QOS)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS, self._on_diagnostics, RECORD_QOS)
 
-    def drain(self, spin: Callable[[], None]) -> None:
-        """Take what our readers still hold once the nodes stopped (:func:`.take_backlog`).
-
-        ``spin`` is one pass of our executor.
-        """
-        take_backlog(spin, lambda: self.taken)
-
     def _on_array(self, topic: str, message: Float64MultiArray, info: dict) -> None:
         self._update(topic, message.data, info)
 
-    def _on_estimate(self, topic: str, message: JointState, info: dict) -> None:
-        self._update(topic, message.effort, info, stamp_seconds(message.header.stamp))
+    def _on_state(self, topic: str, field: str, message: JointState, info: dict) -> None:
+        """Angles (``position``) or an estimate (``effort``), with the state's stamp."""
+        stamp = stamp_seconds(message.header.stamp)
+        self._update(topic, getattr(message, field), info, stamp)
 
     def _on_applied_command(self, message: Float64MultiArray, info: dict) -> None:
         """Three pressures (a regulator's command) or six openings (valves: shown net)."""
@@ -110,9 +104,6 @@ class GloveMonitor(Node):
             self._update('valve_command', net_openings(message.data), info)
         else:
             self._update('pressure_command', message.data, info)
-
-    def _on_joint_state(self, message: JointState, info: dict) -> None:
-        self._update('joint_states', message.position, info, stamp_seconds(message.header.stamp))
 
     def _update(self, topic: str, values, info: dict, stamp: float | None = None) -> None:
         self.taken += 1

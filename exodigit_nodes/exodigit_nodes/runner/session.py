@@ -1,11 +1,7 @@
 """One runner loop for a glove or a hand: node processes, live summary, run records, clean stop.
 
-:func:`run_session` starts the processes of a :class:`Session`, watches every glove of it with a
-:class:`.monitor.GloveMonitor` (the summary on the terminal, one run record per glove) and, in
-simulated time, holds the plants to the session protocol (docs/spec/ros.md, "The session
-protocol", guarantees 3 and 6). It stops on Ctrl-C, SIGTERM, SIGHUP, a process that exits, or
-the end of the duration, in the session's stop order; then each record's last step is joined and
-its plot drawn. :mod:`.hand_runner` builds the :class:`Session` of a glove or a hand.
+:mod:`.hand_runner` builds the :class:`Session` of a glove or a hand, :func:`run_session` runs
+it: a :class:`.monitor.GloveMonitor` per glove feeds its summary and run record.
 """
 
 from __future__ import annotations
@@ -17,6 +13,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..logic.backlog import take_backlog
 from ..logic.lifetime import StopRequest
 from ..nodes.dds import use_profile
 from .run_record import RunRecord
@@ -104,17 +101,16 @@ def identification_references(nominal_files: list[str], plant_files: list[str] |
     """
     from exodigit_model import load_params
 
-    files = {'nominal': nominal_files}
-    if plant_files is not None:
-        files['patient'] = plant_files
-    joints = {label: load_params(paths).finger.joints for label, paths in files.items()}
+    files = {'nominal': nominal_files, 'patient': plant_files}
+    joints = {
+        label: load_params(paths).finger.joints
+        for label, paths in files.items()
+        if paths is not None
+    }
+    fields = {'estimated_finger_stiffness': 'stiffness', 'estimated_rest_angle': 'rest_angle'}
     return {
-        'estimated_finger_stiffness': {
-            label: [j.stiffness for j in rows] for label, rows in joints.items()
-        },
-        'estimated_rest_angle': {
-            label: [j.rest_angle for j in rows] for label, rows in joints.items()
-        },
+        topic: {label: [getattr(j, field) for j in rows] for label, rows in joints.items()}
+        for topic, field in fields.items()
     }
 
 
@@ -164,8 +160,7 @@ def run_session(session: Session, env: dict) -> int:
         )
         display.message(f'stopping ({reason}): {", ".join(supervisor.running())}')
         stops = supervisor.stop(session.stop_order, idle=spin)
-        for monitor in monitors:
-            monitor.drain(spin)
+        take_backlog(spin, lambda: sum(monitor.taken for monitor in monitors))
         for glove, glove_signals in zip(session.gloves, signals, strict=True):
             for sample in glove_signals.flush():  # the nodes are gone: the last step is complete
                 glove.record.write(sample)
@@ -182,12 +177,10 @@ def run_session(session: Session, env: dict) -> int:
 
 
 def _watch(session: Session, stop, supervisor, monitors, signals, spin, display, titled) -> list:
-    """Show the gloves until the session ends; in simulated time, hold the plants meanwhile.
+    """Show the gloves until a stop request, a process that exited (returned) or the duration.
 
-    The plants, started paused, resume once every node of every glove has answered the
-    summary's handshake and every listener is ready, and run at most `.horizon.LEAD_STEPS`
-    past the newest step every record has whole. Ends on a stop request, a process that exited
-    (returned) or the end of the session's duration (wall or simulated seconds).
+    In simulated time, hold the plants meanwhile to docs/spec/ros.md, "The session protocol",
+    guarantees 3 and 6 (:class:`.horizon.Horizon`).
     """
     from std_srvs.srv import SetBool
 
@@ -256,7 +249,7 @@ def _report(session: Session, supervisor: Supervisor, signals, failures, stops) 
     bad = failures + [s for s in unclean if s not in starting]
     for exit_ in bad:
         print(f'{session.program}: {exit_.describe()}', file=sys.stderr)
-        log = supervisor.log_path(exit_.name)
+        log = supervisor.children[exit_.name].log_path
         lines = log.read_text(errors='replace').splitlines() if log and log.is_file() else []
         for line in lines[-LOG_TAIL_LINES:]:
             print(f'  {exit_.name}| {line}', file=sys.stderr)

@@ -7,7 +7,6 @@ SI inside; kPa, degrees and the unit labels appear only in the text this module 
 import math
 from collections import deque
 from dataclasses import dataclass
-from enum import IntEnum
 from typing import TextIO
 
 import numpy as np
@@ -71,12 +70,14 @@ VALVE_OPENINGS = 6
 STEP_ORDER = ('chamber_pressure', 'joint_states', 'contact_forces')
 #: The topics of a step of the ``hardware`` bridge (a board has no contact forces).
 BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
-#: Signals stamped with the stamp of the state they estimate: a `Sample` takes its own step's.
-STAMPED = ('estimated_contact_forces',)
+#: The signal stamped with the stamp of the state it estimates: a `Sample` takes its own step's.
+ESTIMATE = 'estimated_contact_forces'
 #: Most joined steps held back for their estimates or command.
 ESTIMATE_WAIT = 500
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
+#: diagnostic_msgs/DiagnosticStatus level names, by level.
+LEVELS = ('OK', 'WARN', 'ERROR', 'STALE')
 
 
 def net_openings(openings) -> np.ndarray | None:
@@ -85,15 +86,6 @@ def net_openings(openings) -> np.ndarray | None:
     if values.shape != (VALVE_OPENINGS,):
         return None
     return values[:3] - values[3:]
-
-
-class Level(IntEnum):
-    """diagnostic_msgs/DiagnosticStatus levels."""
-
-    OK = 0
-    WARN = 1
-    ERROR = 2
-    STALE = 3
 
 
 @dataclass(frozen=True)
@@ -114,9 +106,9 @@ class Sample:
 
 @dataclass(frozen=True)
 class Health:
-    """Latest diagnostic of one node: worst level over its statuses, their messages, when."""
+    """Latest diagnostic of one node: worst level (its name) over its statuses, message, when."""
 
-    level: Level
+    level: str
     message: str
     received: float
 
@@ -128,7 +120,7 @@ class GloveSignals:
     by when they were sent (DDS source timestamps), with the rule of
     `exodigit_model.stepping.joining`: it never mixes two steps, and a step that lost a message
     is skipped. A step is joined once the next step's pressure has arrived (or at `flush`). It
-    takes the estimate of `STAMPED` stamped with its angles' stamp (None if the estimator left
+    takes the estimate of `ESTIMATE` stamped with its angles' stamp (None if the estimator left
     the step out), the command in force when its pressure was sent (:meth:`_command_at`) and the
     identified spring's latest value. A step waits for its estimate and command at most
     `ESTIMATE_WAIT` steps.
@@ -174,12 +166,10 @@ class GloveSignals:
         self._first_stamp: float | None = None
         self._streams = tuple(streams)
         self._joiner = Joiner(self._streams, confirm=True)
-        self._stamped: dict[str, dict[float, np.ndarray]] = {signal: {} for signal in STAMPED}
-        """Per `STAMPED` signal, the values received for steps not yet handed on, by stamp."""
-        self._newest: dict[str, float | None] = dict.fromkeys(
-            STAMPED, -math.inf if estimated else None
-        )
-        """Per `STAMPED` signal, the newest stamp received (None: steps need not wait)."""
+        self._estimates: dict[float, np.ndarray] = {}
+        """The estimates received for steps not yet handed on, by stamp."""
+        self._newest_estimate: float | None = -math.inf if estimated else None
+        """The newest estimate's stamp (None: steps need not wait for theirs)."""
         self._held: deque[tuple[float, float, Sample]] = deque()
         """Joined steps waiting for their estimates or command: (stamp, sent, sample)."""
         self._commanded = commanded
@@ -201,7 +191,7 @@ class GloveSignals:
         published : float
             When the message was sent (DDS source timestamp), s; joins plant steps.
         stamp : float, optional
-            Header stamp in seconds (``joint_states``: the sample's time; a `STAMPED` signal:
+            Header stamp in seconds (``joint_states``: the sample's time; `ESTIMATE`:
             the stamp of the state it belongs to).
 
         Returns
@@ -213,10 +203,10 @@ class GloveSignals:
             raise ValueError(f'unknown signal {signal!r}; expected one of {", ".join(SIGNALS)}')
         values = np.array(values, dtype=float)
         self.latest[signal] = values
-        if signal in STAMPED and stamp is not None:
-            self._stamped[signal][stamp] = values
-            newest = self._newest[signal]
-            self._newest[signal] = stamp if newest is None else max(stamp, newest)
+        if signal == ESTIMATE and stamp is not None:
+            self._estimates[stamp] = values
+            newest = self._newest_estimate
+            self._newest_estimate = stamp if newest is None else max(stamp, newest)
             return self._release()
         if signal in COMMAND_SIGNALS:
             self._commands.append((published, signal, values))
@@ -256,17 +246,14 @@ class GloveSignals:
             stamp, sent, sample = self._held[0]
             known = self._command_at(sent, sample)
             hold = not every and len(self._held) <= ESTIMATE_WAIT
-            waiting = any(
-                newest is not None and newest < stamp and stamp not in self._stamped[signal]
-                for signal, newest in self._newest.items()
-            )
+            newest = self._newest_estimate
+            waiting = newest is not None and newest < stamp and stamp not in self._estimates
             if hold and (waiting or (self._commanded and not known)):
                 break
             self._held.popleft()
-            for signal, by_stamp in self._stamped.items():
-                sample.values[signal] = by_stamp.pop(stamp, None)
-                for older in [s for s in by_stamp if s < stamp]:  # of steps never joined
-                    del by_stamp[older]
+            sample.values[ESTIMATE] = self._estimates.pop(stamp, None)
+            for older in [s for s in self._estimates if s < stamp]:  # of steps never joined
+                del self._estimates[older]
             samples.append(sample)
         return samples
 
@@ -284,7 +271,7 @@ class GloveSignals:
     def update_health(self, node: str, level: int, message: str, now: float) -> None:
         """Record a diagnostic status of ``node`` received at ``now`` (monotonic seconds)."""
         if node in self.health:
-            self.health[node] = Health(Level(min(int(level), Level.STALE)), message, now)
+            self.health[node] = Health(LEVELS[min(int(level), len(LEVELS) - 1)], message, now)
 
     def health_text(self, now: float) -> list[str]:
         """``name LEVEL (message)`` per node; silent nodes say how long they have been."""
@@ -294,31 +281,36 @@ class GloveSignals:
                 texts.append(f'{node} (no diagnostics yet)')
             elif now - health.received > HEALTH_TIMEOUT:
                 texts.append(f'{node} SILENT for {now - health.received:.0f} s')
-            elif health.level == Level.OK:
+            elif health.level == 'OK':
                 texts.append(f'{node} OK')
             else:
-                texts.append(f'{node} {health.level.name} ({health.message})')
+                texts.append(f'{node} {health.level} ({health.message})')
         return texts
 
     def table(self, now: float, title: str) -> str:
         """The multi-line summary for a terminal: one row per signal, one column per joint."""
-        clock = '-' if self.time is None else f'{self.time:7.2f} s'
-        lines = [f'{title}   t = {clock}', f'{"":10}' + ''.join(f'{j:>9}' for j in JOINT_LABELS)]
+        rows = [('', ' '.join(f'{joint:>9}' for joint in JOINT_LABELS), '')]
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal, width=9)
-            lines.append(f'{signal.label:<10}{cells}  {signal.unit}')
+            rows.append((signal.label, _cells(self.latest[topic], signal, 9), signal.unit))
             for label, values in self.references.get(topic, {}).items():
                 row = f'{signal.label.split()[0]} {label}'
-                lines.append(f'{row:<10}{_cells(values, signal, width=9)}  {signal.unit}')
-        lines.append('nodes: ' + ', '.join(self.health_text(now)))
-        return '\n'.join(lines)
+                rows.append((row, _cells(values, signal, 9), signal.unit))
+        width = max(len(label) for label, _, _ in rows)
+        clock = '-' if self.time is None else f'{self.time:7.2f} s'
+        return '\n'.join(
+            [
+                f'{title}   t = {clock}',
+                *(f'{label:<{width}} {cells}  {unit}'.rstrip() for label, cells, unit in rows),
+                'nodes: ' + ', '.join(self.health_text(now)),
+            ]
+        )
 
     def line(self, now: float) -> str:
         """The one-line summary for logs: ``t=… command_kPa=[…] angle_deg=[…] … nodes: …``."""
         clock = '-' if self.time is None else f'{self.time:.2f}s'
         parts = [f't={clock}']
         for topic, signal in SIGNALS.items():
-            cells = _cells(self.latest[topic], signal, width=0)
+            cells = _cells(self.latest[topic], signal, 0)
             parts.append(f'{signal.column}_{signal.unit_tag}=[{cells}]')
         return ' '.join(parts) + ' nodes: ' + '; '.join(self.health_text(now))
 

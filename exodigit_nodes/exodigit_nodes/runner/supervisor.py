@@ -147,13 +147,9 @@ class Child:
         """Its process id, also its process group's."""
         self._exit: Exit | None = None
 
-    def poll(self) -> int | None:
-        """Its exit code, or None while it runs."""
-        return self.popen.poll()
-
     def alive(self) -> bool:
         """Whether it is still running."""
-        return self.poll() is None
+        return self.popen.poll() is None
 
     def signal(self, signum: int) -> None:
         """Send ``signum`` to its process group (nothing once it has been reaped)."""
@@ -170,7 +166,7 @@ class Child:
 
     def exit(self) -> Exit | None:
         """How it ended (None while it runs)."""
-        if self._exit is None and self.poll() is not None:
+        if self._exit is None and not self.alive():
             self._exit = Exit(self.name, self.popen.returncode)
         return self._exit
 
@@ -184,16 +180,16 @@ class Child:
             return self._exit
         forced = False
         for signum in ESCALATION:
-            if self.poll() is not None:
+            if not self.alive():
                 break
             forced = signum != signal.SIGINT
             self.signal(signum)
-            if idle is None:
-                self.wait(grace)
-                continue
             deadline = time.monotonic() + grace
-            while self.poll() is None and time.monotonic() < deadline:
-                idle()
+            while self.alive() and (left := deadline - time.monotonic()) > 0:
+                if idle is None:
+                    self.wait(left)
+                else:
+                    idle()
         self.popen.wait()
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.pid, signal.SIGKILL)
@@ -217,41 +213,32 @@ class Supervisor:
     log_dir : pathlib.Path or None
         When given, each child's stdout and stderr go to ``log_dir/<name>.log`` instead of the
         terminal (so a live display is not interleaved with node logs).
+
+    Attributes
+    ----------
+    children : dict of str to Child
+        The processes started, by name, in start order.
     """
 
     def __init__(self, env: Mapping[str, str], log_dir: Path | None = None) -> None:
         self._env = dict(env)
         self._log_dir = log_dir
-        self._children: dict[str, Child] = {}
+        self.children: dict[str, Child] = {}
 
     def start(self, name: str, argv: Sequence[str], *, defer_sigint: bool = False) -> None:
         """Start ``argv`` as process ``name`` in a new session (``defer_sigint``: see Child)."""
-        if name in self._children:
+        if name in self.children:
             raise ValueError(f'a process named {name!r} was already started')
-        self._children[name] = Child(
-            name, argv, self._env, log=self.log_path(name), defer_sigint=defer_sigint
-        )
-
-    def log_path(self, name: str) -> Path | None:
-        """Where the output of process ``name`` goes (None: the terminal)."""
-        return None if self._log_dir is None else self._log_dir / f'{name}.log'
-
-    def pid(self, name: str) -> int:
-        """Process id of ``name`` (also its process group id)."""
-        return self._children[name].pid
-
-    @property
-    def names(self) -> list[str]:
-        """Names of all started processes, in start order."""
-        return list(self._children)
+        log = None if self._log_dir is None else self._log_dir / f'{name}.log'
+        self.children[name] = Child(name, argv, self._env, log, defer_sigint=defer_sigint)
 
     def exited(self) -> list[Exit]:
         """Processes that have ended since they were started (without being asked to stop)."""
-        return [exit_ for child in self._children.values() if (exit_ := child.exit())]
+        return [exit_ for child in self.children.values() if (exit_ := child.exit())]
 
     def running(self) -> list[str]:
         """Names of the processes still alive."""
-        return [name for name, child in self._children.items() if child.alive()]
+        return [name for name, child in self.children.items() if child.alive()]
 
     def stop(
         self,
@@ -266,5 +253,6 @@ class Supervisor:
         list of Exit
             One per process, in stop order.
         """
-        names = list(order) + [name for name in self._children if name not in order]
-        return [self._children[name].stop(grace, idle) for name in names if name in self._children]
+        names = [name for name in order if name in self.children]
+        names += [name for name in self.children if name not in names]
+        return [self.children[name].stop(grace, idle) for name in names]
