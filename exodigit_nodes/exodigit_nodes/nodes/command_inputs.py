@@ -9,7 +9,6 @@ docs/spec/ros.md, "Simulated time, faster than real time, lockstep" and "Valves"
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,15 +32,13 @@ from .messages import CHAMBER_PRESSURE, ESTIMATED_CONTACT_FORCES, JOINT_STATES
 from .qos import READER_QOS
 
 if TYPE_CHECKING:
-    from .node_base import GloveNode
+    from .pressure_command import PressureCommand
 
 MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
 ESTIMATOR_POLL = 0.05
 """Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
 
-Answer = Callable[[int, np.ndarray, np.ndarray | None, np.ndarray | None], None]
-"""answer(stamp (ns), angles (rad), forces (N) or None, chamber pressures (Pa) or None)."""
 Sample = tuple[float, np.ndarray]
 """A value and when it arrived (node clock, s)."""
 
@@ -51,17 +48,15 @@ class CommandInputs:
 
     Parameters
     ----------
-    node : GloveNode
-        Makes the subscriptions, logs, counts rejected messages; its parameter values
-        (``mode``, ``output``, ``lockstep``, ``feedback_timeout``) are read when needed.
-    answer : callable
-        In lockstep, called once per complete state (:data:`Answer`).
+    node : PressureCommand
+        Makes the subscriptions, logs, counts rejected messages, and in lockstep answers each
+        complete state (:meth:`.PressureCommand.answer`); its ``lockstep``, ``valves`` and
+        parameter values (``mode``, ``feedback_timeout``) are read when needed.
     """
 
-    def __init__(self, node: GloveNode, answer: Answer) -> None:
-        self.node, self.answer = node, answer
-        self.lockstep = node.values['lockstep']
-        self.valves = node.values['output'] == 'valves'
+    def __init__(self, node: PressureCommand) -> None:
+        self.node = node
+        self.lockstep, self.valves = node.lockstep, node.valves
         self.angles: Sample | None = None
         self.forces: Sample | None = None
         self.pressure: Sample | None = None
@@ -179,7 +174,7 @@ class CommandInputs:
             self.complete()
 
     def complete(self) -> None:
-        """Lockstep: hand the pending state to :attr:`answer` once it is complete."""
+        """Lockstep: hand the pending state to the node to answer once it is complete."""
         state, forces = self.pending['angles'], self.pending['forces']
         if self.node.values['mode'] == 'force':
             if state is not None and forces is not None and forces[0] < state[0]:
@@ -190,4 +185,4 @@ class CommandInputs:
             return
         pressure = self.pending['pressure']
         self.pending = {'angles': None, 'forces': None, 'pressure': None}
-        self.answer(*state, None if forces is None else forces[1], pressure)
+        self.node.answer(*state, None if forces is None else forces[1], pressure)

@@ -102,7 +102,7 @@ class PressureCommand(GloveNode):
         self.lockstep = self.values['lockstep']
         self.last_tick: int | None = None
         # Subscriptions before the publisher: the plant then sees our joint_states reader first.
-        self.inputs = CommandInputs(self, self.answer)
+        self.inputs = CommandInputs(self)
         self.start_over(self.get_clock().now().nanoseconds)
         if not self.lockstep:  # in lockstep the stamps are the time (answer)
             self.time_jumps = self.get_clock().create_jump_callback(
