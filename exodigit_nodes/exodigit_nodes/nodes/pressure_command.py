@@ -1,14 +1,11 @@
 """``pressure_command``: the glove's reference controller and command source.
 
-Runs a mode's controller (:func:`exodigit_model.control.mode_controller`) behind the
-:class:`~exodigit_model.control.SafetyLimiter`; with ``output:=valves`` the limited pressures are
-the targets of a :class:`~exodigit_model.control.ValveLoop` on ``chamber_pressure`` and it
-publishes ``valve_command``. It commands at ``rate_hz``, or with ``lockstep`` answers each
-``joint_states``. A session's time (what ``staircase`` and ``sine`` follow) starts with the node,
-in lockstep at the first state it answers; when time goes back the node starts over, keeping its
-parameters and targets. On exit it sends zero pressure (a vent). docs/spec/ros.md: "Nodes and
-topics", "Safety behaviour", "Simulated time, faster than real time, lockstep", "When time goes
-back", "Valves", "Trajectories".
+A mode's controller (:func:`exodigit_model.control.mode_controller`) behind the
+:class:`~exodigit_model.control.SafetyLimiter` publishes ``pressure_command``, or with
+``output:=valves`` the ``valve_command`` of a :class:`~exodigit_model.control.ValveLoop` on
+``chamber_pressure``; on a timer or, with ``lockstep``, one command per ``joint_states``.
+docs/spec/ros.md: "Nodes and topics", "Safety behaviour", "Simulated time, faster than real time,
+lockstep", "When time goes back", "Valves", "Trajectories".
 
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
