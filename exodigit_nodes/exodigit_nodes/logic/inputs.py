@@ -185,14 +185,17 @@ def sent_seconds(info: dict) -> float:
     return info['source_timestamp'] * 1e-9
 
 
-def stamp_age(stamp: float, now: float, max_age: float, what: str) -> None:
-    """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
+def stamp_age(
+    stamp: float, now: float, max_age: float, what: str, key: str = 'max_sample_age'
+) -> None:
+    """Refuse a stamp farther than ``max_age`` s (the parameter ``key``) from ``now``.
+
+    Zero, stale and future stamps alike.
+    """
     age = now - stamp
     if not math.isfinite(age) or abs(age) > max_age:
         when = f'{age:.3g} s ago' if age > 0 else f'{-age:.3g} s in the future'
-        raise InvalidInputError(
-            'stale', f'{what} stamped {when}, beyond max_sample_age {max_age:g} s'
-        )
+        raise InvalidInputError('stale', f'{what} stamped {when}, beyond {key} {max_age:g} s')
 
 
 class RejectionTally:

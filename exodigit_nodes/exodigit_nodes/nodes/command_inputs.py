@@ -131,7 +131,7 @@ class CommandInputs:
             angles = joint_positions(message)
             if not self.node.lockstep:
                 now, timeout = self.node.now_seconds(), self.node.values['feedback_timeout']
-                stamp_age(stamp / NANOSECONDS, now, timeout, JOINT_STATES)
+                stamp_age(stamp / NANOSECONDS, now, timeout, JOINT_STATES, 'feedback_timeout')
         except InvalidInputError as error:
             self.node.reject(JOINT_STATES, error)
             angles = None
