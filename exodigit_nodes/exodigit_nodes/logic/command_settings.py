@@ -19,6 +19,8 @@ LIMIT_NAMES = frozenset({*LIMIT_PARAMETERS, 'feedback_timeout'})
 """The parameters that change limits only: a new value keeps the controller and its session."""
 VALVE_NAMES = frozenset(LOOP_PARAMETERS)
 """The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
+ORDERED = (('sine_low', 'sine_high'), ('staircase_step', 'staircase_peak'))
+"""Pairs of pressures (Pa) whose first may not exceed the second."""
 
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
@@ -34,16 +36,11 @@ def command_settings(values: dict[str, Any]) -> tuple[SafetyLimits, ValveLoopSet
     ValueError
         Naming the parameters whose values do not go together.
     """
-    if values['sine_low'] > values['sine_high']:
-        raise ValueError(
-            f'sine_low ({values["sine_low"]:g} Pa) must not exceed sine_high '
-            f'({values["sine_high"]:g} Pa)'
-        )
-    if values['staircase_peak'] < values['staircase_step']:
-        raise ValueError(
-            f'staircase_peak ({values["staircase_peak"]:g} Pa) must be at least '
-            f'staircase_step ({values["staircase_step"]:g} Pa)'
-        )
+    for low, high in ORDERED:
+        if values[low] > values[high]:
+            raise ValueError(
+                f'{low} ({values[low]:g} Pa) must not exceed {high} ({values[high]:g} Pa)'
+            )
     limits = safety_limits(values)
     targets = np.array(values['joint_targets'])
     if ((targets < limits.joint_lower) | (targets > limits.joint_upper)).any():
