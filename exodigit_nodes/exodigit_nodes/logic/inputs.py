@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from exodigit_model.control import Trajectory, TrajectoryError
 from exodigit_model.stepping.settings import NANOSECONDS
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from exodigit_model import JOINT_NAMES
 
@@ -37,7 +37,7 @@ MAX_ANGLE = math.pi
 
 
 def _finite_values(
-    data: Sequence[float], what: str, names: str, low, high, outside: str
+    data: Sequence[float], what: str, names: str, low: ArrayLike, high: ArrayLike, outside: str
 ) -> NDArray[np.float64]:
     """``data`` as finite values in [``low``, ``high``], one per name of ``names`` (a, b, c).
 
