@@ -181,7 +181,9 @@ class PressureCommand(GloveNode):
 
     # -- targets ---------------------------------------------------------------------------
 
-    def on_targets(self, topic: str, parse: Callable, message) -> None:
+    def on_targets(
+        self, topic: str, parse: Callable, message: Float64MultiArray | JointTrajectory
+    ) -> None:
         """New position targets (rad) from a ``joint_targets`` or ``joint_trajectory``.
 
         ``parse(message, lower, upper)`` gives the trajectory and its start (ns; None: now).
