@@ -101,6 +101,7 @@ def test_each_node_refuses_a_bad_params_file_naming_it(probe, bad_files, node, l
         ('plant', {'command_timeout': 'soon'}, 'command_timeout'),  # rclpy's type check
         ('plant', {'lockstep': 'true'}, 'lockstep needs clock sim'),  # a rule
         ('pressure_command', {'sine_low': '30000.0', 'sine_high': '10000.0'}, 'sine_low'),
+        ('pressure_command', {'staircase_step': '60000.0'}, 'must not exceed staircase_peak'),
         ('estimator', {'identification_window': '1'}, 'identification_window'),  # a bound
     ],
 )

@@ -109,6 +109,8 @@ def test_stale_future_zero_and_negative_stamps_are_rejected():
     for stamp in (0.0, 99.0, 100.5, negative):
         with pytest.raises(InvalidInputError, match='max_sample_age'):
             stamp_age(stamp, 100.0, 0.1, 'joint_states')
+    with pytest.raises(InvalidInputError, match=r'beyond feedback_timeout 0\.1 s'):
+        stamp_age(99.0, 100.0, 0.1, 'joint_states', 'feedback_timeout')
 
 
 def test_rejection_tally_counts_per_topic_and_reason():

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from exodigit_model.control import BuiltInMode, SafetyLimits, Sine
+from exodigit_model.control import LIMIT_PARAMETERS, BuiltInMode, SafetyLimits, Sine
 from exodigit_model.trials import (
     METRICS,
     ControllerSpec,
@@ -31,7 +31,7 @@ from exodigit_model.trials import (
 )
 from exodigit_model.trials import spec as spec_module
 from exodigit_model.trials import trial as trial_module
-from exodigit_model.trials.controllers import COMMON_PARAMETERS, LIMIT_NAMES, MODE_PARAMETERS
+from exodigit_model.trials.controllers import COMMON_PARAMETERS, MODE_PARAMETERS
 from exodigit_nodes.nodes.catalog import PRESSURE_COMMAND_NODE
 
 from exodigit_model import GloveModel, GloveSimulation, SimulationSettings, load_params
@@ -234,7 +234,7 @@ def test_mode_parameters_are_the_nodes():
         for name, (default, _) in parameters.items():
             if name != 'estimate_forces':
                 assert defaults[name] == default, name
-    assert set(LIMIT_NAMES) <= set(defaults)
+    assert set(LIMIT_PARAMETERS) <= set(defaults)
 
 
 @pytest.mark.parametrize(

@@ -29,12 +29,13 @@ from .controllers import (
     Staircase,
     mode_controller,
 )
-from .safety import LIMIT_KINDS, Limited, SafetyLimiter, SafetyLimits
+from .safety import LIMIT_KINDS, LIMIT_PARAMETERS, Limited, SafetyLimiter, SafetyLimits
 from .trajectory import Setpoint, Trajectory, TrajectoryError
 from .valve_loop import LOOP_PARAMETERS, OUTPUTS, ValveLoop, ValveLoopSettings
 
 __all__ = [
     'LIMIT_KINDS',
+    'LIMIT_PARAMETERS',
     'LOOP_PARAMETERS',
     'MODES',
     'MODE_DEFAULTS',

@@ -69,6 +69,17 @@ class SafetyLimits:
                 )
 
 
+LIMIT_PARAMETERS = {
+    'max_pressure': 'max_pressure',
+    'max_pressure_rate': 'max_pressure_rate',
+    'joint_lower_limits': 'joint_lower',
+    'joint_upper_limits': 'joint_upper',
+    'max_contact_force': 'max_contact_force',
+}
+"""The ``pressure_command`` node's safety parameters and the :class:`SafetyLimits` fields they
+set (a trial's built-in modes take the same names)."""
+
+
 @dataclass(frozen=True)
 class Limited:
     """A limited command and why it differs from what was asked.

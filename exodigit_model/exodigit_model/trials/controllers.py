@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ..checks import check_flag, check_non_negative, check_number, check_positive
 from ..control import (
+    LIMIT_PARAMETERS,
     LOOP_PARAMETERS,
     MODE_DEFAULTS,
     BatchController,
@@ -93,15 +94,6 @@ MODE_PARAMETERS: Mapping[str, Mapping[str, tuple[Any, Check]]] = {
 """Per built-in mode, its parameters: (default, check). Names, units (SI) and defaults are the
 ``pressure_command`` node's: both read :data:`exodigit_model.control.MODE_DEFAULTS`."""
 
-LIMIT_NAMES = {
-    'max_pressure': 'max_pressure',
-    'max_pressure_rate': 'max_pressure_rate',
-    'joint_lower_limits': 'joint_lower',
-    'joint_upper_limits': 'joint_upper',
-    'max_contact_force': 'max_contact_force',
-}
-"""The node's safety parameters and the :class:`SafetyLimits` fields they set."""
-
 _LIMITS = SafetyLimits()
 
 VALVE_PARAMETERS = LOOP_PARAMETERS
@@ -114,7 +106,7 @@ _VALVE_LOOP = ValveLoopSettings()
 COMMON_PARAMETERS: Mapping[str, tuple[Any, Check]] = {
     **{
         name: (getattr(_LIMITS, field_name), _vector if name.startswith('joint') else check_number)
-        for name, field_name in LIMIT_NAMES.items()
+        for name, field_name in LIMIT_PARAMETERS.items()
     },
     'estimate_forces': (False, check_flag),
 }
@@ -176,7 +168,7 @@ def mode_settings(mode: str, parameters: Mapping[str, Any]) -> ModeSettings:
         name: check(name, parameters[name]) if name in parameters else default
         for name, (default, check) in known.items()
     }
-    limits = SafetyLimits(**{field: values[name] for name, field in LIMIT_NAMES.items()})
+    limits = SafetyLimits(**{field: values[name] for name, field in LIMIT_PARAMETERS.items()})
     loop = ValveLoopSettings(**{name: values[name] for name in VALVE_PARAMETERS})
     return ModeSettings(mode, values, limits, values['estimate_forces'] or mode == 'force', loop)
 

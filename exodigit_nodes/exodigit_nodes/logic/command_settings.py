@@ -5,59 +5,42 @@ The controller of its ``mode`` is :func:`exodigit_model.control.mode_controller`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from exodigit_model.control import LOOP_PARAMETERS, SafetyLimits, ValveLoopSettings
-
-LIMIT_NAMES = frozenset(
-    {
-        'max_pressure',
-        'max_pressure_rate',
-        'joint_lower_limits',
-        'joint_upper_limits',
-        'max_contact_force',
-        'feedback_timeout',
-    }
+from exodigit_model.control import (
+    LIMIT_PARAMETERS,
+    LOOP_PARAMETERS,
+    SafetyLimits,
+    ValveLoopSettings,
 )
+
+LIMIT_NAMES = frozenset({*LIMIT_PARAMETERS, 'feedback_timeout'})
 """The parameters that change limits only: a new value keeps the controller and its session."""
 VALVE_NAMES = frozenset(LOOP_PARAMETERS)
 """The valve loop's parameters (:class:`exodigit_model.control.ValveLoopSettings`' fields)."""
+ORDERED = (('sine_low', 'sine_high'), ('staircase_step', 'staircase_peak'))
+"""Pairs of pressures (Pa) whose first may not exceed the second."""
 
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
     """The safety limits of a set of pressure_command parameter values."""
-    return SafetyLimits(
-        max_pressure=values['max_pressure'],
-        max_pressure_rate=values['max_pressure_rate'],
-        joint_lower=values['joint_lower_limits'],
-        joint_upper=values['joint_upper_limits'],
-        max_contact_force=values['max_contact_force'],
-    )
+    return SafetyLimits(**{field: values[name] for name, field in LIMIT_PARAMETERS.items()})
 
 
-@dataclass(frozen=True)
-class CommandSettings:
-    """The command node's settings: its parameter values, the safety limits and valve loop."""
+def command_settings(values: dict[str, Any]) -> tuple[SafetyLimits, ValveLoopSettings]:
+    """Check the parameters together: the safety limits and the valve loop's settings.
 
-    values: dict[str, Any]
-    limits: SafetyLimits
-    valve_loop: ValveLoopSettings
-
-
-def command_settings(values: dict[str, Any]) -> CommandSettings:
-    """Check the parameters together (ValueError naming the parameter)."""
-    if values['sine_low'] > values['sine_high']:
-        raise ValueError(
-            f'sine_low ({values["sine_low"]:g} Pa) must not exceed sine_high '
-            f'({values["sine_high"]:g} Pa)'
-        )
-    if values['staircase_peak'] < values['staircase_step']:
-        raise ValueError(
-            f'staircase_peak ({values["staircase_peak"]:g} Pa) must be at least '
-            f'staircase_step ({values["staircase_step"]:g} Pa)'
-        )
+    Raises
+    ------
+    ValueError
+        Naming the parameters whose values do not go together.
+    """
+    for low, high in ORDERED:
+        if values[low] > values[high]:
+            raise ValueError(
+                f'{low} ({values[low]:g} Pa) must not exceed {high} ({values[high]:g} Pa)'
+            )
     limits = safety_limits(values)
     targets = np.array(values['joint_targets'])
     if ((targets < limits.joint_lower) | (targets > limits.joint_upper)).any():
@@ -65,5 +48,4 @@ def command_settings(values: dict[str, Any]) -> CommandSettings:
             f'joint_targets {list(values["joint_targets"])} rad must lie inside '
             'joint_lower_limits .. joint_upper_limits'
         )
-    valve_loop = ValveLoopSettings(**{name: values[name] for name in VALVE_NAMES})
-    return CommandSettings(values, limits, valve_loop)
+    return limits, ValveLoopSettings(**{name: values[name] for name in VALVE_NAMES})

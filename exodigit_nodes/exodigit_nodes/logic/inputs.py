@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from exodigit_model.control import Trajectory, TrajectoryError
 from exodigit_model.stepping.settings import NANOSECONDS
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from exodigit_model import JOINT_NAMES
 
@@ -36,8 +36,14 @@ MAX_ANGLE = math.pi
 """Largest |joint angle| a measurement may report, rad; beyond it the message is not physical."""
 
 
-def _finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.float64]:
-    """``data`` as an array of finite values, one per name of ``names`` (comma-separated)."""
+def _finite_values(
+    data: Sequence[float], what: str, names: str, low: ArrayLike, high: ArrayLike, outside: str
+) -> NDArray[np.float64]:
+    """``data`` as finite values in [``low``, ``high``], one per name of ``names`` (a, b, c).
+
+    ``what`` names the topic and ``outside`` the range broken, for the reason; the ends may be
+    arrays (one per value).
+    """
     size = len(names.split(','))
     if len(data) != size:
         raise InvalidInputError(
@@ -48,47 +54,22 @@ def _finite_values(data: Sequence[float], what: str, names: str) -> NDArray[np.f
         raise InvalidInputError(
             'non-finite', f'{what} holds a non-finite value: {values.tolist()}'
         )
+    if ((values < low) | (values > high)).any():
+        raise InvalidInputError('out of range', f'{what} {outside}: {values.tolist()}')
     return values
 
 
 def joint_vector(data: Sequence[float], what: str, bound: float = math.inf) -> NDArray[np.float64]:
-    """Three finite values (MCP, PIP, DIP) as an array, or :class:`InvalidInputError`.
-
-    Parameters
-    ----------
-    data : sequence of float
-        The ``data`` field of a Float64MultiArray.
-    what : str
-        Name of the topic, for the reason.
-    bound : float
-        Largest magnitude accepted (in the topic's unit).
-    """
-    values = _finite_values(data, what, JOINTS)
-    if np.abs(values).max() > bound:
-        raise InvalidInputError(
-            'out of range', f'{what} value beyond ±{bound:g}: {values.tolist()}'
-        )
-    return values
+    """Three finite values (MCP, PIP, DIP) of topic ``what``, none beyond ±``bound`` (its unit)."""
+    return _finite_values(data, what, JOINTS, -bound, bound, f'value beyond ±{bound:g}')
 
 
 def valve_openings(data: Sequence[float], what: str) -> NDArray[np.float64]:
-    """Six finite openings in [0, 1] (:data:`OPENINGS`), or :class:`InvalidInputError`.
+    """Six finite openings in [0, 1] (:data:`OPENINGS`) of topic ``what``.
 
     An opening outside [0, 1] is a controller's bug: refused, not clipped.
-
-    Parameters
-    ----------
-    data : sequence of float
-        The ``data`` field of a Float64MultiArray.
-    what : str
-        Name of the topic, for the reason.
     """
-    values = _finite_values(data, what, OPENINGS)
-    if ((values < 0.0) | (values > 1.0)).any():
-        raise InvalidInputError(
-            'out of range', f'{what} opening outside [0, 1]: {values.tolist()}'
-        )
-    return values
+    return _finite_values(data, what, OPENINGS, 0.0, 1.0, 'opening outside [0, 1]')
 
 
 def joint_order(names: Sequence[str], what: str = 'joint_states') -> tuple[int, int, int]:
@@ -119,35 +100,29 @@ def joint_positions(message) -> NDArray[np.float64]:
         Wrong names, mismatched lengths, non-finite or impossible (beyond ±π) positions.
     """
     order = joint_order(message.name)
-    position = message.position
-    if len(position) != 3:
-        raise InvalidInputError(
-            'lengths', f'joint_states has 3 names but {len(position)} positions'
-        )
-    for field, values in (('velocity', message.velocity), ('effort', message.effort)):
-        if len(values) not in (0, 3):
+    for field, values, sizes in (
+        ('positions', message.position, (3,)),
+        ('velocity values', message.velocity, (0, 3)),
+        ('effort values', message.effort, (0, 3)),
+    ):
+        if len(values) not in sizes:
             raise InvalidInputError(
-                'lengths', f'joint_states has 3 names but {len(values)} {field} values'
+                'lengths', f'joint_states has 3 names but {len(values)} {field}'
             )
-    return joint_vector([position[i] for i in order], 'joint_states position', MAX_ANGLE)
+    return joint_vector([message.position[i] for i in order], 'joint_states position', MAX_ANGLE)
 
 
-def joint_targets(data: Sequence[float], lower, upper) -> Trajectory:
-    """A ``joint_targets``' data (rad) as what it is: a one-point trajectory, inside the range.
+def joint_targets(message, lower, upper) -> tuple[Trajectory, None]:
+    """A ``joint_targets`` message (rad) as what it is: a one-point trajectory from now (None).
 
     Raises
     ------
     InvalidInputError
         Not three finite angles, or outside ``lower`` .. ``upper`` (rad).
     """
-    targets = joint_vector(data, 'joint_targets')
-    if ((targets < lower) | (targets > upper)).any():
-        raise InvalidInputError(
-            'out of range',
-            f'joint_targets {targets.tolist()} rad outside the range of motion {list(lower)} .. '
-            f'{list(upper)} rad',
-        )
-    return Trajectory.hold(targets)
+    rule = f'outside the range of motion {list(lower)} .. {list(upper)} rad'
+    targets = _finite_values(message.data, 'joint_targets', JOINTS, lower, upper, rule)
+    return Trajectory.hold(targets), None
 
 
 def joint_trajectory(message, lower, upper) -> tuple[Trajectory, int | None]:
@@ -210,14 +185,17 @@ def sent_seconds(info: dict) -> float:
     return info['source_timestamp'] * 1e-9
 
 
-def stamp_age(stamp: float, now: float, max_age: float, what: str) -> None:
-    """Refuse a stamp farther than ``max_age`` s from ``now`` (zero, stale or future stamps)."""
+def stamp_age(
+    stamp: float, now: float, max_age: float, what: str, key: str = 'max_sample_age'
+) -> None:
+    """Refuse a stamp farther than ``max_age`` s (the parameter ``key``) from ``now``.
+
+    Zero, stale and future stamps alike.
+    """
     age = now - stamp
     if not math.isfinite(age) or abs(age) > max_age:
         when = f'{age:.3g} s ago' if age > 0 else f'{-age:.3g} s in the future'
-        raise InvalidInputError(
-            'stale', f'{what} stamped {when}, beyond max_sample_age {max_age:g} s'
-        )
+        raise InvalidInputError('stale', f'{what} stamped {when}, beyond {key} {max_age:g} s')
 
 
 class RejectionTally:

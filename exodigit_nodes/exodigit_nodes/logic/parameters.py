@@ -18,6 +18,7 @@ from exodigit_model.checks import (
     check_integer,
     check_number,
     check_range,
+    range_words,
 )
 
 ParamValue = bool | int | float | str | tuple[float, ...] | tuple[str, ...]
@@ -102,12 +103,8 @@ class ParamSpec:
             allowed = f'{{{", ".join(self.choices)}}}'
         elif low is not None and high is not None:
             allowed = f'[{low:g} .. {high:g}]'
-        elif low is not None:
-            allowed = f'>= {low:g}'
-        elif high is not None:
-            allowed = f'<= {high:g}'
-        else:
-            allowed = ''
+        else:  # one end or none: the words of the check's message, '>= 0'
+            allowed = range_words(low, high).removeprefix('be ')
         given = self.required and not self.default  # no default: the user names it
         notes = (allowed, '(read-only)' * self.read_only, '(must be given)' * given)
         return ' '.join(filter(None, notes))

@@ -9,8 +9,7 @@ docs/spec/ros.md, "Simulated time, faster than real time, lockstep" and "Valves"
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from exodigit_model.stepping.joining import STEP_TOLERANCE
@@ -33,15 +32,13 @@ from .messages import CHAMBER_PRESSURE, ESTIMATED_CONTACT_FORCES, JOINT_STATES
 from .qos import READER_QOS
 
 if TYPE_CHECKING:
-    from .node_base import GloveNode
+    from .pressure_command import PressureCommand
 
 MAX_FORCE_READING = 1e3
 """Largest |estimated contact force| accepted as a measurement, N."""
 ESTIMATOR_POLL = 0.05
 """Lockstep force mode: wall seconds between two looks for the estimator's publisher."""
 
-Answer = Callable[[int, np.ndarray, np.ndarray | None, np.ndarray | None], None]
-"""answer(stamp (ns), angles (rad), forces (N) or None, chamber pressures (Pa) or None)."""
 Sample = tuple[float, np.ndarray]
 """A value and when it arrived (node clock, s)."""
 
@@ -51,25 +48,25 @@ class CommandInputs:
 
     Parameters
     ----------
-    node : GloveNode
-        Makes the subscriptions, logs, counts rejected messages; its parameter values
-        (``mode``, ``output``, ``lockstep``, ``feedback_timeout``) are read when needed.
-    answer : callable
-        In lockstep, called once per complete state (:data:`Answer`).
+    node : PressureCommand
+        Makes the subscriptions, logs, counts rejected messages, and in lockstep answers each
+        complete state (:meth:`.PressureCommand.answer`); its ``lockstep``, ``valves`` and
+        parameter values (``mode``, ``feedback_timeout``) are read when needed.
     """
 
-    def __init__(self, node: GloveNode, answer: Answer) -> None:
-        self.node, self.answer = node, answer
-        self.lockstep = node.values['lockstep']
-        self.valves = node.values['output'] == 'valves'
+    def __init__(self, node: PressureCommand) -> None:
+        self.node = node
         self.angles: Sample | None = None
         self.forces: Sample | None = None
         self.pressure: Sample | None = None
-        lockstep_valves = self.valves and self.lockstep
+        lockstep_valves = node.valves and node.lockstep
         self.pairer = SamplePairer(STEP_TOLERANCE, trust_first=True) if lockstep_valves else None
         """Lockstep valves: pairs each state with its step's pressure, the first heard too."""
-        self.pending: dict[str, Any] = {'angles': None, 'forces': None, 'pressure': None}
-        if self.valves:
+        # Lockstep: the state (stamp (ns), angles, chamber pressures) not answered yet, and in
+        # force mode the latest estimate (stamp, forces) not used yet.
+        self.waiting_state: tuple[int, np.ndarray, np.ndarray | None] | None = None
+        self.waiting_estimate: tuple[int, np.ndarray] | None = None
+        if node.valves:
             node.create_subscription(
                 Float64MultiArray, CHAMBER_PRESSURE, WithInfo(self.on_pressure), READER_QOS
             )
@@ -77,7 +74,7 @@ class CommandInputs:
             JointState, ESTIMATED_CONTACT_FORCES, self.on_forces, READER_QOS
         )
         self.estimator_timer = None
-        if self.lockstep and node.values['mode'] == 'force':
+        if node.lockstep and node.values['mode'] == 'force':
             # Read states (and so count as the plant's lockstep controller) only once the
             # estimator is matched, or the first state's estimate could come before we hear it.
             self.estimator_timer = node.create_timer(
@@ -98,7 +95,7 @@ class CommandInputs:
         An estimate waiting is kept: it may be the new session's, come before its state (pairing
         is by stamp, so an older one never pairs with a new session's state).
         """
-        self.pending['angles'] = self.pending['pressure'] = None
+        self.waiting_state = None
 
     def fresh(self, sample: Sample | None, now: float) -> np.ndarray | None:
         """The sample's value if it is younger than feedback_timeout at ``now`` (s), else None."""
@@ -132,9 +129,9 @@ class CommandInputs:
         stamp = stamp_nanoseconds(message.header.stamp)
         try:
             angles = joint_positions(message)
-            if not self.lockstep:
+            if not self.node.lockstep:
                 now, timeout = self.node.now_seconds(), self.node.values['feedback_timeout']
-                stamp_age(stamp / NANOSECONDS, now, timeout, JOINT_STATES)
+                stamp_age(stamp / NANOSECONDS, now, timeout, JOINT_STATES, 'feedback_timeout')
         except InvalidInputError as error:
             self.node.reject(JOINT_STATES, error)
             angles = None
@@ -160,9 +157,8 @@ class CommandInputs:
     def take_state(self, stamp: int, angles: np.ndarray, pressure: np.ndarray | None) -> None:
         """Take a valid state stamped ``stamp`` (ns); in lockstep, answer it once complete."""
         self.angles = (self.node.now_seconds(), angles)
-        if self.lockstep:
-            self.pending['angles'] = (stamp, angles)
-            self.pending['pressure'] = pressure
+        if self.node.lockstep:
+            self.waiting_state = (stamp, angles, pressure)
             self.complete()
 
     def on_forces(self, message: JointState) -> None:
@@ -174,20 +170,21 @@ class CommandInputs:
             self.node.reject(ESTIMATED_CONTACT_FORCES, error)
             return
         self.forces = (self.node.now_seconds(), forces)
-        if self.lockstep:
-            self.pending['forces'] = (stamp, forces)
+        if self.node.lockstep:
+            self.waiting_estimate = (stamp, forces)
             self.complete()
 
     def complete(self) -> None:
-        """Lockstep: hand the pending state to :attr:`answer` once it is complete."""
-        state, forces = self.pending['angles'], self.pending['forces']
-        if self.node.values['mode'] == 'force':
-            if state is not None and forces is not None and forces[0] < state[0]:
-                self.pending['forces'] = forces = None
-            if state is None or forces is None or forces[0] != state[0]:
-                return
-        elif state is None:
+        """Lockstep: hand the waiting state to the node to answer once it is complete."""
+        state, estimate, forces = self.waiting_state, self.waiting_estimate, None
+        if state is None:
             return
-        pressure = self.pending['pressure']
-        self.pending = {'angles': None, 'forces': None, 'pressure': None}
-        self.answer(*state, None if forces is None else forces[1], pressure)
+        if self.node.values['mode'] == 'force':
+            if estimate is not None and estimate[0] < state[0]:
+                self.waiting_estimate = estimate = None
+            if estimate is None or estimate[0] != state[0]:
+                return
+            forces = estimate[1]
+        self.waiting_state = self.waiting_estimate = None
+        stamp, angles, pressure = state
+        self.node.answer(stamp, angles, forces, pressure)

@@ -1,14 +1,11 @@
 """``pressure_command``: the glove's reference controller and command source.
 
-Runs a mode's controller (:func:`exodigit_model.control.mode_controller`) behind the
-:class:`~exodigit_model.control.SafetyLimiter`; with ``output:=valves`` the limited pressures are
-the targets of a :class:`~exodigit_model.control.ValveLoop` on ``chamber_pressure`` and it
-publishes ``valve_command``. It commands at ``rate_hz``, or with ``lockstep`` answers each
-``joint_states``. A session's time (what ``staircase`` and ``sine`` follow) starts with the node,
-in lockstep at the first state it answers; when time goes back the node starts over, keeping its
-parameters and targets. On exit it sends zero pressure (a vent). docs/spec/ros.md: "Nodes and
-topics", "Safety behaviour", "Simulated time, faster than real time, lockstep", "When time goes
-back", "Valves", "Trajectories".
+A mode's controller (:func:`exodigit_model.control.mode_controller`) behind the
+:class:`~exodigit_model.control.SafetyLimiter` publishes ``pressure_command``, or with
+``output:=valves`` the ``valve_command`` of a :class:`~exodigit_model.control.ValveLoop` on
+``chamber_pressure``; on a timer or, with ``lockstep``, one command per ``joint_states``.
+docs/spec/ros.md: "Nodes and topics", "Safety behaviour", "Simulated time, faster than real time,
+lockstep", "When time goes back", "Valves", "Trajectories".
 
 Run: ``python -m exodigit_nodes.nodes.pressure_command --ros-args -p mode:=staircase``.
 """
@@ -17,6 +14,7 @@ from __future__ import annotations
 
 import functools
 from collections import Counter
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -27,8 +25,10 @@ from exodigit_model.control import (
     Feedback,
     PositionController,
     SafetyLimiter,
+    SafetyLimits,
     Setpoint,
     ValveLoop,
+    ValveLoopSettings,
     mode_controller,
 )
 from exodigit_model.stepping.settings import VENT
@@ -39,12 +39,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 import exodigit_model
 
-from ..logic.command_settings import (
-    LIMIT_NAMES,
-    VALVE_NAMES,
-    CommandSettings,
-    command_settings,
-)
+from ..logic.command_settings import LIMIT_NAMES, VALVE_NAMES, command_settings
 from ..logic.inputs import (
     NANOSECONDS,
     InvalidInputError,
@@ -86,6 +81,7 @@ class PressureCommand(GloveNode):
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)
         self.params = load_model_params(self.values['params_file'])
+        _, valve_loop = self.settings
         rate = self.values['rate_hz']
         self.period_ns = round(NANOSECONDS / rate)
         self.joint_target = np.array(self.values['joint_targets'])
@@ -99,19 +95,23 @@ class PressureCommand(GloveNode):
         """What it sends on exit: a vent (valves) or zero pressure."""
         self.sent = self.safe
         self.target = np.zeros(3)
-        self.valve_loop = ValveLoop(self.settings.valve_loop)
+        self.valve_loop = ValveLoop(valve_loop)
         self.lockstep = self.values['lockstep']
         self.last_tick: int | None = None
         # Subscriptions before the publisher: the plant then sees our joint_states reader first.
-        self.inputs = CommandInputs(self, self.answer)
+        self.inputs = CommandInputs(self)
         self.start_over(self.get_clock().now().nanoseconds)
         if not self.lockstep:  # in lockstep the stamps are the time (answer)
             self.time_jumps = self.get_clock().create_jump_callback(
                 BACKWARDS, post_callback=self.on_time_jump
             )
         self.command_message = valve_command_message() if self.valves else joint_vector_message()
-        self.create_subscription(Float64MultiArray, JOINT_TARGETS, self.on_targets, READER_QOS)
-        self.create_subscription(JointTrajectory, JOINT_TRAJECTORY, self.on_trajectory, READER_QOS)
+        for kind, topic, parse in (
+            (Float64MultiArray, JOINT_TARGETS, joint_targets),
+            (JointTrajectory, JOINT_TRAJECTORY, joint_trajectory),
+        ):
+            on_targets = functools.partial(self.on_targets, topic, parse)
+            self.create_subscription(kind, topic, on_targets, READER_QOS)
         self.topic = VALVE_COMMAND if self.valves else PRESSURE_COMMAND
         self.publisher = self.create_publisher(Float64MultiArray, self.topic, STREAM_QOS)
         if not self.lockstep:
@@ -126,10 +126,10 @@ class PressureCommand(GloveNode):
 
     make_settings = staticmethod(command_settings)
 
-    def apply(self, settings: CommandSettings, changed: set[str]) -> None:
+    def apply(self, settings: tuple[SafetyLimits, ValveLoopSettings], changed: set[str]) -> None:
         """New limits and valve loop at once; a new controller (session restarts) when its own."""
-        self.loop.limiter.limits = settings.limits
-        self.valve_loop.configure(settings.valve_loop)
+        self.loop.limiter.limits, valve_loop = settings
+        self.valve_loop.configure(valve_loop)
         if changed - LIMIT_NAMES - VALVE_NAMES:
             if 'joint_targets' in changed:
                 self.joint_target = np.array(self.values['joint_targets'])
@@ -164,8 +164,9 @@ class PressureCommand(GloveNode):
         Kept: the parameters, the latest targets (the setpoint restarts) and the diagnostics'
         counts; :meth:`.CommandInputs.forget` says what of the inputs goes.
         """
+        limits, _ = self.settings
         self.setpoint.restart(self.joint_target, now)
-        self.loop = CommandLoop(self.make_controller(), SafetyLimiter(self.settings.limits))
+        self.loop = CommandLoop(self.make_controller(), SafetyLimiter(limits))
         self.started = None if self.lockstep else now
         self.last_tick = None
         self.inputs.forget()
@@ -180,28 +181,20 @@ class PressureCommand(GloveNode):
 
     # -- targets ---------------------------------------------------------------------------
 
-    def on_targets(self, message: Float64MultiArray) -> None:
-        """New position targets (rad) from now on: a one-point trajectory stamped zero."""
-        try:
-            trajectory = joint_targets(message.data, *self.rom)
-        except InvalidInputError as error:
-            self.reject(JOINT_TARGETS, error)
-            return
-        self.setpoint.place(trajectory, None, self.now_ns())
+    def on_targets(
+        self, topic: str, parse: Callable, message: Float64MultiArray | JointTrajectory
+    ) -> None:
+        """New position targets (rad) from a ``joint_targets`` or ``joint_trajectory``.
 
-    def on_trajectory(self, message: JointTrajectory) -> None:
-        """A trajectory of targets (rad) from its stamp, or from now when the stamp is zero."""
+        ``parse(message, lower, upper)`` gives the trajectory and its start (ns; None: now).
+        """
+        limits = self.loop.limiter.limits
         try:
-            trajectory, start = joint_trajectory(message, *self.rom)
+            trajectory, start = parse(message, limits.joint_lower, limits.joint_upper)
         except InvalidInputError as error:
-            self.reject(JOINT_TRAJECTORY, error)
+            self.reject(topic, error)
             return
         self.setpoint.place(trajectory, start, self.now_ns())
-
-    @property
-    def rom(self) -> tuple:
-        """The range of motion: the lower and upper limits, rad."""
-        return self.loop.limiter.limits.joint_lower, self.loop.limiter.limits.joint_upper
 
     # -- the loop --------------------------------------------------------------------------
 
