@@ -120,8 +120,8 @@ class SimulatedTime:
         self.services.take_requested(wall)
         if self.paused:
             self.services.look_for_controllers(wall)
-        if self.paused or not self.members:
-            return
+        if self.paused or not self.members or self.held():
+            return  # a held plant waits for no controller: no lockstep timeout
         if self.settings.lockstep and self.awaiting and not self.unlocked:
             timeout = self.settings.lockstep_timeout
             if timeout == 0.0 or wall - self.waiting_since <= timeout:
@@ -186,12 +186,6 @@ class SimulatedTime:
             self.started = True
             self.awaiting = set(self.members) - self.silent
             self.waiting_since = time.monotonic()
-        # Pause on crossing pause_at (to the nearest step), not again on every later step.
-        pause_at, t = self.settings.pause_at, self.t
-        mark = pause_at - 0.5 * self.period
-        if pause_at > 0.0 and t - self.period < mark <= t:
-            self.paused = True
-            self.owner.get_logger().info(f'paused at t = {t:.9f} s (pause_at)')
 
     @property
     def step_number(self) -> int:

@@ -70,7 +70,7 @@ class Session:
     pause_service : str
         ``set_paused`` of the simulated time, absolute.
     simulated : bool
-        Simulated time: the plants start paused and pause at ``duration``.
+        Simulated time: the plants start paused and are held at ``duration`` (``run_until``).
     duration : float
         Seconds to run (simulated with ``simulated``); 0 until stopped.
     log_dir : Path
@@ -186,8 +186,9 @@ def _watch(session: Session, stop, supervisor, monitors, signals, spin, display,
 
     The plants, started paused, resume once every node of every glove has answered the
     summary's handshake and every listener is ready, and run at most `.horizon.LEAD_STEPS`
-    past the newest step every record has whole. Ends on a stop request, a process that exited
-    (returned) or the end of the session's duration (wall or simulated seconds).
+    past the newest step every record has whole, never past the duration. Ends on a stop
+    request, a process that exited (returned) or the end of the session's duration (wall or
+    simulated seconds).
     """
     from std_srvs.srv import SetBool
 
