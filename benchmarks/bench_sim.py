@@ -120,7 +120,7 @@ def glove_session(seconds: float, workdir: Path, *, factor: float = 0.0, noise: 
         'lockstep': True,
         'real_time_factor': factor,
         'start_paused': True,
-        'pause_at': seconds,
+        'run_until': seconds,
         'marker_rate_hz': 0.0,
     }
     if noise:

@@ -1,6 +1,6 @@
 """A hand in one process (issue 11): ``hand_nodes`` runs every finger's nodes.
 
-Two fingers in lockstep simulated time, started paused and pausing at ``PAUSE_AT``: every
+Two fingers in lockstep simulated time, started paused and held at ``RUN_UNTIL``: every
 expectation is exact. The controllers run in ``force`` mode, so each answer waits for the
 estimate of its step and every step is estimated (in the other modes the estimators are not in
 lockstep: at real-time factor 0 on a loaded machine they fell more than the 10 queued states
@@ -30,8 +30,8 @@ from exodigit_model import GloveModel, GloveSimulation, load_params
 FINGERS = ('index', 'little')
 NAMESPACE = '/hand'
 RATE = 100.0
-PAUSE_AT = 0.5
-STEPS = round(PAUSE_AT * RATE)
+RUN_UNTIL = 0.5
+STEPS = round(RUN_UNTIL * RATE)
 #: Longest wait for the whole session (start-up of a process with six nodes, 50 steps), s.
 TIMEOUT = 60.0
 
@@ -42,7 +42,7 @@ def hand_nodes(domain, workdir, *arguments):
 
 @pytest.fixture(scope='module')
 def session(ros_domain, tmp_path_factory):
-    """The recorded messages of one lockstep session of two fingers, up to PAUSE_AT."""
+    """The recorded messages of one lockstep session of two fingers, up to RUN_UNTIL."""
     workdir = tmp_path_factory.mktemp('hand')
     probe = RosProbe(ros_domain, name='hand_probe')
     # Transient-local, as a recorder: the nodes' publishers keep their samples for a reader they
@@ -66,19 +66,22 @@ def session(ros_domain, tmp_path_factory):
         workdir,
         *('--fingers', ','.join(FINGERS)),
         *('--clock', 'sim', '--lockstep', '--real-time-factor', '0', '--mode', 'force'),
-        *('--start-paused', '--pause-at', str(PAUSE_AT)),
+        '--start-paused',
     )
     try:
         # We count every step of a plant at real-time factor 0, unheld: every publisher keeps
         # its last 1,000 samples for a reader that has not acknowledged them, more than the
         # session's STEPS (when they kept 10, a CI run's pressure_command inbox lost one).
+        # Any finger's run_until is the hand's.
+        held = probe.set_parameters(f'{NAMESPACE}/{FINGERS[0]}/plant', {'run_until': RUN_UNTIL})
+        assert all(result.successful for result in held)
         resumed = probe.call(f'{NAMESPACE}/set_paused', SetBool, SetBool.Request(data=False))
         assert resumed.success
 
         def received_all() -> bool:
             return min(inbox.count() for inbox in inboxes.values()) >= STEPS
 
-        # paused at PAUSE_AT: every state, answer and estimate up to it arrives
+        # held at RUN_UNTIL: every state, answer and estimate up to it arrives
         assert wait_until(received_all, TIMEOUT), counts(inboxes)
         parameters = {
             finger: probe.get_parameters(
@@ -118,7 +121,7 @@ def test_the_fingers_step_together_on_one_clock(session):
     grid = [round(k * 1e9 / RATE) for k in range(1, STEPS + 1)]
     for finger in FINGERS:
         stamps = [round(seconds(m.header.stamp) * 1e9) for m in messages[f'{finger}/joint_states']]
-        assert stamps == grid  # one state per step, paused exactly at PAUSE_AT
+        assert stamps == grid  # one state per step, held exactly at RUN_UNTIL
     ticks = [m.clock.sec * 10**9 + m.clock.nanosec for m in messages['/clock']]
     assert ticks == grid  # one /clock per hand step, not one per finger
 

@@ -106,11 +106,13 @@ def test_each_node_gets_its_gloves_model_prefix_and_the_hands_mode():
 
 
 @pytest.mark.parametrize('command', [GLOVE, HAND])
-def test_simulated_time_starts_paused_and_pauses_at_the_duration(command):
-    time = configured(command, '--clock', 'sim', '--duration', '7').hand.time
-    assert time.start_paused and time.pause_at == 7.0
-    time = configured(command, '--duration', '7').hand.time  # the wall clock: nothing to pause
-    assert not time.start_paused and time.pause_at == 0.0
+def test_simulated_time_starts_paused_and_is_held_at_the_duration(command, session_of):
+    # held by the session's Horizon: its run_until never passes the duration (test_nodes_horizon)
+    assert configured(command, '--clock', 'sim', '--duration', '7').hand.time.start_paused
+    session = session_of(command, '--clock', 'sim', '--duration', '7')
+    assert session.simulated and session.duration == 7.0
+    assert not configured(command, '--duration', '7').hand.time.start_paused  # nothing to hold
+    assert not session_of(command, '--duration', '7').simulated
 
 
 # -- the processes ------------------------------------------------------------------------------

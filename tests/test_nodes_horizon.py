@@ -119,7 +119,7 @@ def test_the_limit_follows_the_steps_received_and_stops_at_the_end(ends):
     hold.start(end)
     wait_ready(hold)
     setter = node.clients['set_parameters']
-    steps = round(end_steps) if end else 3 * lead  # the plant pauses at the run's end
+    steps = round(end_steps) if end else 3 * lead  # the plant is held at the run's end
     for k in range(1, steps + 1):  # it takes a step only while the limit allows it
         received = k * PERIOD
         assert received <= limits(setter)[-1] + 1e-12

@@ -29,7 +29,6 @@ CHANGED = {
     'lockstep': True,
     'lockstep_timeout': 7.0,
     'start_paused': True,
-    'pause_at': 12.0,
     'run_until': 3.0,
 }
 

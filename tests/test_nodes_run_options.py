@@ -62,7 +62,7 @@ def test_simulated_time_options_on_the_wall_clock_are_refused_naming_the_command
         check_sim_only('wall', TimeSettings(lockstep=True), names)
     assert str(refused.value) == message
     check_sim_only('sim', TimeSettings(lockstep=True), names)  # with sim time: fine
-    check_sim_only('wall', TimeSettings(lockstep_timeout=3.0, pause_at=2.0), names)  # harmless
+    check_sim_only('wall', TimeSettings(lockstep_timeout=3.0), names)  # harmless
 
 
 @pytest.mark.parametrize(
@@ -70,7 +70,7 @@ def test_simulated_time_options_on_the_wall_clock_are_refused_naming_the_command
     [
         ({'real_time_factor': '-2'}, '--real-time-factor -2: real_time_factor = -2.0: must lie'),
         ({'real_time_factor': 'fast'}, '--real-time-factor fast: '),
-        ({'pause_at': '-1'}, '--pause-at -1: '),
+        ({'lockstep_timeout': '-1'}, '--lockstep-timeout -1: '),
     ],
 )
 def test_time_values_get_the_plants_checks_naming_the_option(values, message):

@@ -28,7 +28,7 @@ import pytest
 from builtin_interfaces.msg import Time
 from exodigit_model.physics.params import patient_file
 from exodigit_model.stepping.settings import step_time_ns
-from exodigit_nodes.nodes import sim_services
+from exodigit_nodes.nodes import sim_time
 from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
@@ -250,7 +250,7 @@ def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove, probe_for)
         stop_process(controller)
     probe = probe_for(glove.domain_id)
     plant = f'{glove.namespace}/plant'
-    assert probe.get_parameters(plant, ['run_until', 'pause_at']) == [0.0, 0.0]
+    assert probe.get_parameters(plant, ['run_until']) == [0.0]
     # The test steps the glove again, past the end the failed run was to have.
     glove.timeout = DEFAULT_TIMEOUT
     assert wait_until(lambda: not glove._node.other_controllers(), DEFAULT_TIMEOUT)
@@ -331,39 +331,15 @@ def service_callback(node: InProcessNode, name: str):
 
 
 @pytest.mark.parametrize('service', ['step', 'reset', 'reset_simulation'])
-def test_a_service_step_waits_for_new_readers_in_the_loop_not_in_the_callback(probe, service):
-    # The step is taken once the outputs have matched every subscriber the graph knows (here:
-    # not yet, then yes). The callback answers at once instead of sleeping until then, so a
-    # hand's other fingers go on stepping meanwhile.
+def test_a_service_step_is_published_before_the_answer(probe, service):
+    # No timer fires: the callback itself takes the step (docs/spec/ros.md, "Simulated time").
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
     try:
-        matched = False
-        node.node.readers_matched = lambda: matched
         answer = service_callback(node, service)(Trigger.Request(), Trigger.Response())
-        assert answer.success
-        assert 'once every new subscriber of the outputs is matched' in answer.message
-        node.fire_timers()
-        assert 'joint_states' not in node.take()
-        matched = True
-        node.fire_timers()
+        assert answer.success and f't = {1 / RATE:.9f} s' in answer.message
         assert len(node.take()['joint_states']) == 1
         node.fire_timers()  # paused: nothing more
         assert 'joint_states' not in node.take()
-    finally:
-        node.close()
-
-
-def test_a_service_step_goes_on_when_the_readers_never_match(probe, monkeypatch):
-    monkeypatch.setattr(sim_services, 'READER_WAIT', 0.0)
-    node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
-    try:
-        node.node.readers_matched = lambda: False
-        for _ in range(2):
-            service_callback(node, 'step')(Trigger.Request(), Trigger.Response())
-        node.fire_timers()
-        assert [m.header.stamp.nanosec for m in node.take()['joint_states']] == [
-            step_time_ns(k, RATE) for k in (1, 2)
-        ]
     finally:
         node.close()
 
@@ -409,7 +385,7 @@ def listed(node: InProcessNode) -> list[list[str]]:
 def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, monkeypatch):
     # The typed answer the testing kit waits on before it publishes a state that a controller
     # it has just started must answer: a node that publishes commands and reads the states.
-    monkeypatch.setattr(sim_services, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
+    monkeypatch.setattr(sim_time, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
     plant = node.node
     try:

@@ -26,8 +26,8 @@ NODE_EXECUTABLES = {'plant', 'pressure_command', 'estimator'}
 LAUNCHED = NODE_EXECUTABLES | {'hardware'}
 """Every node executable the launch file names (the bridge in the plant's place on a board)."""
 SIM_TIME_ARGUMENTS = {'clock', 'real_time_factor', 'lockstep', 'use_sim_time'}
-RUNNER_ONLY = {'start_paused', 'pause_at'}
-"""Plant parameters the runner sets for its live summary and duration, not the launch file."""
+RUNNER_ONLY = {'start_paused'}
+"""Plant parameters the runner sets for its live summary, not the launch file."""
 
 
 def setup_call() -> ast.Call:
@@ -321,8 +321,8 @@ def runner_overrides(arguments: list[str], emulator_link: str = '') -> dict[str,
 
 def test_clock_sim_reaches_the_nodes_the_runner_gives_it_to(entities, launch_api):
     """The same simulated-time values as ``python -m exodigit_nodes.glove --clock sim
-    --real-time-factor 0 --lockstep`` gives its node processes, but its summary's pauses; what
-    the launch does not set, the node's config file gives at its table's default."""
+    --real-time-factor 0 --lockstep`` gives its node processes, but the pause its summary starts
+    with; what the launch does not set, the node's config file gives at its table's default."""
     launched = node_parameters(
         entities, launch_api, clock='sim', lockstep='true', real_time_factor='0.0'
     )

@@ -3,9 +3,9 @@
 The launch description starts exodigit's ``plant`` in lockstep simulated time (as fast as the
 CPU allows), paused, and this package's ``flex_controller`` with ``use_sim_time``. The test
 subscribes to ``joint_states``, then lets simulated time run (``set_paused`` false); the plant
-pauses again at 3 simulated seconds (``pause_at``), and the test checks the angles of that last
-state. (A plant started running waits for the controller, not for the test: the test would join
-at whatever simulated time the glove had reached.) Run it in a sourced workspace, from this
+takes no step past 3 simulated seconds (``run_until``), and the test checks the angles of that
+last state. (A plant started running waits for the controller, not for the test: the test would
+join at whatever simulated time the glove had reached.) Run it in a sourced workspace, from this
 package's directory, with::
 
     ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST launch_test test/glove_sim_launch.test.py
@@ -48,7 +48,7 @@ def generate_test_description():
                 'lockstep': True,
                 'real_time_factor': 0.0,
                 'start_paused': True,
-                'pause_at': SIMULATED_SECONDS,
+                'run_until': SIMULATED_SECONDS,
                 'pressure_time_constant': 0.0,
             }
         ],
@@ -88,7 +88,7 @@ class TestTheControllerReachesItsTargets(unittest.TestCase):
                 if states and stamp(states[-1]) >= SIMULATED_SECONDS:
                     break
             self.assertTrue(states, 'no joint_states received')
-            # pause_at stopped the plant there
+            # run_until held the plant there
             self.assertAlmostEqual(stamp(states[-1]), SIMULATED_SECONDS, places=6)
             for angle, target in zip(states[-1].position, TARGETS, strict=True):
                 self.assertAlmostEqual(angle, target, delta=TOLERANCE)

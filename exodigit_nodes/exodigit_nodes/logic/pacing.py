@@ -25,7 +25,6 @@ class TimeSettings:
     lockstep: bool = False
     lockstep_timeout: float = 1.0
     start_paused: bool = False
-    pause_at: float = 0.0
     run_until: float = 0.0
 
 

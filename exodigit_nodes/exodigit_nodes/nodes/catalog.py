@@ -74,12 +74,11 @@ PLANT_PARAMETERS = [
               'time until a command comes, s (0 = wait forever)', low=0.0, high=3600.0),
     ParamSpec('start_paused', False, 'sim: start paused (set_paused false, or step, to go)',
               read_only=True),
-    ParamSpec('pause_at', 0.0, 'sim: pause once simulated time reaches this, s (0 = never)',
-              low=0.0, high=1e9),
     ParamSpec('run_until', 0.0,
               'sim: take no step past this simulated time, s (0 = no limit; not a pause: '
               'raising it lets the steps go on; the runners keep it a few steps ahead of '
-              'what their record has received)', low=0.0, high=1e9),
+              'what their record has received, never past the end of their run)', low=0.0,
+              high=1e9),
     DIAGNOSTIC_PERIOD,
 ]
 # fmt: on

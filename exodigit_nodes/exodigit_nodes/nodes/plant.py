@@ -56,7 +56,6 @@ from .messages import (
 from .node_base import LOG_THROTTLE, ConfigurationError, GloveNode, load_model
 from .process import run
 from .qos import APPLIED_QOS, READER_QOS, STREAM_QOS
-from .sim_services import WAITING
 from .sim_time import SimulatedTime
 
 LATE_FACTOR = 1.5
@@ -268,10 +267,8 @@ class Plant(GloveNode):
         response.success = True
         response.message = 'pressures and joint angles reset to rest; waiting for a new command'
         if self.time is not None:
-            if self.time.services.request_step():
-                response.message += f' (rest state published at t = {self.state.t:.9f} s)'
-            else:
-                response.message += f' (rest state {WAITING})'
+            self.time.step()
+            response.message += f' (rest state published at t = {self.state.t:.9f} s)'
         self.get_logger().info(response.message)
         return response
 

@@ -17,7 +17,7 @@ from ..logic.pacing import TimeSettings
 from .catalog import ESTIMATOR_NODE, PLANT_NODE, PRESSURE_COMMAND_NODE, SIMULATED_SAMPLE_AGE
 
 BOOLEANS = ('true', 'false')
-TIME_OPTIONS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused', 'pause_at')
+TIME_OPTIONS = ('real_time_factor', 'lockstep', 'lockstep_timeout', 'start_paused')
 """Plant parameters (:class:`..logic.pacing.TimeSettings` fields) a command may have as options."""
 SIM_ONLY = ('lockstep', 'start_paused', 'real_time_factor')
 """Time options refused on the wall clock, in the order the refusal lists them."""

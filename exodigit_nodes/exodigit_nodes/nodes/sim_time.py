@@ -4,26 +4,29 @@
 publishes ``/clock`` once per step before the members' outputs, paces the steps at
 ``real_time_factor`` (:class:`.pacing.Pacer`), and in lockstep waits for every member's answer;
 on ``lockstep_timeout`` the silent members vent and every member steps on at real time until
-they answer again. Its owner node serves the services of :mod:`.sim_services`.
+they answer again. Its owner node serves what others ask of it: ``set_paused``, ``step`` and
+``reset_simulation``, and whom lockstep waits for on ``lockstep_controllers`` (docs/spec/ros.md,
+"Simulated time, faster than real time, lockstep").
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMessage
-
-from exodigit_model import GloveSimulation
+from std_srvs.srv import SetBool, Trigger
 
 from ..logic.pacing import Pacer, TimeSettings
-from .messages import CLOCK
-from .qos import STREAM_QOS
-from .sim_services import TimeServices
+from .messages import CLOCK, LOCKSTEP_CONTROLLERS, RESET_SIMULATION, SET_PAUSED, STEP, status
+from .node_base import ConfigurationError
+from .qos import HANDED_OVER_QOS, STREAM_QOS
 
 if TYPE_CHECKING:
     from .plant import Plant
@@ -34,6 +37,8 @@ FREE_RUN_BUDGET = 2e-3
 """Longest burst of unpaced steps before the executor takes new messages, wall s."""
 MEASURE_WINDOW = 0.5
 """Shortest wall time over which the real-time factor is measured, s."""
+CONTROLLERS_PERIOD = 0.02
+"""How often a paused clock looks again for the controllers its members have matched, wall s."""
 
 
 class SimulatedTime:
@@ -42,8 +47,8 @@ class SimulatedTime:
     Parameters
     ----------
     owner : rclpy.node.Node
-        Publishes ``/clock``, serves :mod:`.sim_services` (in its namespace) and runs the
-        loop's wall timer.
+        Publishes ``/clock`` and ``lockstep_controllers``, serves the services (in its
+        namespace) and runs the loop's wall timer.
     settings : TimeSettings
     """
 
@@ -63,7 +68,14 @@ class SimulatedTime:
         self.timer = None
         self._measure_marks = (time.monotonic(), 0.0)
         self._measured = 0.0
-        self.services = TimeServices(self)
+        self.controllers: tuple[str, ...] | None = None
+        self.controllers_seen = -math.inf
+        self.controllers_publisher = owner.create_publisher(
+            DiagnosticStatus, LOCKSTEP_CONTROLLERS, HANDED_OVER_QOS
+        )
+        owner.create_service(SetBool, SET_PAUSED, self.on_set_paused)
+        owner.create_service(Trigger, STEP, self.on_step)
+        owner.create_service(Trigger, RESET_SIMULATION, self.on_reset_simulation)
 
     # -- members ---------------------------------------------------------------------------
 
@@ -115,13 +127,12 @@ class SimulatedTime:
         self.try_step(time.monotonic())
 
     def on_timer(self) -> None:
-        """Take the steps that are due (and watch the lockstep timeout and the reader waits)."""
+        """Take the steps that are due; paused, :meth:`publish_controllers` now and then."""
         wall = time.monotonic()
-        self.services.take_requested(wall)
-        if self.paused:
-            self.services.look_for_controllers(wall)
-        if self.paused or not self.members:
-            return
+        if self.paused and wall - self.controllers_seen >= CONTROLLERS_PERIOD:
+            self.publish_controllers(wall)
+        if self.paused or not self.members or self.held():
+            return  # a held plant waits for no controller: no lockstep timeout
         if self.settings.lockstep and self.awaiting and not self.unlocked:
             timeout = self.settings.lockstep_timeout
             if timeout == 0.0 or wall - self.waiting_since <= timeout:
@@ -158,18 +169,6 @@ class SimulatedTime:
         run_until = self.settings.run_until
         return run_until > 0.0 and self.t + 0.5 * self.period > run_until
 
-    def readers_matched(self) -> bool:
-        """Whether every member's outputs have matched every subscriber the graph lists."""
-        return all(member.readers_matched() for member in self.members)
-
-    def set_paused(self, paused: bool) -> bool:
-        """Pause or resume (a resumed schedule starts at now); whether the state changed."""
-        changed = paused != self.paused
-        self.paused = paused
-        if changed and not paused:
-            self.restart_pacing()
-        return changed
-
     def step(self) -> None:
         """One step of every member: /clock, then each member's outputs stamped with its time."""
         lockstep = self.settings.lockstep
@@ -186,25 +185,87 @@ class SimulatedTime:
             self.started = True
             self.awaiting = set(self.members) - self.silent
             self.waiting_since = time.monotonic()
-        # Pause on crossing pause_at (to the nearest step), not again on every later step.
-        pause_at, t = self.settings.pause_at, self.t
-        mark = pause_at - 0.5 * self.period
-        if pause_at > 0.0 and t - self.period < mark <= t:
-            self.paused = True
-            self.owner.get_logger().info(f'paused at t = {t:.9f} s (pause_at)')
 
     @property
     def step_number(self) -> int:
         """The number of the latest step (0 before the first)."""
         return self.members[0].state.step if self.members else 0
 
-    def restart(self, simulations: list[GloveSimulation]) -> None:
-        """A new session: each member on its simulation (at rest at t = 0), nothing owed."""
+    # -- what others ask of it -------------------------------------------------------------
+
+    def on_set_paused(
+        self, request: SetBool.Request, response: SetBool.Response
+    ) -> SetBool.Response:
+        """Pause (data true) or resume; the answer (and the log, on a change) says the time."""
+        changed = request.data != self.paused
+        self.paused = request.data
+        if changed and not self.paused:
+            self.restart_pacing()
+        response.success = True
+        state = 'paused' if self.paused else 'running'
+        response.message = f'{state} at t = {self.t:.9f} s (step {self.step_number})'
+        if changed:
+            self.owner.get_logger().info(response.message)
+        self.publish_controllers(time.monotonic())
+        if not self.paused:
+            self.try_step(time.monotonic())
+        return response
+
+    def on_step(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """While paused: one step with the latest commands, published before the answer."""
+        if not self.paused:
+            response.success = False
+            response.message = 'not paused: call set_paused (true) first'
+            return response
+        self.step()
+        response.success = True
+        response.message = f'stepped to t = {self.t:.9f} s (step {self.step_number})'
+        return response
+
+    def on_reset_simulation(
+        self, request: Trigger.Request, response: Trigger.Response
+    ) -> Trigger.Response:
+        """A new session: every member rebuilt from its parameters at t = 0, step 1 published.
+
+        Every simulation is built before any is used: a ``params_file`` that no longer loads
+        refuses the reset and changes nothing. Nothing is owed after it (no answer, no silence).
+        """
+        try:
+            simulations = [member.new_simulation() for member in self.members]
+        except ConfigurationError as error:
+            response.success = False
+            response.message = f'simulation not reset: {error}'
+            return response
         for member, simulation in zip(self.members, simulations, strict=True):
             member.use_simulation(simulation)
         self.awaiting, self.silent = set(), set()
         self._measure_marks = (time.monotonic(), 0.0)
         self.restart_pacing()
+        self.step()
+        response.success = True
+        response.message = f'simulation reset: rest state published at t = {self.t:.9f} s'
+        self.owner.get_logger().info(response.message)
+        return response
+
+    def publish_controllers(self, wall: float) -> None:
+        """Say on ``lockstep_controllers`` whom the members have matched both ways, if it changed.
+
+        One KeyValue per controller, keyed by its fully qualified name
+        (:meth:`.plant.Plant.lockstep_controllers`).
+        """
+        self.controllers_seen = wall
+        controllers = tuple(n for member in self.members for n in member.lockstep_controllers())
+        if controllers != self.controllers:
+            self.controllers = controllers
+            self.controllers_publisher.publish(
+                status(
+                    self.owner.get_fully_qualified_name(),
+                    '',
+                    DiagnosticStatus.OK,
+                    f'{len(controllers)} lockstep controllers matched both ways',
+                    dict.fromkeys(controllers, 'publishes the commands, subscribes the states'),
+                )
+            )
 
     # -- pacing ----------------------------------------------------------------------------
 

@@ -17,7 +17,8 @@ chambers get zero pressure while the plant still runs.
 ``mcu_emulator`` first and stops it last, its pty at ``<run>/board``. ``--record``: one rosbag2
 ``recorder`` for the whole hand (one per finger left plants undiscovered on a loaded machine),
 to ``<run>/bag`` (finger f's to ``<run>/bag/f``), started first and stopped last. ``--clock
-sim``: the plants start paused and pause at ``--duration``, so every record ends there.
+sim``: the plants start paused and are held at ``--duration`` (``run_until``: :mod:`.horizon`),
+so every record ends there.
 """
 
 from __future__ import annotations
@@ -84,7 +85,7 @@ class RunConfig:
     program : str
         The command's name, in messages and summary titles.
     hand : HandConfig
-        With ``clock`` sim, paused at the start and at ``duration``.
+        With ``clock`` sim, paused at the start (the session holds it at ``duration``).
     layout : str
         Of :data:`LAYOUTS`.
     duration : float
@@ -170,8 +171,7 @@ def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
             except ParameterError as error:
                 raise UsageError(f'{option}: {" ".join(str(error).split())}') from None
     if hand.clock == 'sim':
-        time = replace(hand.time, start_paused=True, pause_at=options.duration)
-        hand = replace(hand, time=time)
+        hand = replace(hand, time=replace(hand.time, start_paused=True))
     return RunConfig(
         program=command.name,
         hand=hand,

@@ -1,11 +1,9 @@
-"""Keeps a plant in simulated time at most `LEAD_STEPS` ahead of the steps a runner received.
+"""Holds a simulated plant with its ``run_until``: the one rule of the runners and the kit.
 
-A publisher keeps its last 1,000 samples for a matched reader that has not acknowledged them
-(:data:`.qos.WRITER_DEPTH`; measurements in docs/networking.md), and a plant at a real-time
-factor of 0 steps faster than a Python process records. So the runners and the testing kit hold
-the plant with its ``run_until`` parameter, at most `LEAD_STEPS` past the newest step every glove
-has received whole, raised each time `RAISE_STEPS` more have arrived (docs/spec/ros.md, "The
-session protocol", guarantee 6).
+At most `LEAD_STEPS` past the newest step every glove has received whole (fewer than the
+:data:`.qos.WRITER_DEPTH` samples a publisher keeps for a reader that has not acknowledged
+them), raised each time `RAISE_STEPS` more have arrived, and never past the end of the run
+(docs/spec/ros.md, "The session protocol", guarantee 6).
 """
 
 from __future__ import annotations

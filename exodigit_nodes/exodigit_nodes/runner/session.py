@@ -67,7 +67,7 @@ class Session:
     pause_service : str
         ``set_paused`` of the simulated time, absolute.
     simulated : bool
-        Simulated time: the plants start paused and pause at ``duration``.
+        Simulated time: the plants start paused and are held at ``duration`` (``run_until``).
     duration : float
         Seconds to run (simulated with ``simulated``); 0 until stopped.
     log_dir : Path
@@ -180,7 +180,7 @@ def _watch(session: Session, stop, supervisor, monitors, signals, spin, display,
     """Show the gloves until a stop request, a process that exited (returned) or the duration.
 
     In simulated time, hold the plants meanwhile to docs/spec/ros.md, "The session protocol",
-    guarantees 3 and 6 (:class:`.horizon.Horizon`).
+    guarantees 3 and 6 (:class:`.horizon.Horizon`), never past the duration.
     """
     from std_srvs.srv import SetBool
 

@@ -327,7 +327,7 @@ class GloveSim(PlantDriver):
         ------
         GloveSimError
             If the controller or the plant does not go on within ``timeout``; the plant's
-            ``run_until`` and ``pause_at`` are reset first, so this client can go on stepping
+            ``run_until`` is reset and the plant paused first, so this client can go on stepping
             it (also past the end the run was to have).
         """
         steps = round(seconds * self.rate_hz)

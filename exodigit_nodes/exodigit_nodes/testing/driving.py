@@ -71,14 +71,13 @@ class PlantDriver:
     def _lockstep(self, end_ns: int, states: list[SimState], steps: int, answers: int) -> None:
         """Let the plant step in lockstep with the user's controller up to ``end_ns``, then pause.
 
-        The plant, paused, gets ``pause_at`` = ``end_ns`` and a ``run_until`` a few steps past
-        the newest state received (:mod:`..runner.horizon`), then runs; the states it publishes
-        are appended to ``states`` until it holds ``steps``, and the plant's ``applied_command``
-        must have ``answers`` entries. A :class:`GloveSimError` leaves ``run_until`` and
-        ``pause_at`` cleared and the plant paused (:meth:`_release_run_until`).
+        The plant, paused, gets a ``run_until`` a few steps past the newest state received and
+        never past ``end_ns`` (:mod:`..runner.horizon`), then runs; the states it publishes are
+        appended to ``states`` until it holds ``steps``, and the plant's ``applied_command`` must
+        have ``answers`` entries. Then, or after a :class:`GloveSimError`, the plant is paused
+        and its ``run_until`` cleared (:meth:`_release_run_until`).
         """
         node = self._node
-        self._call(node.parameter_client, node.pause_at_request(end_ns * 1e-9), 'set pause_at')
         horizon = node.horizon
         horizon.start(end_ns * 1e-9)
         received = states[-1].t if states else self.state.t
@@ -101,31 +100,21 @@ class PlantDriver:
             self._release_run_until(error)
             raise
         self._release_run_until()
-        self._paused = True  # pause_at stopped the plant at the last state
 
     def _release_run_until(self, failure: GloveSimError | None = None) -> None:
-        """Let the plant step freely again after a :meth:`_lockstep` (also one that failed).
+        """Pause the plant, then clear its ``run_until``, after a :meth:`_lockstep`.
 
-        After a ``failure`` the plant may or may not have reached the run's ``pause_at`` (the
-        answers may be what is missing): ``pause_at`` is cleared, else it would pause the plant
-        at that time in a later step (which then waits in vain), and the plant is paused so
-        that the next step resumes it, whichever it was. A failure to do any of it after a
-        ``failure`` becomes a note on it, not a new error.
+        Paused first: held at the run's end, the plant would step on with the controller's
+        answer once the limit is gone; the next step resumes it. After a ``failure`` (the plant
+        may have stopped anywhere) a failure to do either becomes a note on it, not a new error.
         """
         try:
+            self._set_paused(True)
             self._answered(self._node.horizon.release().answer, 'reset run_until')
-            if failure is not None:
-                self._call(
-                    self._node.parameter_client,
-                    self._node.pause_at_request(0.0),
-                    'reset pause_at',
-                )
-                self._call(self._node.pause_client, self._node.pause_request(True), 'set_paused')
-                self._paused = True
         except GloveSimError as error:
             if failure is None:
                 raise
-            failure.add_note(f'and run_until, pause_at or the pause stays set: {error}')
+            failure.add_note(f'and run_until or the pause stays set: {error}')
 
     def _call(self, client, request, what: str):
         future = client.call_async(request)

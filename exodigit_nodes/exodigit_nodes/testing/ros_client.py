@@ -38,7 +38,6 @@ from ..nodes.messages import (
     VALVE_COMMAND,
     fill,
     joint_vector_message,
-    set_double_request,
     valve_command_message,
 )
 from ..nodes.qos import HANDED_OVER_QOS, RECORD_QOS, STREAM_QOS, record_profile
@@ -255,11 +254,6 @@ class GloveClient(Node):
     def pause_request(paused: bool) -> SetBool.Request:
         """A ``set_paused`` request."""
         return SetBool.Request(data=paused)
-
-    @staticmethod
-    def pause_at_request(seconds: float) -> SetParameters.Request:
-        """Set the plant's ``pause_at`` to ``seconds`` of simulated time."""
-        return set_double_request('pause_at', seconds)
 
     @staticmethod
     def parameters_request(values: Mapping[str, Any]) -> SetParameters.Request:
