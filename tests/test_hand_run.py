@@ -172,7 +172,7 @@ def test_a_refused_hand_command_exits_2_with_one_line_on_stderr(ros_domain, tmp_
         (['--fingers', 'index,index'], 'hand: --fingers index,index: give distinct names'),
         (['--duration', '-1'], 'hand: --duration -1.0: must be a finite number of seconds'),
         (['--clock', 'sim', '--real-time-factor', '-2'], 'hand: --real-time-factor -2: '),
-        (['--lockstep'], 'hand: --lockstep, --start-paused and --real-time-factor need --clock'),
+        (['--lockstep'], 'hand: --lockstep and --real-time-factor need --clock'),
         (['--namespace', 'hand'], "hand: --namespace 'hand': must be absolute"),
         (['--namespace', '/1hand'], "hand: --namespace '/1hand': must be absolute"),
         (['--patient', 'nobody.yaml'], 'hand: --patient: '),

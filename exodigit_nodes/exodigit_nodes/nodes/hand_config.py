@@ -55,7 +55,8 @@ def command_options(command: str) -> tuple[RunOption, ...]:
 
     The glove has no finger level (no ``--fingers``, ``--estimator``), its model from
     ``--params-file`` and two time options; the hand and ``hand_nodes`` have every time option
-    (one simulated time for the whole hand); the runners ``--record``.
+    (one simulated time for the whole hand) but the runners ``--start-paused``; the runners
+    ``--record``.
     """
     from exodigit_model.physics.params import PATIENT_PRESETS
 
@@ -123,7 +124,7 @@ def command_options(command: str) -> tuple[RunOption, ...]:
         ),
     ]
     lone = {'fingers', 'estimator'} if glove else {'params_file', 'hardware'}
-    runner = set() if command in ('glove', 'hand') else {'record'}
+    runner = {'start_paused'} if command in ('glove', 'hand') else {'record'}
     return tuple(option for option in options if option.name not in lone | runner)
 
 

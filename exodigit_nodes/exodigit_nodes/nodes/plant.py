@@ -163,15 +163,13 @@ class Plant(GloveNode):
                 self.marker_timer = self.create_timer(
                     1.0 / settings.marker_rate_hz, self.publish_markers, clock=self.report_clock
                 )
-        time_changes = {
-            name: getattr(settings.time, name) for name in changed & TIME_SETTING_NAMES
-        }
-        if self.time is not None and time_changes:
+        changes = {name: getattr(settings.time, name) for name in changed & TIME_SETTING_NAMES}
+        if self.time is not None and changes:
             # Only what changed: the time may be a hand's, shared with other fingers' plants.
-            self.time.configure(**time_changes)
+            self.time.configure(**changes)
             for member in self.time.members:
                 if member is not self:
-                    member.follow_time(time_changes)
+                    member.follow_time(changes)
 
     def new_simulation(self) -> GloveSimulation:
         """A simulation of the current parameters (``params_file``, ``seed``...) at rest, t = 0.
@@ -324,9 +322,8 @@ class Plant(GloveNode):
         message.position = array('d', state.q_measured)
         message.velocity = array('d', state.qdot)
         message.effort = array('d', state.finger_torque)
-        # Pressure first, then the rest, back to back: the estimator, the live summary and
-        # exodigit plot pair a step's messages by the times they were sent, each with the
-        # chamber_pressure sent before it (exodigit_model.stepping.joining).
+        # Pressure first, the rest back to back: a step's messages are paired by the times they
+        # were sent, each with the chamber_pressure before it (exodigit_model.stepping.joining).
         self.pressure_publisher.publish(fill(self.pressure_message, state.pressure_measured))
         self.joint_publisher.publish(message)
         self.force_publisher.publish(fill(self.force_message, state.forces))
