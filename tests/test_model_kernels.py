@@ -105,9 +105,6 @@ def compiled():
 # held to (the kernels call the math module, not numpy's vectorised functions, and compile
 # without fastmath, so both paths round the same operations the same way; compiled with
 # fastmath, the τ_s tables alone already differed in 1277 of 1320 coefficients).
-# Some cases leave the validated model on purpose (a pressure beyond the supply, a stretch
-# beyond the validated range): they compare the two paths, not the model's validity.
-@pytest.mark.filterwarnings('ignore::exodigit_model.physics.validity.OutsideModelWarning')
 @pytest.mark.parametrize('name', list(kernel_cases.CASES))
 def test_the_compiled_kernels_give_bit_for_bit_what_plain_python_gives(name, plain, compiled):
     assert jit.JIT is True  # a silently disabled JIT would compare plain Python with itself
