@@ -32,7 +32,7 @@ from exodigit_nodes.hardware.messages import (
     decode,
     encode,
 )
-from exodigit_nodes.hardware.timing import BoardClock
+from exodigit_nodes.hardware.timing import BoardClock, HostClock
 from hardware_loopback import LoopbackPort
 
 OPEN = (10000, 0, 5000, 0, 0, 2500)
@@ -326,6 +326,49 @@ def test_stamps_never_go_back_and_catch_up_with_a_lower_offset():
     assert all(b > a for a, b in itertools.pairwise(stamps[5:]))
     assert all(stamp <= arrival for stamp, arrival in zip(stamps, arrivals, strict=True))
     assert stamps[-1] == pytest.approx(0.29 + 0.001, abs=1e-5)  # on the least delay again
+
+
+SYSTEM_OFFSET = 1_765_000_000 * 10**9
+"""System clock − monotonic clock of the fake host, ns."""
+
+
+def host_clock(reads: list[int]) -> HostClock:
+    """A HostClock whose monotonic and system clocks return ``reads`` in turn (it reads both)."""
+    scripted = iter(reads)
+    return HostClock(lambda: next(scripted), lambda: next(scripted))
+
+
+def reads_of(samples: int, offset, preempted=()) -> list[int]:
+    """Per sample k (read 2 ms after its monotonic time k × 10 ms): monotonic, system, monotonic.
+
+    ``offset(k)``: the system clock's offset then; ``preempted``: samples whose thread lost 30 ms
+    between its first monotonic read and its system read.
+    """
+    reads = []
+    for k in range(samples):
+        read = k * 10_000_000 + 2_000_000
+        late = 30_000_000 if k in preempted else 0
+        reads += [read, read + late + offset(k), read + late]
+    return reads
+
+
+def test_host_stamps_keep_the_monotonic_pace_when_the_reading_thread_is_preempted():
+    # the system clock read 30 ms late at samples 3 and 4: read per sample, the offset would put
+    # sample 3 at 40 ms and sample 5 at 50 ms, after sample 4's 70 ms
+    clock = host_clock(reads_of(8, lambda k: SYSTEM_OFFSET, preempted={3, 4}))
+    stamps = [clock.system_ns(k * 0.010) for k in range(8)]
+    assert stamps == [k * 10_000_000 + SYSTEM_OFFSET for k in range(8)]
+
+
+def test_host_stamps_follow_the_system_clock_when_it_is_set():
+    # the system clock set back 1 s before sample 5, whose read is preempted: sample 6 follows
+    def offset(k):
+        return SYSTEM_OFFSET - (10**9 if k >= 5 else 0)
+
+    clock = host_clock(reads_of(8, offset, preempted={5}))
+    stamps = [clock.system_ns(k * 0.010) for k in range(8)]
+    assert stamps[:6] == [k * 10_000_000 + SYSTEM_OFFSET for k in range(6)]
+    assert stamps[6:] == [k * 10_000_000 + offset(k) for k in (6, 7)]
 
 
 # -- fuzz --------------------------------------------------------------------------------------

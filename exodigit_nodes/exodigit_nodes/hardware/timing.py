@@ -7,6 +7,7 @@ is followed. When the offset drops (a sample that waited less than every one bef
 stamps do not jump back: they advance at half the board's pace until they meet the new
 offset. So stamps never decrease, and never lie after the sample's arrival (samples that
 arrive together before the clock knows better may share their arrival as stamp).
+:class:`HostClock` puts those host times on the system clock, which stamps ROS messages.
 :class:`RoundTrip` measures, for each Openings sent, the time until the first
 sample that says the board applies them.
 """
@@ -14,7 +15,9 @@ sample that says the board applies them.
 from __future__ import annotations
 
 import math
+import time
 from collections import OrderedDict
+from collections.abc import Callable
 
 from .messages import BOARD_TIME_MODULO, SEQUENCE_MODULO
 
@@ -22,6 +25,10 @@ DRIFT = 200e-6
 """Largest clock rate difference followed, s/s (crystals: ±100 ppm each side)."""
 CATCH_UP = 0.5
 """Least advance of a stamp per board second while the stamps catch up with a lower offset."""
+TIGHT_READ_NS = 1_000_000
+"""Longest time between the two monotonic reads around a system clock read that is trusted, ns."""
+CLOCK_STEP_NS = 20_000_000
+"""Change of the system clock's offset taken for the clock being set, not for jitter, ns."""
 PENDING = 256
 """Openings remembered until a sample echoes them (older ones are forgotten)."""
 
@@ -58,6 +65,43 @@ class BoardClock:
         stamp = max(board + self._offset, self._last_stamp + CATCH_UP * (board - self._last_time))
         self._last_stamp, self._last_time = min(stamp, received), board
         return self._last_stamp
+
+
+class HostClock:
+    """The system clock time (ROS wall stamps) of a monotonic host time, never going back.
+
+    The offset system − monotonic is constant but when the system clock is set (NTP slews both
+    clocks alike). Read anew for every sample it would carry the time the reading thread was
+    preempted between its two reads, enough on a loaded machine to stamp a sample before the
+    one read 10 ms earlier. So it is read between two monotonic reads, and a reading changes it
+    only when those were at most `TIGHT_READ_NS` apart and it differs by more than
+    `CLOCK_STEP_NS`: the system clock was set, and the stamps follow it.
+
+    Parameters
+    ----------
+    monotonic_ns, system_ns : callable
+        The two clocks, ns (:func:`time.monotonic_ns` and :func:`time.time_ns`).
+    """
+
+    def __init__(
+        self,
+        monotonic_ns: Callable[[], int] = time.monotonic_ns,
+        system_ns: Callable[[], int] = time.time_ns,
+    ) -> None:
+        self._monotonic_ns = monotonic_ns
+        self._system_ns = system_ns
+        self.offset_ns: int | None = None
+
+    def system_ns(self, monotonic: float) -> int:
+        """The system clock time, ns, of the monotonic host time ``monotonic`` (s)."""
+        before = self._monotonic_ns()
+        system = self._system_ns()
+        after = self._monotonic_ns()
+        offset = system - (before + after) // 2
+        tight = after - before <= TIGHT_READ_NS
+        if self.offset_ns is None or (tight and abs(offset - self.offset_ns) > CLOCK_STEP_NS):
+            self.offset_ns = offset
+        return round(monotonic * 1e9) + self.offset_ns
 
 
 class RoundTrip:

@@ -39,6 +39,7 @@ from ..hardware.link import (
     SampleReceived,
 )
 from ..hardware.messages import ANGLE_UNIT, NoticeCode, Status
+from ..hardware.timing import HostClock
 from ..logic.inputs import InvalidInputError, valve_openings
 from .catalog import HARDWARE_NODE
 from .messages import (
@@ -85,6 +86,7 @@ class Hardware(GloveNode):
         self.pressure_message = joint_vector_message()
         self.applied_message = valve_command_message()
         self.joint_state = JointState(name=[values['joint_prefix'] + n for n in JOINT_NAMES])
+        self.host_clock = HostClock()
         self.flags = Status(0)
         self.notices = 0
         self.pressure_publisher = self.create_publisher(
@@ -211,8 +213,7 @@ class Hardware(GloveNode):
         self.pressure_publisher.publish(fill(self.pressure_message, sample.pressures_pa))
         if self.joint_publisher is None or not sample.angles:
             return
-        age = time.monotonic() - event.stamp
-        stamp = self.get_clock().now().nanoseconds - round(age * 1e9)
+        stamp = self.host_clock.system_ns(event.stamp)
         message = self.joint_state
         message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
         message.position = array('d', [angle * ANGLE_UNIT for angle in sample.angles])
