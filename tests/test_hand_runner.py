@@ -198,13 +198,6 @@ def test_record_adds_one_recorder_of_every_glove_first_to_start_last_to_stop(
         assert session_of(command, *arguments, '--estimator', 'false').listeners == ()
 
 
-def test_a_layout_that_cannot_hold_the_hand_is_refused():
-    with pytest.raises(ValueError, match='lone glove'):
-        hand_runner.RunConfig('hand', HandConfig(), hand_runner.NODE_PROCESSES)
-    with pytest.raises(ValueError, match='fingers'):
-        hand_runner.RunConfig('glove', HandConfig(fingers=()), hand_runner.HAND_PROCESS)
-
-
 # -- refusals -----------------------------------------------------------------------------------
 
 

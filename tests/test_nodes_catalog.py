@@ -80,7 +80,7 @@ def console_scripts() -> dict[str, str]:
 
 @by_executable
 def test_setup_py_installs_each_node_as_a_console_script_of_its_module(node):
-    assert console_scripts()[node.executable] == node.entry_point
+    assert console_scripts()[node.executable] == f'exodigit_nodes.console:{node.executable}'
 
 
 def test_a_rule_given_by_position_is_refused():

@@ -4,7 +4,7 @@ import pytest
 from exodigit_nodes.logic.options import UsageError
 from exodigit_nodes.logic.pacing import TimeSettings
 from exodigit_nodes.nodes.catalog import PLANT_NODE
-from exodigit_nodes.nodes.hand_config import GLOVE_TIME_OPTIONS, hand_config
+from exodigit_nodes.nodes.hand_config import hand_config
 from exodigit_nodes.nodes.run_options import (
     TIME_OPTIONS,
     check_sim_only,
@@ -50,7 +50,7 @@ def test_both_commands_read_their_switches_into_booleans(command):
 @pytest.mark.parametrize(
     ('names', 'message'),
     [
-        (GLOVE_TIME_OPTIONS, '--lockstep and --real-time-factor need --clock sim'),
+        (('real_time_factor', 'lockstep'), '--lockstep and --real-time-factor need --clock sim'),
         (TIME_OPTIONS, '--lockstep, --start-paused and --real-time-factor need --clock sim'),
         (('lockstep',), '--lockstep needs --clock sim'),
     ],

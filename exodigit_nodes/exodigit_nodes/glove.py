@@ -26,7 +26,6 @@ from exodigit_nodes.runner import hand_runner
 
 GLOVE = hand_runner.Command(
     name='glove',
-    layout=hand_runner.NODE_PROCESSES,
     description='Run the simulated soft glove (plant, estimator, pressure_command) with a\n'
     'live summary; write a run record (CSV and PNG) of the published signals.\n'
     'Switches (--lockstep, --record) take true or false; alone they mean true.',

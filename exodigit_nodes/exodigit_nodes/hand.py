@@ -18,7 +18,6 @@ from exodigit_nodes.runner import hand_runner
 
 HAND = hand_runner.Command(
     name='hand',
-    layout=hand_runner.HAND_PROCESS,
     description="Run a simulated hand (every finger's plant, estimator and pressure_command in "
     'one process) with a live summary; write a run record (CSV and PNG) per finger.',
     examples="""examples:

@@ -15,6 +15,7 @@ the process failed.
 
 from exodigit_nodes.logic.lifetime import exit_status
 from exodigit_nodes.nodes.hand_config import command_options
+from exodigit_nodes.nodes.run_options import flag
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, RegisterEventHandler
 from launch.event_handlers import OnProcessExit
@@ -51,7 +52,7 @@ def generate_launch_description():
     # No node name or namespace remap here: they would rename every node of the process.
     command = []
     for option in options:
-        command += [option.flag, LaunchConfiguration(option.name)]
+        command += [flag(option.name), LaunchConfiguration(option.name)]
     hand = Node(
         package='exodigit_nodes',
         executable='hand_nodes',

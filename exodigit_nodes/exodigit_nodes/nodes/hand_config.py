@@ -21,6 +21,7 @@ from .run_options import (
     TIME_OPTIONS,
     RunOption,
     check_sim_only,
+    flag,
     parameter_option,
     text,
     time_parameters,
@@ -31,8 +32,6 @@ FINGERS = ('thumb', 'index', 'middle', 'ring', 'little')
 """The fingers of a hand, thumb first."""
 COMMANDS = ('glove', 'hand', 'hand_nodes')
 """The commands :func:`command_options` has a table for."""
-GLOVE_TIME_OPTIONS = ('real_time_factor', 'lockstep')
-"""The time options of the lone glove's command (the hand has every one of TIME_OPTIONS)."""
 EMULATED = 'emulated'
 """``--hardware`` value for the emulated board (``mcu_emulator``)."""
 DEFAULT_PATIENTS = {'glove': 'stroke_moderate', 'hand': NOMINAL_PATIENT}
@@ -53,10 +52,9 @@ def hand_config_dir() -> Path:
 def command_options(command: str) -> tuple[RunOption, ...]:
     """The options of ``command`` (of :data:`COMMANDS`), in ``--help`` order: the one table.
 
-    The glove has no finger level (no ``--fingers``, ``--estimator``), its model from
-    ``--params-file`` and two time options; the hand and ``hand_nodes`` have every time option
-    (one simulated time for the whole hand) but the runners ``--start-paused``; the runners
-    ``--record``.
+    The glove has ``--params-file`` and ``--hardware``, no finger level (``--fingers``,
+    ``--estimator``) and no ``--lockstep-timeout``; the runners ``--record``, ``hand_nodes``
+    ``--start-paused`` (the runners start paused with ``--clock sim``).
     """
     from exodigit_model.physics.params import PATIENT_PRESETS
 
@@ -110,10 +108,7 @@ def command_options(command: str) -> tuple[RunOption, ...]:
         RunOption(
             'estimator', 'true', 'run an estimator per finger', choices=BOOLEANS, switch=True
         ),
-        *(
-            parameter_option(name, note=hand)
-            for name in ('clock', *(GLOVE_TIME_OPTIONS if glove else TIME_OPTIONS))
-        ),
+        *(parameter_option(name, note=hand) for name in ('clock', *TIME_OPTIONS)),
         RunOption(
             'record',
             'false',
@@ -123,7 +118,7 @@ def command_options(command: str) -> tuple[RunOption, ...]:
             switch=True,
         ),
     ]
-    lone = {'fingers', 'estimator'} if glove else {'params_file', 'hardware'}
+    lone = {'fingers', 'estimator', 'lockstep_timeout'} if glove else {'params_file', 'hardware'}
     runner = {'start_paused'} if command in ('glove', 'hand') else {'record'}
     return tuple(option for option in options if option.name not in lone | runner)
 
@@ -160,8 +155,7 @@ class HandConfig:
     Attributes
     ----------
     fingers : tuple of str
-        Finger names, each in :data:`FINGERS` at most once; empty: a lone glove (one finger, no
-        finger level: its nodes in ``namespace`` itself, no joint prefix, ``params_file``).
+        Finger names, each in :data:`FINGERS` at most once; empty: a lone glove.
     namespace : str
         Absolute namespace of the hand.
     mode : str
@@ -273,7 +267,8 @@ class HandConfig:
         words = []
         for option in command_options('hand_nodes'):
             value = getattr(self.time if option.name in TIME_OPTIONS else self, option.name)
-            words += [option.flag, ','.join(value) if option.name == 'fingers' else text(value)]
+            given = ','.join(value) if option.name == 'fingers' else text(value)
+            words += [flag(option.name), given]
         return words
 
 

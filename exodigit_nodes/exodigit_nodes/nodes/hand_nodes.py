@@ -1,12 +1,10 @@
 """``hand_nodes``: every finger's plant, estimator and pressure_command in one process.
 
-docs/running.md, "A whole hand", has what it runs and its speed.
-
-Each finger keeps its own namespace, topics, services, parameters and /diagnostics, exactly as a
-glove started node by node. With ``--clock sim`` the hand has one simulated time
+docs/running.md, "A whole hand", has what it runs (each finger as a glove started node by node)
+and its speed. With ``--clock sim`` the hand has one simulated time
 (:class:`.sim_time.SimulatedTime`, owned by the node ``<namespace>/hand``). ROS arguments after
 ``--ros-args`` apply to every node; the per-finger values (:meth:`.HandConfig.parameters`) win
-over them. Run: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
+over them: ``python -m exodigit_nodes.nodes.hand_nodes --fingers index,middle --ros-args -p
 rate_hz:=200`` (``ros2 run exodigit_nodes hand_nodes ...``).
 """
 

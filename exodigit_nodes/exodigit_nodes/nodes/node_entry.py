@@ -48,11 +48,6 @@ class NodeEntry:
         return f'{PACKAGE}.nodes.{self.executable}'
 
     @property
-    def entry_point(self) -> str:
-        """The console script's target in setup.py (``exodigit_nodes.console:plant``)."""
-        return f'{PACKAGE}.console:{self.executable}'
-
-    @property
     def config_file(self) -> str:
         """Name of its ROS parameter file in the package's ``config`` directory."""
         return f'{self.executable}.yaml'

@@ -49,11 +49,6 @@ class RunOption:
     switch: bool = False
     metavar: str = ''
 
-    @property
-    def flag(self) -> str:
-        """The command-line option, ``--real-time-factor``."""
-        return flag(self.name)
-
 
 def flag(name: str) -> str:
     """The command-line option of parameter or option ``name``: ``--real-time-factor``."""
@@ -86,7 +81,7 @@ def add_options(parser: argparse.ArgumentParser, options: Iterable[RunOption]) -
     for option in options:
         extra = {'nargs': '?', 'const': 'true'} if option.switch else {}
         parser.add_argument(
-            option.flag,
+            flag(option.name),
             default=option.default,
             choices=option.choices or None,
             help=f'{option.help} (default {option.default})' if option.default else option.help,
@@ -95,24 +90,21 @@ def add_options(parser: argparse.ArgumentParser, options: Iterable[RunOption]) -
         )
 
 
-def checked_parameter(name: str, value: str):
-    """The plant's check of option ``name`` given as ``value`` (UsageError naming the option)."""
-    spec = PLANT_NODE.table[name]
-    try:
-        typed = (value == 'true') if isinstance(spec.default, bool) else type(spec.default)(value)
-        return spec.check(typed)
-    except ValueError as error:
-        raise UsageError(f'{flag(name)} {value}: {" ".join(str(error).split())}') from None
-
-
 def time_settings(values: Mapping[str, str]) -> TimeSettings:
-    """The :class:`TimeSettings` of the time options in ``values`` (name to text), checked.
+    """The :class:`TimeSettings` of time options ``values`` (name to text), checked.
 
-    Those not in ``values`` keep the plant's defaults.
+    Each gets the plant's check of its parameter (UsageError naming the option); those not in
+    ``values`` keep the plant's defaults.
     """
-    return TimeSettings(
-        **{name: checked_parameter(name, values[name]) for name in TIME_OPTIONS if name in values}
-    )
+    checked = {}
+    for name, value in values.items():
+        spec = PLANT_NODE.table[name]
+        try:
+            kind = type(spec.default)
+            checked[name] = spec.check(value == 'true' if kind is bool else kind(value))
+        except ValueError as error:
+            raise UsageError(f'{flag(name)} {value}: {" ".join(str(error).split())}') from None
+    return TimeSettings(**checked)
 
 
 def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None:
@@ -121,10 +113,8 @@ def check_sim_only(clock: str, time: TimeSettings, names: Iterable[str]) -> None
     The message lists every such option of ``names`` (the command's), e.g. ``--lockstep and
     --real-time-factor need --clock sim``.
     """
-    names = set(names)
     defaults = TimeSettings()
-    changed = [n for n in SIM_ONLY if n in names and getattr(time, n) != getattr(defaults, n)]
-    if clock != 'sim' and changed:
+    if clock != 'sim' and any(getattr(time, n) != getattr(defaults, n) for n in SIM_ONLY):
         *others, last = [flag(n) for n in SIM_ONLY if n in names]
         listed = f'{", ".join(others)} and {last}' if others else last
         raise UsageError(f'{listed} need{"" if others else "s"} --clock sim')

@@ -1,24 +1,15 @@
 """The one runner of ``python -m exodigit_nodes.glove`` and ``.hand``: a hand of N fingers.
 
-Each command is a :class:`Command`: its options come from one table
-(:func:`..nodes.hand_config.command_options`), are checked into one :class:`RunConfig` and run by
-:func:`.session.run_session` (a live summary and a run record per finger). A glove is the hand
-of one finger with no finger level: its nodes in the namespace itself, no joint prefix, its
-record at the top of the run directory; finger f of a hand has ``<namespace>/f``, the prefix
-``f_`` and its record in ``<run>/f/``.
-
-Process layouts (:data:`LAYOUTS`): ``nodes``, each node its own process as
-``launch/glove.launch.py`` starts them (a lone glove only: each plant owns its simulated time);
-``hand_nodes``, every node of every finger in one process as ``launch/hand.launch.py`` starts
-it (one simulated time; docs/running.md, "A whole hand"). The command nodes stop first, so the
+docs/running.md, "One runner", has the two commands and their process layouts: a lone glove
+runs each node as its own process (``launch/glove.launch.py``), a hand of fingers runs every node
+in one ``hand_nodes`` process (``launch/hand.launch.py``). The command nodes stop first, so the
 chambers get zero pressure while the plant still runs.
 
-``--hardware``: the ``hardware`` bridge takes the plant's place; ``emulated`` starts
-``mcu_emulator`` first and stops it last, its pty at ``<run>/board``. ``--record``: one rosbag2
-``recorder`` for the whole hand (one per finger left plants undiscovered on a loaded machine),
-to ``<run>/bag`` (finger f's to ``<run>/bag/f``), started first and stopped last. ``--clock
-sim``: the plants start paused and are held at ``--duration`` (``run_until``: :mod:`.horizon`),
-so every record ends there.
+``--hardware`` (docs/hardware.md): the ``hardware`` bridge takes the plant's place; ``emulated``
+starts ``mcu_emulator`` first and stops it last, its pty at ``<run>/board``. ``--record``: one
+rosbag2 ``recorder`` for the whole hand (one per finger left plants undiscovered on a loaded
+machine), started first and stopped last. ``--clock sim``: the plants start paused and are held
+at ``--duration`` (``run_until``: :mod:`.horizon`), so every record ends there.
 """
 
 from __future__ import annotations
@@ -36,16 +27,13 @@ from ..logic.ros_env import discovery_environment, ros_args
 from ..nodes.catalog import ESTIMATOR_NODE
 from ..nodes.hand_config import EMULATED, HandConfig, command_options, hand_config
 from ..nodes.messages import SET_PAUSED
-from ..nodes.run_options import add_options, time_parameters
+from ..nodes.run_options import add_options
 from .run_record import BAG_DIR_NAME, LOG_DIR_NAME, RunRecord, new_run_directory
 from .session import Session, WatchedGlove, identification_references, run_session
 from .summary import BOARD_STEP_ORDER, STEP_ORDER
 
-NODE_PROCESSES = 'nodes'
-"""Layout: each node of a lone glove its own process."""
 HAND_PROCESS = 'hand_nodes'
-"""Layout: every node of a hand in one ``hand_nodes`` process, also the process's name."""
-LAYOUTS = (NODE_PROCESSES, HAND_PROCESS)
+"""The one process of every node of a hand of fingers (its executable)."""
 RECORDER = 'recorder'
 """The rosbag2 recorder's process, node and module name."""
 EMULATOR = 'mcu_emulator'
@@ -56,14 +44,12 @@ BOARD_LINK_NAME = 'board'
 
 @dataclass(frozen=True)
 class Command:
-    """One command of the runner: its name (in messages and titles), layout and help.
+    """One command of the runner: its name (in messages and titles) and ``--help`` text.
 
     Attributes
     ----------
     name : str
         ``glove`` or ``hand``: its option table (:func:`..nodes.hand_config.command_options`).
-    layout : str
-        Of :data:`LAYOUTS`.
     description : str
         ``--help``'s description.
     examples : str
@@ -71,23 +57,21 @@ class Command:
     """
 
     name: str
-    layout: str
     description: str
     examples: str
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    """One run: the hand, its process layout, how long, what else it writes.
+    """One run: the hand, how long, what else it writes.
 
     Attributes
     ----------
     program : str
         The command's name, in messages and summary titles.
     hand : HandConfig
-        With ``clock`` sim, paused at the start (the session holds it at ``duration``).
-    layout : str
-        Of :data:`LAYOUTS`.
+        With ``clock`` sim, paused at the start (the session holds it at ``duration``). A lone
+        glove runs a process per node, a hand of fingers one :data:`HAND_PROCESS`.
     duration : float
         Seconds to run (simulated with ``clock`` sim); 0 until stopped.
     ros_params : tuple of str
@@ -98,18 +82,9 @@ class RunConfig:
 
     program: str
     hand: HandConfig
-    layout: str
     duration: float = 0.0
     ros_params: tuple[str, ...] = ()
     record: bool = False
-
-    def __post_init__(self) -> None:
-        if self.layout not in LAYOUTS:
-            raise ValueError(f'layout {self.layout!r}: one of {", ".join(LAYOUTS)}')
-        if self.layout == NODE_PROCESSES and self.hand.fingers:
-            raise ValueError('a node per process runs a lone glove only (one plant, one clock)')
-        if self.layout == HAND_PROCESS and not self.hand.fingers:
-            raise ValueError('hand_nodes runs the fingers of a hand')
 
 
 def build_parser(command: Command) -> argparse.ArgumentParser:
@@ -175,7 +150,6 @@ def run_config(command: Command, options: argparse.Namespace) -> RunConfig:
     return RunConfig(
         program=command.name,
         hand=hand,
-        layout=command.layout,
         duration=options.duration,
         ros_params=tuple(str(Path(path).resolve()) for path in options.ros_params),
         record=options.record == 'true',
@@ -204,7 +178,7 @@ def node_processes(config: RunConfig, emulator_link: str = '') -> dict[str, list
     ``emulator_link``: the emulated board's port (``--hardware emulated``).
     """
     hand = config.hand
-    if config.layout == NODE_PROCESSES:
+    if not hand.fingers:
         (glove,) = hand.gloves()
         return {
             entry.executable: [
@@ -224,18 +198,10 @@ def node_processes(config: RunConfig, emulator_link: str = '') -> dict[str, list
     return {HAND_PROCESS: [*command, *(['--ros-args', *files] if files else [])]}
 
 
-def nodes_run(config: RunConfig, name: str) -> tuple[str, ...]:
-    """The nodes of every glove that process ``name`` runs (none for a recorder)."""
-    executables = tuple(entry.executable for entry in config.hand.node_entries())
-    if config.layout == NODE_PROCESSES:
-        return (name,) if name in executables else ()
-    return executables if name == HAND_PROCESS else ()
-
-
 def recorder_command(config: RunConfig, bag: Path) -> list[str]:
     """The recorder's command line: every glove's topics to ``bag`` (a finger's: ``bag/f``)."""
     hand = config.hand
-    values = time_parameters(RECORDER, hand.clock, hand.time)  # use_sim_time
+    values = {'use_sim_time': hand.clock == 'sim'}
     return [
         *(sys.executable, '-m', f'exodigit_nodes.nodes.{RECORDER}'),
         *('--output', str(bag)),
@@ -277,13 +243,17 @@ def session(config: RunConfig, run_dir: Path) -> Session:
     boards = {EMULATOR: emulator_command(config, link)} if emulated else {}
     nodes = node_processes(config, str(link) if emulated else '')
     estimated = hand.gloves() if hand.estimator else ()
+    executables = tuple(entry.executable for entry in hand.node_entries())
     return Session(
         program=config.program,
         processes=(*recorders.items(), *boards.items(), *nodes.items()),
         # the command nodes first, the plants (a board's bridge, then the board) last
         stop_order=(*reversed(nodes), *boards, *recorders),
-        runs={name: nodes_run(config, name) for name in (*recorders, *boards, *nodes)},
-        nodes=tuple(entry.executable for entry in hand.node_entries()),
+        runs={
+            **dict.fromkeys((*recorders, *boards), ()),
+            **{name: executables if name == HAND_PROCESS else (name,) for name in nodes},
+        },
+        nodes=executables,
         gloves=watched,
         pause_service=f'{hand.namespace.rstrip("/")}/{SET_PAUSED}',
         simulated=hand.clock == 'sim',
