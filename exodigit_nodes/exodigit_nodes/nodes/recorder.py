@@ -5,13 +5,11 @@ Usage::
     python -m exodigit_nodes.nodes.recorder --output DIR --ros-args -r __ns:=/glove
     python -m exodigit_nodes.nodes.recorder --output DIR --gloves a,b --ros-args -r __ns:=/hand
 
-Subscribes to every glove topic (:data:`TOPICS`) in its namespace, or in each sub-namespace of
-``--gloves`` (a bag each), and writes the raw CDR messages with the ``rosbags`` library, each
-stamped with the time it was sent (its DDS source timestamp; under ``use_sim_time`` the node
-clock on arrival), so that a step's messages stay together however late they arrived. Its
-``~/ready`` is docs/spec/ros.md, "The session protocol", guarantee 2. The bag opens in ``ros2
-bag``, Foxglove and PlotJuggler (``exodigit plot DIR`` draws it); Ctrl-C or SIGTERM (``timeout
-S``) closes it cleanly, a topic nobody published listed with 0 messages.
+The raw CDR messages of every glove topic (:data:`TOPICS`), written with the ``rosbags``
+library, each stamped with the time it was sent (its DDS source timestamp; under
+``use_sim_time`` the node clock on arrival), so that a step's messages stay together however late
+they arrived. Ctrl-C or SIGTERM closes the bags cleanly. ``~/ready``: docs/spec/ros.md, "The
+session protocol", guarantee 2; the rest: docs/tools.md, "Recording a session".
 """
 
 from __future__ import annotations
