@@ -218,9 +218,8 @@ class Hardware(GloveNode):
             openings = valve_openings(message.data, VALVE_COMMAND)
         except InvalidInputError as error:
             self.reject(VALVE_COMMAND, error)
-            with self.link_lock:
-                held = self.bridge.openings
-            self.applied_publisher.publish(fill(self.applied_message, held))
+            with self.link_lock:  # the link thread fills the same message
+                self.applied_publisher.publish(fill(self.applied_message, self.bridge.openings))
             return
         with self.link_lock:
             self.take_events(self.bridge.command(openings, time.monotonic()))
