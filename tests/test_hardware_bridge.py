@@ -118,6 +118,11 @@ def test_a_session_through_the_bridge_applies_every_command_and_reports_the_boar
     report = values(status)
     assert report['link'] == 'streaming' and report['bend_sensors'] == '3'
     assert report['frames_bad'] == '0' and int(report['samples']) > 20
+    # a command it refuses (five openings) is answered with those in force, which the board keeps
+    before = time.monotonic()
+    glove.send(sent[-1][:5])
+    assert glove.applied.wait_for(lambda m: list(m.data) == sent[-1], 5.0, before) is not None
+    assert emulator.status().openings == pytest.approx(sent[-1])
     assert bridge.stop() == 0
 
 

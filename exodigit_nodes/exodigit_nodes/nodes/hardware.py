@@ -20,6 +20,7 @@ import select
 import threading
 import time
 from array import array
+from dataclasses import fields
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
@@ -72,15 +73,9 @@ class Hardware(GloveNode):
     def __init__(self, **node_options) -> None:
         super().__init__(**node_options)
         values = self.values
-        link_settings = LinkSettings(
-            port=values['port'],
-            baud_rate=values['baud_rate'],
-            handshake_timeout=values['handshake_timeout'],
-            sample_timeout=values['sample_timeout'],
-            heartbeat_period=values['heartbeat_period'],
-            reconnect_max=values['reconnect_max'],
-        )
-        self.link = HostLink(link_settings)
+        # The link's settings that are parameters, of the same names; the others keep defaults.
+        shared = values.keys() & {item.name for item in fields(LinkSettings)}
+        self.link = HostLink(LinkSettings(**{name: values[name] for name in shared}))
         self.bridge = Bridge(self.link, self.settings)
         self.link_lock = threading.Lock()
         self.pressure_message = joint_vector_message()
@@ -142,14 +137,11 @@ class Hardware(GloveNode):
     def serve_link(self) -> None:
         """The link thread: wait for bytes, run the bridge, publish what it says."""
         while not self.stopping.is_set():
-            descriptor = self.link.fileno()
-            if descriptor is None:
+            descriptor = self.link.fileno()  # None: no port open, or none to wait on
+            try:
+                select.select([] if descriptor is None else [descriptor], [], [], POLL_PERIOD)
+            except (OSError, ValueError):  # closed meanwhile (the poll will say why), or Windows
                 time.sleep(POLL_PERIOD)
-            else:
-                try:
-                    select.select([descriptor], [], [], POLL_PERIOD)
-                except (OSError, ValueError):  # closed meanwhile: the poll will say why
-                    time.sleep(POLL_PERIOD)
             with self.link_lock:
                 if self.stopping.is_set():
                     return
@@ -186,10 +178,10 @@ class Hardware(GloveNode):
                 )
             elif isinstance(event, NoticeReceived):
                 self.notices += 1
-                notice = event.notice
+                code = event.notice.code
+                name = NoticeCode(code).name if code in set(NoticeCode) else f'code {code}'
                 logger.warning(
-                    f'the board refused something: {_notice_name(notice.code)} '
-                    f'(detail {notice.detail})',
+                    f'the board refused something: {name} (detail {event.notice.detail})',
                     throttle_duration_sec=LOG_THROTTLE,
                 )
 
@@ -227,9 +219,8 @@ class Hardware(GloveNode):
             openings = valve_openings(message.data, VALVE_COMMAND)
         except InvalidInputError as error:
             self.reject(VALVE_COMMAND, error)
-            with self.link_lock:
-                held = self.bridge.openings
-            self.applied_publisher.publish(fill(self.applied_message, held))
+            with self.link_lock:  # the link thread fills the same message
+                self.applied_publisher.publish(fill(self.applied_message, self.bridge.openings))
             return
         with self.link_lock:
             self.take_events(self.bridge.command(openings, time.monotonic()))
@@ -288,13 +279,6 @@ class Hardware(GloveNode):
         self.get_logger().info(
             'vented and closed the port' if delivered else 'closed the port (no board to vent)'
         )
-
-
-def _notice_name(code: int) -> str:
-    try:
-        return NoticeCode(code).name
-    except ValueError:
-        return f'code {code}'
 
 
 def main(args: list[str] | None = None) -> int:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import math
 import signal
 import sys
 import time
@@ -83,10 +82,9 @@ def serve(
     args: list[str] | None,
     make_nodes: Callable[[], Node | list[Node]],
     last_words: Callable[[Node], None],
-    duration: float = math.inf,
     taken: Callable[[Node], int] | None = None,
 ) -> int:
-    """Spin the node(s) ``make_nodes`` builds until a stop signal, shutdown or ``duration`` s.
+    """Spin the node(s) ``make_nodes`` builds until a stop signal or shutdown.
 
     One EventsExecutor spins them (a third less CPU than the SingleThreadedExecutor at 100 Hz;
     callbacks that take message info are :class:`.message_info.WithInfo`). A stop signal, or the
@@ -121,8 +119,7 @@ def serve(
         executor = EventsExecutor()
         for node in nodes:
             executor.add_node(node)
-        deadline = time.monotonic() + duration
-        while not stop.requested and time.monotonic() < deadline:
+        while not stop.requested:
             executor.spin_once(timeout_sec=SPIN_PERIOD)
         if taken is not None:  # what has arrived; nodes still running may send on meanwhile
             take_backlog(

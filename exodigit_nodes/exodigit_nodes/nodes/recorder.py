@@ -2,23 +2,21 @@
 
 Usage::
 
-    python -m exodigit_nodes.nodes.recorder --output DIR [--duration S] --ros-args -r __ns:=/glove
+    python -m exodigit_nodes.nodes.recorder --output DIR --ros-args -r __ns:=/glove
     python -m exodigit_nodes.nodes.recorder --output DIR --gloves a,b --ros-args -r __ns:=/hand
 
-Subscribes to every glove topic (:data:`TOPICS`) in its namespace, or in each sub-namespace of
-``--gloves`` (a bag each), and writes the raw CDR messages with the ``rosbags`` library, each
-stamped with the time it was sent (its DDS source timestamp; under ``use_sim_time`` the node
-clock on arrival), so that a step's messages stay together however late they arrived. Its
-``~/ready`` is docs/spec/ros.md, "The session protocol", guarantee 2. The bag opens in ``ros2
-bag``, Foxglove and PlotJuggler (``exodigit plot DIR`` draws it); Ctrl-C, SIGTERM or the end of
-``--duration`` closes it cleanly, a topic nobody published listed with 0 messages.
+The raw CDR messages of every glove topic (:data:`TOPICS`), written with the ``rosbags``
+library, each stamped with the time it was sent (its DDS source timestamp; under
+``use_sim_time`` the node clock on arrival), so that a step's messages stay together however late
+they arrived. Ctrl-C or SIGTERM closes the bags cleanly. ``~/ready``: docs/spec/ros.md, "The
+session protocol", guarantee 2; the rest: docs/tools.md, "Recording a session".
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
+from functools import partial
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -64,66 +62,12 @@ by log time, :mod:`exodigit_model.stepping.joining`)."""
 
 BAG_VERSION = 9
 """rosbag2 metadata version written (the one ROS 2 Jazzy writes)."""
-
-
-def type_name(message_class: type) -> str:
-    """ROS 2 type name of an rclpy message class, e.g. ``std_msgs/msg/Float64MultiArray``."""
-    package = message_class.__module__.split('.')[0]
-    return f'{package}/msg/{message_class.__name__}'
-
-
-class BagWriter:
-    """A rosbag2 MCAP bag being written: one connection per topic, raw CDR messages in.
-
-    Parameters
-    ----------
-    path : Path
-        Bag folder to create (must not exist).
-    topics : dict
-        Fully resolved topic name -> ROS 2 type name.
-    """
-
-    def __init__(self, path: Path, topics: dict[str, str]) -> None:
-        try:
-            from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
-            from rosbags.typesys import Stores, get_typestore
-        except ImportError:
-            raise ConfigurationError(
-                'rosbags is not installed; install it with: pip install rosbags'
-            ) from None
-        if path.exists():
-            raise ConfigurationError(
-                f'--output {path}: exists already; the bag needs a new folder'
-            )
-        typestore = get_typestore(Stores.ROS2_JAZZY)
-        self.path = path
-        self._writer = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
-        try:
-            self._writer.open()
-        except (WriterError, OSError) as error:
-            raise ConfigurationError(f'--output {path}: cannot create the bag ({error})') from None
-        self._connections = {
-            topic: self._writer.add_connection(topic, msgtype, typestore=typestore)
-            for topic, msgtype in topics.items()
-        }
-        self.counts = dict.fromkeys(topics, 0)
-
-    def write(self, topic: str, stamp_ns: int, data: bytes) -> None:
-        """Append one serialized message received at ``stamp_ns`` (node clock, ns)."""
-        self._writer.write(self._connections[topic], stamp_ns, data)
-        self.counts[topic] += 1
-
-    def close(self) -> None:
-        """Finish the MCAP file and write metadata.yaml."""
-        self._writer.close()
-
-
 SHARED = (messages.DIAGNOSTICS, messages.CLOCK)
 """Topics of the whole domain, not of a glove: every bag gets them."""
 
 
 class Recorder(Node):
-    """Subscribes to the glove topics (raw CDR) and hands each message to its :class:`BagWriter`.
+    """Subscribes to the glove topics (raw CDR) and writes each message to its bags (``rosbags``).
 
     ``gloves``: sub-namespaces of its namespace whose topics it records, each to a bag of its own,
     ``output/<glove>`` (a hand's fingers; ``exodigit plot`` reads one glove a bag); the default
@@ -141,86 +85,85 @@ class Recorder(Node):
         **node_options,
     ) -> None:
         super().__init__('recorder', **node_options)
-        if gloves != ('',):
-            if '' in gloves or len(set(gloves)) != len(gloves):
-                raise ConfigurationError(f'--gloves {",".join(gloves)}: give distinct names')
-            if output.exists():
+        try:
+            from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+            from rosbags.typesys import Stores, get_typestore
+        except ImportError:
+            raise ConfigurationError(
+                'rosbags is not installed; install it with: pip install rosbags'
+            ) from None
+        if gloves != ('',) and ('' in gloves or len(set(gloves)) != len(gloves)):
+            raise ConfigurationError(f'--gloves {",".join(gloves)}: give distinct names')
+        if output.exists():
+            raise ConfigurationError(
+                f'--output {output}: exists already; the bag needs a new folder'
+            )
+        typestore = get_typestore(Stores.ROS2_JAZZY)
+        self.bags = []
+        self.taken = 0  # messages taken so far, each once whatever the number of its bags
+        self._routes: dict[str, list] = {}  # resolved topic: its (bag, connection) pairs
+        for glove in gloves:
+            bag = Writer(output / glove, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+            try:
+                bag.open()  # with the folders it needs
+            except (WriterError, OSError) as error:
                 raise ConfigurationError(
-                    f'--output {output}: exists already; the bags need a new folder'
-                )
-            output.mkdir(parents=True)
-        routes: dict[str, tuple[type, list[str]]] = {}  # relative topic: type, its gloves' bags
-        for glove in gloves:  # a glove's chamber_pressure before its joint_states (TOPICS)
-            for topic, message_class in TOPICS.items():
-                name = f'{glove}/{topic}' if glove and topic not in SHARED else topic
-                routes.setdefault(name, (message_class, []))[1].append(glove)
-        self._names = {}
-        self._taken = 0
-        for name, (message_class, _) in routes.items():
-            subscription = self.create_subscription(
-                message_class,
-                name,
-                WithInfo(self._callback_for(name)),
-                record_profile(name),
-                raw=True,
-            )
-            self._names[name] = subscription.topic_name
-        self._routes = {name: bags for name, (_, bags) in routes.items()}
-        self.bags = {
-            glove: BagWriter(
-                output / glove if glove else output,
-                {self._names[n]: type_name(c) for n, (c, bags) in routes.items() if glove in bags},
-            )
-            for glove in gloves
-        }
+                    f'--output {output}: cannot create the bag ({error})'
+                ) from None
+            self.bags.append(bag)
+            for topic, message_class in TOPICS.items():  # in their order (TOPICS)
+                relative = f'{glove}/{topic}' if glove and topic not in SHARED else topic
+                name = self.resolve_topic_name(relative)
+                if name not in self._routes:
+                    self._routes[name] = []
+                    callback = WithInfo(partial(self._record, name))
+                    qos = record_profile(name)
+                    self.create_subscription(message_class, name, callback, qos, raw=True)
+                # Its ROS 2 type name, e.g. std_msgs/msg/Float64MultiArray.
+                package = message_class.__module__.split('.')[0]
+                msgtype = f'{package}/msg/{message_class.__name__}'
+                connection = bag.add_connection(name, msgtype, typestore=typestore)
+                self._routes[name].append((bag, connection))
         self.get_logger().info(
-            f'recording {len(routes)} topics to {output} (rosbag2, MCAP): '
-            + ', '.join(self._names.values())
+            f'recording {len(self._routes)} topics to {output} (rosbag2, MCAP): '
+            + ', '.join(self._routes)
         )
         self.readiness = Ready(self, glove_nodes(gloves, nodes))  # after every reader
 
-    def _callback_for(self, topic: str):
-        """The subscription callback of ``topic``.
+    def _record(self, topic: str, data: bytes, info: dict) -> None:
+        """Write a message of ``topic`` (raw CDR) to its bags, stamped with its send time.
 
-        It logs the first message: a sign of a matched publisher, which a test waits for.
+        Its first is logged: a sign of a matched publisher, which a test waits for.
         """
-        heard = False
-
-        def record(data: bytes, info: dict) -> None:
-            nonlocal heard
-            self._taken += 1
-            clock = self.get_clock()
-            stamp = info['source_timestamp']
-            if clock.ros_time_is_active or not stamp:
-                stamp = clock.now().nanoseconds
-            for glove in self._routes[topic]:
-                self.bags[glove].write(self._names[topic], stamp, data)
-            if not heard:
-                heard = True
-                self.get_logger().info(f'first message on {self._names[topic]}')
-
-        return record
-
-    def taken(self) -> int:
-        """Messages taken so far (each once, whatever the number of bags it went to)."""
-        return self._taken
+        self.taken += 1
+        clock = self.get_clock()
+        stamp = info['source_timestamp']
+        if clock.ros_time_is_active or not stamp:
+            stamp = clock.now().nanoseconds
+        for bag, connection in self._routes[topic]:
+            bag.write(connection, stamp, data)
+        if bag.counts[connection.id] == 1:  # in each of its bags from the start
+            self.get_logger().info(f'first message on {topic}')
 
     def close(self) -> None:
-        """Close the bags and log what each holds."""
-        for bag in self.bags.values():
+        """Close the bags (the MCAP file, then metadata.yaml) and log what each holds."""
+        for bag in self.bags:
             bag.close()
-            counts = ', '.join(f'{topic} {count}' for topic, count in bag.counts.items())
+            counts = ', '.join(f'{c.topic} {bag.counts[c.id]}' for c in bag.connections)
             self.get_logger().info(f'closed {bag.path}: {counts} messages')
 
 
-def parse_arguments(argv: list[str]) -> argparse.Namespace:
-    """The recorder's own options (``--ros-args`` removed first)."""
+def main(args: list[str] | None = None) -> int:
+    """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``).
+
+    A stop signal sets a flag the spin loop checks (:func:`.serve`): the bag closes outside rclpy.
+    """
     parser = argparse.ArgumentParser(
         prog='python -m exodigit_nodes.nodes.recorder',
         description='Record every glove topic of the namespace (or of --gloves in it) to a '
-        'rosbag2 MCAP bag.',
-        epilog='example:\n  python -m exodigit_nodes.nodes.recorder --output runs/bag '
-        '--duration 20 --ros-args -r __ns:=/glove',
+        'rosbag2 MCAP bag, until Ctrl-C or SIGTERM.',
+        epilog='example:\n  timeout 20 python -m exodigit_nodes.nodes.recorder --output runs/bag '
+        '--ros-args -r __ns:=/glove',
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument('--output', required=True, metavar='DIR', help='bag folder to create')
@@ -238,31 +181,13 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
         help='comma-separated nodes of each glove that must have matched the readers before '
         'the recorder says it is ready on ~/ready (default: %(default)s)',
     )
-    parser.add_argument(
-        '--duration',
-        type=float,
-        default=0.0,
-        metavar='S',
-        help='stop after S seconds (0 = until Ctrl-C)',
-    )
-    options = parser.parse_args(argv)
-    if not options.duration >= 0.0 or options.duration == float('inf'):
-        parser.error(f'--duration {options.duration}: must be a finite number >= 0 (s)')
-    return options
-
-
-def main(args: list[str] | None = None) -> int:
-    """Console script ``recorder`` (``ros2 run exodigit_nodes recorder --output DIR``).
-
-    A stop signal sets a flag the spin loop checks (:func:`.serve`): the bag closes outside rclpy.
-    """
     argv = sys.argv if args is None else ['recorder', *args]
     try:
         own = remove_ros_args(argv)[1:]
     except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError: malformed --ros-args
         print(f'recorder: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
-    options = parse_arguments(own)
+    options = parser.parse_args(own)
     return serve(
         'recorder',
         argv,
@@ -272,8 +197,7 @@ def main(args: list[str] | None = None) -> int:
             tuple(options.nodes.split(',')),
         ),
         Recorder.close,
-        taken=Recorder.taken,
-        duration=options.duration if options.duration > 0 else math.inf,
+        taken=lambda recorder: recorder.taken,
     )
 
 
