@@ -1,6 +1,6 @@
 """The one runner of ``python -m exodigit_nodes.glove`` and ``.hand``: a hand of N fingers.
 
-docs/running.md, "One runner", has the two commands and their process layouts: a lone glove
+docs/running.md ("Running the glove", "A whole hand") has the two commands; a lone glove
 runs each node as its own process (``launch/glove.launch.py``), a hand of fingers runs every node
 in one ``hand_nodes`` process (``launch/hand.launch.py``). The command nodes stop first, so the
 chambers get zero pressure while the plant still runs.
