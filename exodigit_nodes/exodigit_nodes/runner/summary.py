@@ -74,6 +74,10 @@ BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
 ESTIMATE = 'estimated_contact_forces'
 #: Most joined steps held back for their estimates or command.
 ESTIMATE_WAIT = 500
+#: Longest stall of the plant within a step that still joins the step, s: a joined step ends at
+#: the next step's pressure, so this bounds only the last one (the joiner's 0.1 s dropped a step
+#: from a lockstep record when a plant stalled between its messages).
+STALL_TOLERANCE = 10.0
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 #: diagnostic_msgs/DiagnosticStatus level names, by level.
@@ -165,7 +169,7 @@ class GloveSignals:
         """Stamp of the latest joint_states received (its step may not be joined yet), s."""
         self._first_stamp: float | None = None
         self._streams = tuple(streams)
-        self._joiner = Joiner(self._streams, confirm=True)
+        self._joiner = Joiner(self._streams, tolerance=STALL_TOLERANCE, confirm=True)
         self._estimates: dict[float, np.ndarray] = {}
         """The estimates received for steps not yet handed on, by stamp."""
         self._newest_estimate: float | None = -math.inf if estimated else None
