@@ -64,12 +64,3 @@ class Pacer:
             self.restart(wall, next_sim)  # this step now, the next ones on time from here
             return True
         return wall >= target
-
-
-UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
-"""What the graph names an endpoint whose node has not been announced yet (rmw)."""
-
-
-def known_node(info) -> bool:
-    """Whether a graph endpoint's node is known by name yet (its participant announced it)."""
-    return info.node_name != UNKNOWN_NODE

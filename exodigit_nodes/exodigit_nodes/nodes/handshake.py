@@ -18,7 +18,6 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from std_msgs.msg import Bool
 
-from ..logic.pacing import known_node
 from .qos import HANDED_OVER_QOS
 from .repeated_call import RepeatedCall
 
@@ -26,6 +25,8 @@ POLL = 0.05
 """How often a :class:`Ready` node looks for the answers until it is ready, s."""
 NOTICE = 3.0
 """Wall seconds without every answer before a :class:`Ready` node says, once, whom it waits for."""
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'
+"""What the graph names an endpoint whose node has not been announced yet (rmw)."""
 
 
 def glove_nodes(namespaces: Iterable[str], names: Iterable[str]) -> list[str]:
@@ -40,6 +41,11 @@ def glove_nodes(namespaces: Iterable[str], names: Iterable[str]) -> list[str]:
         for namespace in namespaces
         for name in names
     ]
+
+
+def known_node(info) -> bool:
+    """Whether a graph endpoint's node is known by name yet (its participant announced it)."""
+    return info.node_name != UNKNOWN_NODE
 
 
 def matched_every_listed(node: Node, publisher, least: int = 0) -> bool:

@@ -19,9 +19,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from ..logic.pacing import known_node
 from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
-from ..nodes.handshake import Handshake, ReadyWatch
+from ..nodes.handshake import Handshake, ReadyWatch, known_node
 from ..nodes.messages import (
     APPLIED_COMMAND,
     CHAMBER_PRESSURE,
