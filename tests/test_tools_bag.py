@@ -252,6 +252,24 @@ def test_step_pairs_of_a_recorder_that_fell_behind_and_lost_a_message_keep_to_th
     np.testing.assert_array_equal(angles[:, 0], [k * 0.1 for k in kept])
 
 
+def test_step_pairs_keep_a_step_the_plant_stalled_in():
+    # Step k's pressure logged at 10 k ms, its angles 0.1 ms later; the plant stopped 0.3 s (a
+    # garbage collection, a busy machine) after step 2's pressure and after step 3's.
+    stall = [0.0, 0.0, 0.3, 0.3]
+    pressure_times = [0.01 * k + 0.3 * (k > 2) for k in range(4)]
+    series = {
+        'chamber_pressure': logged('p', pressure_times, [[k * 1e3] * 3 for k in range(4)]),
+        'joint_states': logged(
+            'q',
+            [t + 1e-4 + s for t, s in zip(pressure_times, stall, strict=True)],
+            [[k * 0.1] * 3 for k in range(4)],
+        ),
+    }
+    pressure, angles = step_pairs(series)
+    np.testing.assert_array_equal(pressure[:, 0], [k * 1e3 for k in range(4)])
+    np.testing.assert_array_equal(angles[:, 0], [k * 0.1 for k in range(4)])
+
+
 @pytest.mark.parametrize(
     ('arguments', 'fragment'),
     [

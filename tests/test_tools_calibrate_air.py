@@ -218,14 +218,18 @@ def write_bag(path, topics):
                 writer.write(connection, time_ns, store.serialize_cdr(message, kind))
 
 
-def test_a_bag_pairs_each_pressure_with_the_openings_applied_before_it(tmp_path):
+@pytest.mark.parametrize('stall', [0, 300_000_000])
+def test_a_bag_pairs_each_pressure_with_the_openings_applied_before_it(tmp_path, stall):
+    """``stall``: ns the plant stopped between the last step's pressure and its angles."""
     path = tmp_path / 'bag'
     write_bag(
         path,
         {
             '/glove/chamber_pressure': [(10 * k + 5, [k, 2 * k, 3 * k]) for k in range(1, 5)],
             '/glove/applied_command': [(10 * k + 1, [k / 10, 0, 0, 0, 0, 0]) for k in range(2, 5)],
-            '/glove/joint_states': [(10 * k + 6, [0.1 * k, 0, 0]) for k in range(1, 5)],
+            '/glove/joint_states': [
+                (10 * k + 6 + stall * (k == 4), [0.1 * k, 0, 0]) for k in range(1, 5)
+            ],
         },
     )
     recording = read_recording(path, 100.0)

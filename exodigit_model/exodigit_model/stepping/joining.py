@@ -61,6 +61,11 @@ STEP_TOLERANCE = 0.1
 """Default tolerance: longest time from a lead sample to a sample still paired with it, s (the
 plant sends a step's messages back to back, 27 ms apart at worst on an overloaded machine; a
 glove's sensors run at tens of hertz)."""
+STALL_TOLERANCE = 10.0
+"""Tolerance for one publisher's steps (the plant's, a board's), joined once the next step's
+lead sample is known: the group already ends there, so this bounds only the last step, and a
+plant stalled between two messages of a step (a garbage collection, a busy machine) keeps the
+step. The estimator, which answers at once, keeps `STEP_TOLERANCE`."""
 MAX_WAITING = 256
 """Samples kept per stream while their group is incomplete (a silent stream holds no more)."""
 

@@ -256,7 +256,7 @@ def _series(found, signal: str, width: int, source: str) -> tuple[NDArray, NDArr
 
 def _paired(found, rate_hz: float, source: str) -> AirRecording:
     """Each chamber_pressure with the openings applied last before it and its joint state."""
-    from ..stepping.joining import join_indices
+    from ..stepping.joining import STALL_TOLERANCE, join_indices
 
     command = 'applied_command' if 'applied_command' in found else 'valve_command'
     pressure_time, pressure = _series(found, 'chamber_pressure', 3, source)
@@ -270,7 +270,7 @@ def _paired(found, rate_hz: float, source: str) -> AirRecording:
     angles = None
     if 'joint_states' in found:
         angle_time, positions = _series(found, 'joint_states', 3, source)
-        partner = join_indices(pressure_time * 1e-9, angle_time * 1e-9)
+        partner = join_indices(pressure_time * 1e-9, angle_time * 1e-9, tolerance=STALL_TOLERANCE)
         if np.all(partner >= 0):
             angles = positions[partner]
     return AirRecording(rate_hz, openings, pressure, angles, source)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..extras import ToolError, progress, require
-from ..stepping.joining import join_indices
+from ..stepping.joining import STALL_TOLERANCE, join_indices
 
 SIGNALS = (
     'joint_states',
@@ -112,11 +112,12 @@ def step_pairs(series: dict[str, Series]) -> tuple[NDArray, NDArray]:
 
     Paired by log time with :func:`exodigit_model.stepping.joining.join_indices`: each pressure
     with the first joint state logged after it and before the next pressure (the plant publishes a
-    step's pressure first). A sample without its partner (the recorder started or stopped between
-    the two, or lost one) is left out, never paired with a neighbouring step's.
+    step's pressure first), however long the plant stalled between the two. A sample without its
+    partner (the recorder started or stopped between the two, or lost one) is left out, never
+    paired with a neighbouring step's.
     """
     pressure, angles = series['chamber_pressure'], series['joint_states']
-    partner = join_indices(pressure.time, angles.time)
+    partner = join_indices(pressure.time, angles.time, tolerance=STALL_TOLERANCE)
     paired = partner >= 0
     return pressure.values[paired], angles.values[partner[paired]]
 

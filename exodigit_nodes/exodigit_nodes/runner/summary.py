@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 import numpy as np
-from exodigit_model.stepping.joining import Joined, Joiner
+from exodigit_model.stepping.joining import STALL_TOLERANCE, Joined, Joiner
 
 #: Joint labels in topic order (docs/spec/ros.md: always MCP, PIP, DIP).
 JOINT_LABELS = ('MCP', 'PIP', 'DIP')
@@ -74,10 +74,6 @@ BOARD_STEP_ORDER = ('chamber_pressure', 'joint_states')
 ESTIMATE = 'estimated_contact_forces'
 #: Most joined steps held back for their estimates or command.
 ESTIMATE_WAIT = 500
-#: Longest stall of the plant within a step that still joins the step, s: a joined step ends at
-#: the next step's pressure, so this bounds only the last one (the joiner's 0.1 s dropped a step
-#: from a lockstep record when a plant stalled between its messages).
-STALL_TOLERANCE = 10.0
 #: Seconds without a diagnostic after which a node is shown as silent.
 HEALTH_TIMEOUT = 3.0
 #: diagnostic_msgs/DiagnosticStatus level names, by level.
