@@ -282,9 +282,20 @@ def test_help_lists_every_parameter_and_exits_0(node, capsys):
     assert 'parameters:\n' + node.table.help() in capsys.readouterr().out
 
 
-def test_malformed_ros_arguments_are_one_usage_error_not_a_traceback(capsys):
-    plant = importlib.import_module(NODES[0].module)
-    assert plant.main(['--ros-args', '-p']) == 2
-    errors = capsys.readouterr().err.splitlines()
-    assert len(errors) == 2 and errors[0].startswith('usage: '), errors
-    assert errors[1].startswith(f'{NODES[0].executable}: error: ') and 'ROS arguments' in errors[1]
+@pytest.mark.parametrize(
+    ('module', 'program'),
+    [
+        (NODES[0].module, NODES[0].executable),
+        ('exodigit_nodes.nodes.hand_nodes', 'hand_nodes'),
+        ('exodigit_nodes.nodes.recorder', 'python -m exodigit_nodes.nodes.recorder'),
+    ],
+)
+def test_malformed_ros_arguments_are_one_usage_error_not_a_traceback(capsys, module, program):
+    try:
+        code = importlib.import_module(module).main(['--ros-args', '-p'])
+    except SystemExit as exit_:  # argparse's error exit, from a console script's main
+        code = exit_.code
+    assert code == 2
+    errors = capsys.readouterr().err.splitlines()  # argparse's usage (some lines), the error
+    assert errors[0].startswith('usage: ') and 'Traceback' not in '\n'.join(errors), errors
+    assert errors[-1].startswith(f'{program}: error: ') and 'ROS arguments' in errors[-1]

@@ -15,12 +15,11 @@ import sys
 
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.utilities import remove_ros_args
 
 from ..logic.options import UsageError
 from .hand_config import HandConfig, command_options, hand_config
 from .plant import Plant
-from .process import last_words, serve
+from .process import last_words, parse_own_arguments, serve
 from .run_options import add_options
 from .sim_time import SimulatedTime
 
@@ -66,9 +65,8 @@ def main(args: list[str] | None = None) -> int:
     """Console script ``hand_nodes``; exit 0 after a clean stop, 2 for a refused configuration."""
     argv = sys.argv if args is None else ['hand_nodes', *args]
     try:
-        options = build_parser().parse_args(remove_ros_args(argv)[1:])
-        config = hand_config(options)
-    except (UsageError, RuntimeError) as error:
+        config = hand_config(parse_own_arguments(build_parser(), argv))
+    except UsageError as error:
         print(f'hand_nodes: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
     return serve('hand_nodes', argv, lambda: build_hand(config), last_words)

@@ -51,16 +51,23 @@ def run(node_class: type[GloveNode], args: list[str] | None = None) -> int:
         epilog='parameters:\n' + node_class.table.help(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    argv = sys.argv[1:] if args is None else list(args)
     try:
-        try:
-            own = remove_ros_args(['', *argv])[1:]
-        except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError: malformed --ros-args
-            parser.error(' '.join(str(error).split()))
-        parser.parse_args(own)
+        parse_own_arguments(parser, [program, *(sys.argv[1:] if args is None else args)])
     except SystemExit as done:  # --help (0), or arguments that are not ours or malformed (2)
         return done.code
     return serve(program, args, node_class, last_words)
+
+
+def parse_own_arguments(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """``argv`` (the program first) without its ROS arguments, parsed by ``parser``.
+
+    Malformed ``--ros-args`` are a usage error like any other: argparse's usage line, exit 2.
+    """
+    try:
+        own = remove_ros_args(argv)[1:]
+    except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError
+        parser.error(' '.join(str(error).split()))
+    return parser.parse_args(own)
 
 
 def last_words(node: Node) -> None:

@@ -21,7 +21,6 @@ from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from rclpy.utilities import remove_ros_args
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -33,7 +32,7 @@ from .catalog import PLANT_NODE
 from .handshake import Ready, glove_nodes
 from .message_info import WithInfo
 from .node_base import ConfigurationError
-from .process import serve
+from .process import parse_own_arguments, serve
 from .qos import record_profile
 
 TOPICS = {
@@ -182,12 +181,7 @@ def main(args: list[str] | None = None) -> int:
         'the recorder says it is ready on ~/ready (default: %(default)s)',
     )
     argv = sys.argv if args is None else ['recorder', *args]
-    try:
-        own = remove_ros_args(argv)[1:]
-    except RuntimeError as error:  # rclpy's RCLInvalidROSArgsError: malformed --ros-args
-        print(f'recorder: error: {" ".join(str(error).split())}', file=sys.stderr)
-        return 2
-    options = parser.parse_args(own)
+    options = parse_own_arguments(parser, argv)
     return serve(
         'recorder',
         argv,
