@@ -9,6 +9,7 @@ reported as such; bad files and missing topics give one line on stderr.
 """
 
 import math
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -138,14 +139,18 @@ def test_the_command_round_trips_a_csv_recording(tmp_path, capsys):
     dump_params(TRUTH, truth_file)
     dump_params(START, start_file)
     recording = simulated_recording(TRUTH, MCP_ONLY, RATE, pressure_noise=NOISE, seed=5)
+    angles = recording.angles.copy()
+    angles[-1] = np.nan  # as a bag stopped between the last step's pressure and its angles
     data = tmp_path / 'air.csv'
-    write_recording_csv(recording, data)
+    write_recording_csv(replace(recording, angles=angles), data)
     out = tmp_path / 'fitted.yaml'
     assert main(['calibrate-air', str(data), '--params', str(start_file), '--out', str(out)]) == 0
     printed = capsys.readouterr().out
     assert 'mcp.inlet_conductance' in printed and '95 % [' in printed
     assert 'pip.inlet_conductance' in printed and 'held (start value)' in printed
     assert (tmp_path / 'fitted_fit.png').stat().st_size > 10_000
+    rmse = next(line for line in printed.splitlines() if line.startswith('angle RMSE after:'))
+    assert math.isfinite(float(rmse.split()[3])), rmse  # over the steps that have angles
     fitted = load_params(out)
     line = next(line for line in printed.splitlines() if 'mcp.inlet_conductance' in line)
     shown = float(line.split()[1]) * 1e-8  # dm^3/(s bar), as printed
@@ -218,9 +223,10 @@ def write_bag(path, topics):
                 writer.write(connection, time_ns, store.serialize_cdr(message, kind))
 
 
-@pytest.mark.parametrize('stall', [0, 300_000_000])
+@pytest.mark.parametrize('stall', [0, 300_000_000, None])
 def test_a_bag_pairs_each_pressure_with_the_openings_applied_before_it(tmp_path, stall):
-    """``stall``: ns the plant stopped between the last step's pressure and its angles."""
+    """``stall``: ns the plant stopped between the last step's pressure and its angles (None:
+    the bag stopped between them)."""
     path = tmp_path / 'bag'
     write_bag(
         path,
@@ -228,7 +234,8 @@ def test_a_bag_pairs_each_pressure_with_the_openings_applied_before_it(tmp_path,
             '/glove/chamber_pressure': [(10 * k + 5, [k, 2 * k, 3 * k]) for k in range(1, 5)],
             '/glove/applied_command': [(10 * k + 1, [k / 10, 0, 0, 0, 0, 0]) for k in range(2, 5)],
             '/glove/joint_states': [
-                (10 * k + 6 + stall * (k == 4), [0.1 * k, 0, 0]) for k in range(1, 5)
+                (10 * k + 6 + (stall or 0) * (k == 4), [0.1 * k, 0, 0])
+                for k in range(1, 5 if stall is not None else 4)
             ],
         },
     )
@@ -237,7 +244,8 @@ def test_a_bag_pairs_each_pressure_with_the_openings_applied_before_it(tmp_path,
     # before the first applied command the plant vents; then each step its command
     np.testing.assert_allclose(recording.openings[0], [0, 0, 0, 1, 1, 1])
     np.testing.assert_allclose(recording.openings[1:, 0], [0.2, 0.3, 0.4])
-    np.testing.assert_allclose(recording.angles[:, 0], [0.1, 0.2, 0.3, 0.4])
+    last = np.nan if stall is None else 0.4  # a step without its angles keeps its place
+    np.testing.assert_allclose(recording.angles[:, 0], [0.1, 0.2, 0.3, last])
 
 
 HEADER = ','.join(['time_s', *OPENING_COLUMNS, *PRESSURE_COLUMNS]) + '\n'

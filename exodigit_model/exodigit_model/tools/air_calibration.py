@@ -465,7 +465,8 @@ def report(fit: AirFit, recording: AirRecording) -> list[str]:
     rmse_after = math.sqrt(np.mean((fit.after - recording.pressure) ** 2)) / 1e3
     lines.append(f'pressure RMSE: {rmse_before:.3g} kPa before, {rmse_after:.3g} kPa after')
     if recording.angles is not None:
-        angle_rmse = math.degrees(math.sqrt(np.mean((fit.angles_after - recording.angles) ** 2)))
+        error = fit.angles_after - recording.angles  # NaN at the steps without angles
+        angle_rmse = math.degrees(math.sqrt(np.nanmean(error**2)))
         lines.append(
             f'angle RMSE after: {angle_rmse:.3g} deg (the statics are not fitted here: '
             'exodigit calibrate fits them)'

@@ -58,7 +58,8 @@ class AirRecording:
     pressure : ndarray, shape (T, 3)
         The gauge pressures measured at the end of step t, Pa.
     angles : ndarray, shape (T, 3), or None
-        The joint angles measured at the end of step t, rad (None: not recorded).
+        The joint angles measured at the end of step t, rad; NaN for a step whose angles were
+        not recorded (None: none were).
     source : str
         Where it came from, for messages.
     """
@@ -271,8 +272,8 @@ def _paired(found, rate_hz: float, source: str) -> AirRecording:
     if 'joint_states' in found:
         angle_time, positions = _series(found, 'joint_states', 3, source)
         partner = join_indices(pressure_time * 1e-9, angle_time * 1e-9, tolerance=STALL_TOLERANCE)
-        if np.all(partner >= 0):
-            angles = positions[partner]
+        if np.any(partner >= 0):
+            angles = np.where(partner[:, None] >= 0, positions[np.maximum(partner, 0)], np.nan)
     return AirRecording(rate_hz, openings, pressure, angles, source)
 
 
