@@ -258,6 +258,7 @@ HEADER = ','.join(['time_s', *OPENING_COLUMNS, *PRESSURE_COLUMNS]) + '\n'
         ('not csv', 'not a text CSV'),
         ('no column', 'missing column(s) p_dip_kpa'),
         ('not a number', "line 3, p_mcp_kpa: 'x' is not a number"),
+        ('not finite', "line 3, u_in_pip: 'nan' is not a number"),
         ('no bag', 'not a rosbag2 bag folder'),
         ('no topic', 'needs chamber_pressure and applied_command'),
         ('not vented', 'must start vented'),
@@ -272,6 +273,8 @@ def test_bad_input_gets_one_clear_line(tmp_path, capsys, case, expected):
         path.write_text(HEADER.replace(',p_dip_kpa', '') + '0.01,0,0,0,0,0,0,0,0\n')
     elif case == 'not a number':
         path.write_text(HEADER + '0.01,0,0,0,1,1,1,0,0,0\n0.02,0,0,0,1,1,1,x,0,0\n')
+    elif case == 'not finite':  # only an angle may be nan: a step whose angles were not recorded
+        path.write_text(HEADER + '0.01,0,0,0,1,1,1,0,0,0\n0.02,0,nan,0,1,1,1,0,0,0\n')
     elif case == 'no bag':
         path = tmp_path / 'folder'
         path.mkdir()

@@ -202,6 +202,8 @@ def _read_csv(path: Path) -> AirRecording:
         for j, (column, i) in enumerate(zip(wanted, index, strict=True)):
             try:
                 values[line - 2, j] = float(row[i])
+                if not math.isfinite(values[line - 2, j]) and column not in ANGLE_COLUMNS:
+                    raise ValueError(column)  # only a step's angles may be missing (nan)
             except (ValueError, IndexError):
                 cell = row[i] if i < len(row) else ''
                 raise ToolError(
