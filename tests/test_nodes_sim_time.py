@@ -33,6 +33,7 @@ from exodigit_nodes.nodes.plant import Plant
 from exodigit_nodes.nodes.pressure_command import PressureCommand
 from exodigit_nodes.testing import GloveSim, GloveSimError
 from exodigit_nodes.testing.client import DEFAULT_TIMEOUT
+from exodigit_nodes.testing.driving import matched_both_ways
 from lockstep_controller import command_at
 from rclpy.parameter import Parameter
 from reliability_inprocess import InProcessNode
@@ -239,6 +240,14 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove, delay):
             np.testing.assert_array_equal(record.command[i], command)
 
 
+def test_the_kit_knows_a_controller_the_plant_matched_by_its_publishers_not_its_name():
+    said = {'/g/lockstep_controller': {'0a', '0b'}}  # the plant's lockstep_controllers
+    assert matched_both_ways({'/g/lockstep_controller': {'0b'}}, said)
+    assert matched_both_ways({}, said)
+    assert not matched_both_ways({'/g/lockstep_controller': {'0c'}}, said)  # a namesake's
+    assert not matched_both_ways({'/g/other': {'0a'}}, said)
+
+
 def test_a_run_that_times_out_lets_the_plant_step_freely_again(glove, probe_for):
     controller = start_controller(glove, '--stall-after', '10')
     try:
@@ -377,31 +386,49 @@ def test_lockstep_starts_only_once_one_node_both_reads_the_states_and_answers(pr
         node.close()
 
 
-def listed(node: InProcessNode) -> list[list[str]]:
+def listed(node: InProcessNode) -> list[dict[str, str]]:
     """The controllers of each ``lockstep_controllers`` message the plant published since."""
-    return [[value.key for value in m.values] for m in node.take().get('lockstep_controllers', [])]
+    return [
+        {v.key: v.value for v in m.values} for m in node.take().get('lockstep_controllers', [])
+    ]
+
+
+def writer_id(graph, node, topic: str) -> str:
+    """The GID (hex) of the one publisher of ``node`` on ``topic`` the graph of ``graph`` lists."""
+    (info,) = [
+        info
+        for info in graph.get_publishers_info_by_topic(topic)
+        if info.node_name == node.get_name()
+    ]
+    return bytes(info.endpoint_gid).hex()
 
 
 def test_a_paused_plant_says_which_controllers_it_has_matched_both_ways(probe, monkeypatch):
     # The typed answer the testing kit waits on before it publishes a state that a controller
-    # it has just started must answer: a node that publishes commands and reads the states.
+    # it has just started must answer: a node that publishes commands and reads the states,
+    # with the id of its command publisher, which tells it from a namesake that came before.
     monkeypatch.setattr(sim_time, 'CONTROLLERS_PERIOD', 0.0)  # look at every cycle
     node = InProcessNode(Plant, {'clock': 'sim', 'start_paused': 'true'}, probe)
     plant = node.node
+    commands = plant.command_subscription.topic_name
     try:
         node.fire_timers()
-        assert listed(node) == [[]]
-        with probe.local_node('controller') as ours:
-            ours.create_publisher(Float64MultiArray, plant.command_subscription.topic_name, 10)
-            node.fire_timers()
-            assert listed(node) == []  # it publishes only when the list changes
-            ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
-            assert wait_until(plant.lockstep_controllers, 10.0)
-            node.fire_timers()
-            assert listed(node) == [[ours.get_fully_qualified_name()]]
-        assert wait_until(lambda: not plant.lockstep_controllers(), 10.0)
-        call(node, 'set_paused', SetBool.Request(data=True), SetBool.Response())
-        assert listed(node) == [[]]
+        assert listed(node) == [{}]
+        ids = []
+        for _ in range(2):  # the same name twice
+            with probe.local_node('controller') as ours:
+                ours.create_publisher(Float64MultiArray, commands, 10)
+                node.fire_timers()
+                assert listed(node) == []  # it publishes only when the list changes
+                ours.create_subscription(JointState, plant.joint_publisher.topic_name, ignore, 10)
+                assert wait_until(plant.lockstep_controllers, 10.0)
+                node.fire_timers()
+                ids.append(writer_id(plant, ours, commands))
+                assert listed(node) == [{ours.get_fully_qualified_name(): ids[-1]}]
+            assert wait_until(lambda: not plant.lockstep_controllers(), 10.0)
+            call(node, 'set_paused', SetBool.Request(data=True), SetBool.Response())
+            assert listed(node) == [{}]
+        assert ids[0] != ids[1]
     finally:
         node.close()
 

@@ -48,6 +48,11 @@ def known_node(info) -> bool:
     return info.node_name != UNKNOWN_NODE
 
 
+def endpoint_id(info) -> str:
+    """A graph endpoint's GID in hex: it tells an endpoint from one a namesake had before it."""
+    return bytes(info.endpoint_gid).hex()
+
+
 def matched_every_listed(node: Node, publisher, least: int = 0) -> bool:
     """Whether ``publisher`` of ``node`` has matched every subscriber the graph lists (>= least).
 
@@ -58,20 +63,25 @@ def matched_every_listed(node: Node, publisher, least: int = 0) -> bool:
     return publisher.get_subscription_count() >= max(listed, least)
 
 
-def controllers_matched(node: Node, commands, states) -> list[str]:
+def controllers_matched(node: Node, commands, states) -> dict[str, str]:
     """Nodes that publish on ``commands`` and read ``states``, both matched with ``node``.
 
     ``commands`` is a subscription of ``node``, ``states`` one of its publishers; nobody until
-    the subscription has matched every publisher the graph lists. Fully qualified names,
-    sorted; a node whose name the graph does not know yet is left out.
+    the subscription has matched every publisher the graph lists. Keyed by fully qualified
+    name, sorted; each with the :func:`endpoint_id` of its ``commands`` publishers, space
+    separated (a node that has restarted under its name has new ones). A node whose name the
+    graph does not know yet is left out.
     """
     if node.count_publishers(commands.topic_name) > commands.get_publisher_count():
-        return []
-    publishers = node.get_publishers_info_by_topic(commands.topic_name)
+        return {}
     readers = node.get_subscriptions_info_by_topic(states.topic_name)
-    sending = {(i.node_namespace, i.node_name) for i in publishers if known_node(i)}
     listening = {(i.node_namespace, i.node_name) for i in readers}
-    return sorted(f'{namespace.rstrip("/")}/{name}' for namespace, name in sending & listening)
+    sending: dict[str, list[str]] = {}
+    for info in node.get_publishers_info_by_topic(commands.topic_name):
+        if known_node(info) and (info.node_namespace, info.node_name) in listening:
+            name = f'{info.node_namespace.rstrip("/")}/{info.node_name}'
+            sending.setdefault(name, []).append(endpoint_id(info))
+    return {name: ' '.join(sorted(ids)) for name, ids in sorted(sending.items())}
 
 
 class Handshake:

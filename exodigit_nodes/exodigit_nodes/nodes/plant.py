@@ -335,15 +335,16 @@ class Plant(GloveNode):
         """Whether each output has matched every subscriber the graph knows of its topic."""
         return all(matched_every_listed(self, publisher) for publisher in self.outputs)
 
-    def lockstep_controllers(self) -> list[str]:
+    def lockstep_controllers(self) -> dict[str, str]:
         """Nodes that publish our commands and subscribe our states, both matched with us.
 
+        Each with the ids of its command publishers (:func:`.handshake.controllers_matched`).
         A lockstep plant's first step waits for one (docs/spec/ros.md, "The session protocol",
         guarantee 5): another reader of the states or another publisher of commands is not
         enough, as a controller that subscribes the states late would miss the first.
         """
         if not self.readers_matched():
-            return []
+            return {}
         return controllers_matched(self, self.command_subscription, self.joint_publisher)
 
     def stamp(self):

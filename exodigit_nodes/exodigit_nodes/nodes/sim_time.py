@@ -68,7 +68,7 @@ class SimulatedTime:
         self.timer = None
         self._measure_marks = (time.monotonic(), 0.0)
         self._measured = 0.0
-        self.controllers: tuple[str, ...] | None = None
+        self.controllers: dict[str, str] | None = None
         self.controllers_seen = -math.inf
         self.controllers_publisher = owner.create_publisher(
             DiagnosticStatus, LOCKSTEP_CONTROLLERS, HANDED_OVER_QOS
@@ -250,11 +250,15 @@ class SimulatedTime:
     def publish_controllers(self, wall: float) -> None:
         """Say on ``lockstep_controllers`` whom the members have matched both ways, if it changed.
 
-        One KeyValue per controller, keyed by its fully qualified name
-        (:meth:`.plant.Plant.lockstep_controllers`).
+        One KeyValue per controller: its fully qualified name, and the ids of its command
+        publishers (:meth:`.plant.Plant.lockstep_controllers`).
         """
         self.controllers_seen = wall
-        controllers = tuple(n for member in self.members for n in member.lockstep_controllers())
+        ids: dict[str, list[str]] = {}  # a hand's controller may command several members
+        for member in self.members:
+            for name, own in member.lockstep_controllers().items():
+                ids.setdefault(name, []).append(own)
+        controllers = {name: ' '.join(own) for name, own in sorted(ids.items())}
         if controllers != self.controllers:
             self.controllers = controllers
             self.controllers_publisher.publish(
@@ -263,7 +267,7 @@ class SimulatedTime:
                     '',
                     DiagnosticStatus.OK,
                     f'{len(controllers)} lockstep controllers matched both ways',
-                    dict.fromkeys(controllers, 'publishes the commands, subscribes the states'),
+                    controllers,
                 )
             )
 

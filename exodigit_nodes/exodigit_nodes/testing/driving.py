@@ -25,6 +25,16 @@ POLL = 0.05
 processes still run, s."""
 
 
+def matched_both_ways(controllers: dict[str, set[str]], said: dict[str, set[str]]) -> bool:
+    """Whether the plant ``said`` (``lockstep_controllers``) it has matched ``controllers``.
+
+    Both map a node's name to the ids of its command publishers. By the ids, not the names: the
+    plant's word about a namesake that has gone (a test's controller before this one) can still
+    be the newest we have when we begin to wait.
+    """
+    return all(ids <= said.get(name, set()) for name, ids in controllers.items())
+
+
 class GloveSimError(RuntimeError):
     """The simulated glove did not answer as the lockstep protocol says; the text says what."""
 
@@ -51,7 +61,7 @@ class PlantDriver:
             self._call(self._node.pause_client, self._node.pause_request(paused), 'set_paused')
             self._paused = paused
 
-    def _wait_matched(self, controllers: list[str]) -> None:
+    def _wait_matched(self, controllers: dict[str, set[str]]) -> None:
         """Wait until the plant has matched ``controllers``, before the state each is to answer.
 
         We count their answers as the plant took them (``applied_command``), so our own reader
@@ -59,7 +69,7 @@ class PlantDriver:
         """
         names = ', '.join(controllers)
         self._wait(
-            lambda: set(controllers) <= self._node.lockstep_controllers,
+            lambda: matched_both_ways(controllers, self._node.lockstep_controllers),
             f'the plant to match {names}',
         )
 

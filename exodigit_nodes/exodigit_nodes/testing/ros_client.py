@@ -20,7 +20,7 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
 from ..nodes.catalog import ESTIMATOR_NODE, PLANT_NODE
-from ..nodes.handshake import Handshake, ReadyWatch, known_node
+from ..nodes.handshake import Handshake, ReadyWatch, endpoint_id, known_node
 from ..nodes.messages import (
     APPLIED_COMMAND,
     CHAMBER_PRESSURE,
@@ -101,8 +101,9 @@ class GloveClient(Node):
             self._vector_queue(None),
             record_profile(APPLIED_COMMAND),
         )
-        self.lockstep_controllers: set[str] = set()
-        """The controllers the plant has matched both ways (its ``lockstep_controllers``)."""
+        self.lockstep_controllers: dict[str, set[str]] = {}
+        """The controllers the plant has matched both ways, with the ids of their command
+        publishers (its ``lockstep_controllers``)."""
         self.create_subscription(
             DiagnosticStatus, LOCKSTEP_CONTROLLERS, self._take_controllers, HANDED_OVER_QOS
         )
@@ -131,7 +132,9 @@ class GloveClient(Node):
         )
 
     def _take_controllers(self, message: DiagnosticStatus) -> None:
-        self.lockstep_controllers = {value.key for value in message.values}
+        self.lockstep_controllers = {
+            value.key: set(value.value.split()) for value in message.values
+        }
 
     def _joint_queue(self, message: JointState) -> None:
         self.queues[JOINT_STATES].append(message)
@@ -164,19 +167,19 @@ class GloveClient(Node):
             and all(client.service_is_ready() for client in self.plant_services)
         )
 
-    def other_controllers(self) -> list[str]:
-        """Names of the other nodes that publish this glove's commands.
+    def other_controllers(self) -> dict[str, set[str]]:
+        """The other nodes that publish this glove's commands, with their publishers' ids.
 
         The graph's count of publishers first: it is cheap, and asked before every ``step``.
         """
         if self.count_publishers(self.publisher.topic_name) <= 1:  # ours alone
-            return []
+            return {}
         me = (self.get_name(), self.get_namespace())
-        return [
-            name
-            for name, info in self._command_publishers()
-            if (info.node_name, info.node_namespace) != me and known_node(info)
-        ]
+        others: dict[str, set[str]] = {}
+        for name, info in self._command_publishers():
+            if (info.node_name, info.node_namespace) != me and known_node(info):
+                others.setdefault(name, set()).add(endpoint_id(info))
+        return others
 
     def _command_publishers(self) -> list[tuple[str, object]]:
         """The graph's publishers of ``pressure_command``: (namespace/name, endpoint info)."""
