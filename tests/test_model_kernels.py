@@ -17,8 +17,10 @@ import kernel_cases
 import numpy as np
 import pytest
 from exodigit_model.kernels import jit
+from exodigit_model.kernels.stepping import step_gloves
 from exodigit_model.physics.solver import CONVERGED_STEP, NOT_FINITE
 from exodigit_model.physics.structural import PIECE_WIDTH, PIECES, U_MIN
+from exodigit_model.stepping.settings import VENT
 from kernel_cases import (
     EFFORT,
     NOISY,
@@ -342,3 +344,19 @@ def test_run_refuses_bad_input_naming_it_before_any_step(count, commands_, effor
         simulation.run(commands_, efforts_)
     assert simulation.step_count == 0
     assert simulation.state is rest
+
+
+@pytest.mark.skipif(not jit.JIT, reason='the kernels compile only with numba (EXODIGIT_JIT=1)')
+def test_an_integer_rate_and_the_read_only_vent_compile_nothing_the_warm_up_did_not():
+    # numba compiles a kernel once per argument types: an int rate or a read-only command would
+    # each be a signature of their own, compiled by the first node that steps with them (40 s
+    # on a fresh clone, behind the emulated board). They must reach the kernels as floats.
+    def step(rate, command):
+        settings = SimulationSettings(rate_hz=rate)
+        GloveSimulation(settings=settings, actuation='valves').step(command)
+
+    step(100.0, np.array(VENT))
+    signatures = list(step_gloves.signatures)
+    step(100, VENT)
+    assert step_gloves.signatures == signatures
+    assert type(SimulationSettings(rate_hz=100).rate_hz) is float

@@ -70,13 +70,19 @@ class SimulationSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        """Refuse values that break a rule, naming the field, the value and the rule."""
+        """Refuse values that break a rule, naming the field, the value and the rule.
+
+        The quantities are kept as floats, whichever number was given: the kernels compile
+        once per argument type, and the warm-up compiles the float ones.
+        """
         for item in fields(self):
             value = getattr(self, item.name)
             if isinstance(value, bool) or not isinstance(value, int | float):
                 raise ValueError(f'{item.name} = {value!r}: must be a number')
             if not math.isfinite(value) or value < 0:
                 raise ValueError(f'{item.name} = {value!r}: must be finite and >= 0')
+            if item.name != 'seed':
+                object.__setattr__(self, item.name, float(value))
         if self.rate_hz <= 0.0:
             raise ValueError(f'rate_hz = {self.rate_hz!r}: must be > 0')
         check_integer('seed', self.seed)

@@ -428,9 +428,13 @@ class GloveSimulation:
         return run
 
     def _openings(self, value: ArrayLike) -> NDArray[np.float64]:
-        """``value`` checked to the shape of the valves' openings (a ValueError)."""
+        """``value`` checked to the shape of the valves' openings (a ValueError), copied.
+
+        A copy, writable: a read-only array (:data:`.settings.VENT`) would compile the kernels
+        anew for its type.
+        """
         try:
-            array = np.asarray(value, dtype=float)
+            array = np.array(value, dtype=float)
         except (TypeError, ValueError):
             array = None
         if array is None or array.shape != self.command_shape:
