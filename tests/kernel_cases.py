@@ -432,7 +432,8 @@ def valves_population() -> list[np.ndarray]:
 def air() -> list[np.ndarray]:
     rows = air_constants(models()['default'], 150e3)
     masses = rest_masses(rows[:, AIR_VOLUME], 293.15)
-    start, end = rows[:, AIR_VOLUME], rows[:, AIR_VOLUME] * 1.1
+    start = rows[:, AIR_VOLUME].copy()  # contiguous, as the simulation's: no second compile
+    end = start * 1.1
     return [
         advance_masses(rows, masses, start, end, np.array([1.0, 0.5, 0.2, 0.0, 0.3, 0.0]), DT),
         advance_masses(

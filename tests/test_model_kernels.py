@@ -17,6 +17,7 @@ import kernel_cases
 import numpy as np
 import pytest
 from exodigit_model.kernels import jit
+from exodigit_model.kernels.inverse import robot_contact_torques
 from exodigit_model.kernels.stepping import step_gloves
 from exodigit_model.physics.solver import CONVERGED_STEP, NOT_FINITE
 from exodigit_model.physics.structural import PIECE_WIDTH, PIECES, U_MIN
@@ -32,7 +33,7 @@ from kernel_cases import (
     stacked,
 )
 
-from exodigit_model import GloveSimulation, GloveState, SimulationSettings
+from exodigit_model import GloveModel, GloveSimulation, GloveState, SimulationSettings
 
 #: Wall-clock limit of the plain-Python subprocess, s: a guard against a hang, not a timing
 #: check (measured: 4 to 6 s on two shared cores; the compiled cases take about 2 s, cached).
@@ -360,3 +361,13 @@ def test_an_integer_rate_and_the_read_only_vent_compile_nothing_the_warm_up_did_
     step(100, VENT)
     assert step_gloves.signatures == signatures
     assert type(SimulationSettings(rate_hz=100).rate_hz) is float
+
+
+@pytest.mark.skipif(not jit.JIT, reason='the kernels compile only with numba (EXODIGIT_JIT=1)')
+def test_a_read_only_force_target_compiles_nothing_the_warm_up_did_not():
+    # The force mode's feed-forward passes its targets as a read-only broadcast.
+    model, angles = GloveModel(), np.array([0.3, 0.4, 0.2])
+    model.robot_contact_torque(angles, np.array([1.0, 2.0, 0.5]))
+    signatures = list(robot_contact_torques.signatures)
+    model.robot_contact_torque(angles, np.broadcast_to(np.array([1.0, 2.0, 0.5]), (3,)))
+    assert robot_contact_torques.signatures == signatures

@@ -79,7 +79,7 @@ def chamber_rows(critical=0.3, supply=300e3, leak=0.0):
 def fixed_volume(rows, pressure, openings, period, steps):
     """Absolute pressures (steps + 1, 3) of the chambers at their rest volumes, from
     ``pressure`` (Pa absolute), stepped by :func:`advance_masses` with fixed volumes."""
-    volume = rows[:, AIR_VOLUME]
+    volume = rows[:, AIR_VOLUME].copy()  # contiguous, as the simulation's: no second compile
     mass = np.full(3, pressure) * volume / RT
     history = [mass]
     for _ in range(steps):

@@ -813,9 +813,8 @@ class GloveModel:
         """
         angles, rows = as_joint_array('q', q), as_joint_array('forces', forces)
         _require_shape('forces', rows, 'q', angles.shape)
-        torque = robot_contact_torques(
-            self.packed, np.atleast_2d(angles), np.ascontiguousarray(np.atleast_2d(rows))
-        )
+        # a writable copy: a read-only view (np.broadcast_to's) compiles the kernel anew
+        torque = robot_contact_torques(self.packed, np.atleast_2d(angles), np.array(rows, ndmin=2))
         return torque.reshape(angles.shape)
 
     def estimate_finger_torque(self, Q: ArrayLike, P: ArrayLike) -> NDArray[np.float64]:
