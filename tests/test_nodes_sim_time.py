@@ -195,12 +195,13 @@ def test_kit_parameters_cannot_be_overridden():
 # -- an external controller in lockstep ----------------------------------------------------
 
 
-def replay_external(rest, run_lengths):
+def replay_external(rest, run_lengths, then=()):
     """(Time, state, command) of runs with the lockstep controller, stepped in process.
 
     The runs start from the glove's rest state ``rest`` (a reset); the in-process stepper
     starts at step 1, so its step n is the glove's step n + shift, which is what the
-    controller sees (its commands are a function of that time).
+    controller sees (its commands are a function of that time). Then the commands ``then``,
+    each after the controller's answer to the state before, are stepped: their states last.
     """
     simulation = kit_replay(SimulationSettings(pressure_time_constant=0.0))
     shift = round(rest.t * RATE) - simulation.state.step
@@ -213,7 +214,7 @@ def replay_external(rest, run_lengths):
             run.append((t, state, command_at(t)))
             state = simulation.step(command_at(t))
         records.append(run)
-    return records
+    return [*records, [simulation.step(command) for command in then]]
 
 
 @pytest.mark.parametrize('delay', [0.0, 0.02], ids=['fast', 'slow'])
@@ -228,7 +229,7 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove, delay):
             glove.step([1e3, 1e3, 1e3])
     finally:
         stop_process(controller)
-    expected = replay_external(rest, [20, 10])
+    expected = replay_external(rest, [20, 10])[:2]
     for record, runs in zip(records, expected, strict=True):
         assert len(record.t) == len(runs)
         for i, (t, state, command) in enumerate(runs):
@@ -238,6 +239,25 @@ def test_runs_with_a_controller_node_are_exact_however_slow_it_is(glove, delay):
             np.testing.assert_array_equal(record.forces[i], state.forces)
             np.testing.assert_array_equal(record.lengths[i], state.lengths)
             np.testing.assert_array_equal(record.command[i], command)
+
+
+def test_a_step_after_a_run_is_the_step_after_the_controller_s_last_answer(glove):
+    # The plant took the controller's answer to the run's last state; stepping the glove
+    # afterwards steps with that answer first, then with the test's command.
+    rest = glove.state
+    controller = start_controller(glove)
+    try:
+        last = glove.run(0.05).t[-1]
+    finally:
+        stop_process(controller)
+    assert wait_until(lambda: not glove._node.other_controllers(), DEFAULT_TIMEOUT)
+    command = np.array([5e3, 10e3, 15e3])
+    state = glove.step(command)
+    *_, (expected,) = replay_external(rest, [5], then=[command])
+    assert state.t == step_time_ns(round(last * RATE) + 2, RATE) / 1e9
+    np.testing.assert_array_equal(state.q, expected.q_measured)
+    np.testing.assert_array_equal(state.pressure, expected.pressure_measured)
+    np.testing.assert_array_equal(state.forces, expected.forces)
 
 
 def test_the_kit_knows_a_controller_the_plant_matched_by_its_publishers_not_its_name():

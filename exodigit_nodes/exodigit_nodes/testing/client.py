@@ -269,6 +269,9 @@ class GloveSim(PlantDriver):
     def step(self, command: ArrayLike) -> SimState:
         """Send one command; return the state of the step it causes.
 
+        After a :meth:`run` the plant first takes the step of your controller's answer to the
+        run's last state (the record's last command), so the state returned is one step later.
+
         The command is three pressures (Pa, MCP, PIP, DIP), or with ``actuation='valves'`` six
         openings in [0, 1] (inlets MCP, PIP, DIP, then outlets).
 
@@ -294,6 +297,8 @@ class GloveSim(PlantDriver):
                 'cannot step the glove beside it; use run() for an external controller'
             )
         self._set_paused(False)
+        if self._external_synced:  # the plant took the run's last answer: it steps with it first
+            self._next_state()
         self._node.send(values)
         self.state = self._next_state()
         # the plant's record of our command, which a later run must not count as an answer
@@ -338,12 +343,13 @@ class GloveSim(PlantDriver):
             f'your controller to publish {self._node.command_topic}',
         )
         self._set_paused(True)
-        if not self._external_synced:
+        synced, self._external_synced = self._external_synced, False  # until this run is whole
+        if not synced:
             self._wait_matched(controllers)
         end_ns = self._node.time_ns(self.state.t) + round(steps * 1e9 / self.rate_hz)
         states = []
         self._node.clear_commands()
-        if not self._external_synced:
+        if not synced:
             self._call(self._node.step_client, self._node.trigger(), 'step')
             states.append(self._next_state(with_estimate=False))
         self._lockstep(end_ns, states, steps, answers=steps)
