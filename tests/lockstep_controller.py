@@ -3,7 +3,8 @@
 The command is a function of the state's stamp only, p(t) = PEAK·(1 − cos 2πt/PERIOD)/2 on all
 chambers, so a test can replay the session in process. With ``--delay S`` it sleeps S wall
 seconds before each answer (a slow controller); with ``--stall-after N`` it answers the first
-N states only (a controller that hangs).
+N states only (a controller that hangs); with ``--no-parameters`` it serves no parameters
+(it cannot answer the plant's handshake).
 
 Run: ``python lockstep_controller.py [--delay S] [--stall-after N] --ros-args -r __ns:=/ns``.
 """
@@ -29,8 +30,8 @@ def command_at(t: float) -> list[float]:
 
 
 class Controller(Node):
-    def __init__(self, delay: float, stall_after: int | None) -> None:
-        super().__init__('lockstep_controller')
+    def __init__(self, delay: float, stall_after: int | None, parameters: bool) -> None:
+        super().__init__('lockstep_controller', start_parameter_services=parameters)
         self.delay = delay
         self.answers_left = stall_after
         self.create_subscription(JointState, 'joint_states', self.answer, 1000)
@@ -51,9 +52,10 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument('--delay', type=float, default=0.0)
     parser.add_argument('--stall-after', type=int, default=None)
+    parser.add_argument('--no-parameters', action='store_true')
     args, ros_args = parser.parse_known_args()
     rclpy.init(args=[sys.argv[0], *ros_args])
-    node = Controller(args.delay, args.stall_after)
+    node = Controller(args.delay, args.stall_after, not args.no_parameters)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -260,6 +260,19 @@ def test_a_step_after_a_run_is_the_step_after_the_controller_s_last_answer(glove
     np.testing.assert_array_equal(state.forces, expected.forces)
 
 
+def test_a_controller_that_cannot_answer_the_plant_s_handshake_is_never_counted(glove):
+    # Matched both ways as the plant sees it, but the plant cannot know that the controller's
+    # reader has matched its writer (docs/spec/ros.md, guarantee 5): no state is sent for it.
+    controller = start_controller(glove, '--no-parameters')
+    glove.timeout = 2.0
+    try:
+        with pytest.raises(GloveSimError, match='waited 2 s for the plant to match'):
+            glove.run(0.05)
+    finally:
+        glove.timeout = DEFAULT_TIMEOUT
+        stop_process(controller)
+
+
 def test_the_kit_knows_a_controller_the_plant_matched_by_its_publishers_not_its_name():
     said = {'/g/lockstep_controller': {'0a', '0b'}}  # the plant's lockstep_controllers
     assert matched_both_ways({'/g/lockstep_controller': {'0b'}}, said)

@@ -3,8 +3,9 @@
 No plant of a session steps until every node that publishes has matched every reader that must
 get all of it: docs/spec/ros.md, "The session protocol", gives the sequence, why each step holds
 and the test of each guarantee. :class:`Handshake` is guarantee 1 (a node that answered has
-matched the asker's readers), :class:`Ready` guarantee 2 (a listener says so on ``~/ready``),
-:class:`ReadyWatch` the runners' and the testing kit's side of guarantee 3.
+matched the asker's readers and writers), :class:`Ready` guarantee 2 (a listener says so on
+``~/ready``), :class:`ReadyWatch` the runners' and the testing kit's side of guarantee 3, and
+:class:`Answering` the plant's side of guarantee 5 (whom lockstep counts as a controller).
 """
 
 from __future__ import annotations
@@ -46,6 +47,10 @@ def glove_nodes(namespaces: Iterable[str], names: Iterable[str]) -> list[str]:
 def known_node(info) -> bool:
     """Whether a graph endpoint's node is known by name yet (its participant announced it)."""
     return info.node_name != UNKNOWN_NODE
+
+
+PARTICIPANT_DIGITS = 24
+"""Hex digits of an :func:`endpoint_id` that name its participant (the GUID prefix, 12 bytes)."""
 
 
 def endpoint_id(info) -> str:
@@ -115,6 +120,43 @@ class Handshake:
             if call is None or call.answer() is None:
                 silent.append(client.service_name)
         return silent
+
+
+class Answering:
+    """Which of the nodes ``node`` is told of have answered its :class:`Handshake`.
+
+    An answer says that the node has matched every endpoint ``node`` made before asking, its
+    writers too: a participant announces its readers and its writers each in the order it made
+    them, and the request reached the node through its match of our request writer. Each is
+    asked once per key, its name and the ids of its endpoints (a namesake that has restarted is
+    asked anew); the handshakes of nodes no longer told of are destroyed. A node of our own
+    participant is not asked: a participant matches its own endpoints at once, both ways.
+    Whoever spins ``node`` completes the calls.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+        self._asked: dict[tuple[str, str], Handshake] = {}
+
+    def answered(self, nodes: dict[str, str], participant: str) -> dict[str, str]:
+        """Those of ``nodes`` (name: ids) that have answered or are of ``participant``.
+
+        ``participant``: the first :data:`PARTICIPANT_DIGITS` of an id of ours. Asks the others.
+        """
+        others = {
+            name: ids
+            for name, ids in nodes.items()
+            if any(i[:PARTICIPANT_DIGITS] != participant for i in ids.split())
+        }
+        for key in self._asked.keys() - others.items():
+            self._asked.pop(key).destroy()
+        for key in others.items() - self._asked.keys():
+            self._asked[key] = Handshake(self._node, key[:1])
+        return {
+            name: ids
+            for name, ids in nodes.items()
+            if name not in others or not self._asked[name, ids].silent()
+        }
 
 
 class Ready:
