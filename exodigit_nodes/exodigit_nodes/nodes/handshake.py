@@ -5,7 +5,7 @@ get all of it: docs/spec/ros.md, "The session protocol", gives the sequence, why
 and the test of each guarantee. :class:`Handshake` is guarantee 1 (a node that answered has
 matched the asker's readers and writers), :class:`Ready` guarantee 2 (a listener says so on
 ``~/ready``), :class:`ReadyWatch` the runners' and the testing kit's side of guarantee 3, and
-:class:`Answering` the plant's side of guarantee 5 (whom lockstep counts as a controller).
+:class:`Controllers` the plant's side of guarantee 5 (whom lockstep counts as a controller).
 """
 
 from __future__ import annotations
@@ -122,31 +122,43 @@ class Handshake:
         return silent
 
 
-class Answering:
-    """Which of the nodes ``node`` is told of have answered its :class:`Handshake`.
+class Controllers:
+    """The nodes that publish ``commands`` and read ``states`` of ``node``, matched both ways.
 
-    An answer says that the node has matched every endpoint ``node`` made before asking, its
-    writers too: a participant announces its readers and its writers each in the order it made
-    them, and the request reached the node through its match of our request writer. Each is
-    asked once per key, its name and the ids of its endpoints (a namesake that has restarted is
-    asked anew); the handshakes of nodes no longer told of are destroyed. A node of our own
-    participant is not asked: a participant matches its own endpoints at once, both ways.
-    Whoever spins ``node`` completes the calls.
+    ``commands`` is a subscription of ``node``, ``states`` one of its publishers
+    (:func:`controllers_matched`); a node of another participant only once it has answered our
+    :class:`Handshake`. An answer says that the node has matched every endpoint ``node`` made
+    before asking, its writers too: a participant announces its readers and its writers each in
+    the order it made them, and the request reached the node through its match of our request
+    writer (so its reader of ``states`` gets what we send from then on, which our own match of
+    it does not say). Each is asked once per key, its name and the ids of its endpoints (a
+    namesake that has restarted is asked anew); the handshakes of nodes no longer matched are
+    destroyed. A node of our own participant is not asked: a participant matches its own
+    endpoints at once, both ways. Whoever spins ``node`` completes the calls.
     """
 
-    def __init__(self, node: Node) -> None:
-        self._node = node
+    def __init__(self, node: Node, commands, states) -> None:
+        self._node, self._commands, self._states = node, commands, states
+        self._participant = ''
         self._asked: dict[tuple[str, str], Handshake] = {}
 
-    def answered(self, nodes: dict[str, str], participant: str) -> dict[str, str]:
-        """Those of ``nodes`` (name: ids) that have answered or are of ``participant``.
+    def matched(self) -> dict[str, str]:
+        """Name: ids (:func:`controllers_matched`) of each; asks those not asked yet.
 
-        ``participant``: the first :data:`PARTICIPANT_DIGITS` of an id of ours. Asks the others.
+        None before the graph lists ``states`` (our participant still unknown).
         """
+        if not self._participant:
+            me = (self._node.get_name(), self._node.get_namespace())
+            infos = self._node.get_publishers_info_by_topic(self._states.topic_name)
+            ours = [endpoint_id(i) for i in infos if (i.node_name, i.node_namespace) == me]
+            if not ours:
+                return {}
+            self._participant = ours[0][:PARTICIPANT_DIGITS]
+        nodes = controllers_matched(self._node, self._commands, self._states)
         others = {
             name: ids
             for name, ids in nodes.items()
-            if any(i[:PARTICIPANT_DIGITS] != participant for i in ids.split())
+            if any(i[:PARTICIPANT_DIGITS] != self._participant for i in ids.split())
         }
         for key in self._asked.keys() - others.items():
             self._asked.pop(key).destroy()

@@ -36,13 +36,7 @@ from ..logic.plant_report import plant_report
 from ..logic.plant_settings import PlantSettings, plant_settings, start_line
 from ..logic.watchdog import Watchdog
 from .catalog import PLANT_NODE
-from .handshake import (
-    PARTICIPANT_DIGITS,
-    Answering,
-    controllers_matched,
-    endpoint_id,
-    matched_every_listed,
-)
+from .handshake import Controllers, matched_every_listed
 from .markers import GloveMarkers
 from .messages import (
     APPLIED_COMMAND,
@@ -122,7 +116,7 @@ class Plant(GloveNode):
         )
         self.create_subscription(Float64MultiArray, PATIENT_EFFORT, self.on_effort, READER_QOS)
         self.create_service(Trigger, RESET, self.on_reset)
-        self.answering = Answering(self)
+        self.controllers = Controllers(self, self.command_subscription, self.joint_publisher)
         self.marker_timer = None
         # With clock sim the reports and markers go on the wall clock: a paused plant reports too.
         self.report_clock = (
@@ -345,23 +339,12 @@ class Plant(GloveNode):
     def lockstep_controllers(self) -> dict[str, str]:
         """Nodes that publish our commands and subscribe our states, both matched with us.
 
-        Each with the ids of its command publishers (:func:`.handshake.controllers_matched`).
         A lockstep plant's first step waits for one (docs/spec/ros.md, "The session protocol",
         guarantee 5): another reader of the states or another publisher of commands is not
-        enough, as a controller that subscribes the states late would miss the first. Only
-        once it has answered our handshake: our match of its reader does not say that it has
-        matched our writer, and a volatile reader drops what came before (a busy run of the
-        testing kit lost a controller's first state so).
+        enough, as a controller that subscribes the states late would miss the first; nor is
+        one that has not answered our handshake (:class:`.handshake.Controllers`).
         """
-        if not self.readers_matched():
-            return {}
-        matched = controllers_matched(self, self.command_subscription, self.joint_publisher)
-        own = [
-            endpoint_id(info)
-            for info in self.get_publishers_info_by_topic(self.joint_publisher.topic_name)
-            if (info.node_name, info.node_namespace) == (self.get_name(), self.get_namespace())
-        ]
-        return self.answering.answered(matched, own[0][:PARTICIPANT_DIGITS]) if own else {}
+        return self.controllers.matched() if self.readers_matched() else {}
 
     def stamp(self):
         """The stamp of what the plant publishes now: simulated time, or the node clock."""
